@@ -1,0 +1,44 @@
+# tourbot: `make demo` runs the main job, `make test` runs lint, type check and all tests.
+# Both create the virtual environment and install everything they need themselves.
+
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.tourbot-installed
+NODE_STAMP := node_modules/.tourbot-installed
+
+.PHONY: setup demo test lint typecheck pytest bench-setup clean
+
+$(STAMP): pyproject.toml constraints.txt
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev]'
+	touch $(STAMP)
+
+$(NODE_STAMP): package.json package-lock.json
+	npm ci --no-audit --no-fund --loglevel=error
+	touch $(NODE_STAMP)
+
+setup: $(STAMP) $(NODE_STAMP)
+
+demo: setup
+	$(BIN)/tourbot demo
+
+lint: setup
+	$(BIN)/ruff check src tests
+	$(BIN)/ruff format --check src tests
+
+typecheck: setup
+	$(BIN)/mypy
+
+pytest: setup
+	$(BIN)/python -m pytest -q
+
+test: lint typecheck pytest
+
+# The peers tourbot is compared with (Nav2 AMCL, Stone Soup), for `tourbot bench`.
+bench-setup: setup
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,peers]'
+
+clean:
+	rm -rf $(VENV) node_modules .mypy_cache .ruff_cache .pytest_cache
