@@ -1,0 +1,1 @@
+"""Maps: occupancy grid, likelihood field, ray casting and beam model kernels, reference maps."""
