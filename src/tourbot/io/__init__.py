@@ -28,7 +28,7 @@ _ROS_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
 def log_kind(path: str | Path) -> str:
-    """``"rosbag"`` for ROS 1 bags (``.bag``) and ROS 2 bags (folder, ``.db3``, ``.mcap``), else ``"carmen"``."""
+    """``"rosbag"`` for ROS 1 (``.bag``) and ROS 2 bags (folder, ``.db3``, ``.mcap``), else ``"carmen"``."""
     p = Path(path)
     if p.is_dir() or p.suffix.lower() in _ROS_SUFFIXES:
         return "rosbag"

@@ -39,11 +39,12 @@ from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import IO
+from typing import IO, cast
 
 import numpy as np
 
-from tourbot.geometry import relative, wrap_angle
+from tourbot.geometry import relative
+from tourbot.io._interp import interpolate_pose
 from tourbot.io.errors import LogFormatError
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
 
@@ -125,7 +126,7 @@ class _RawScan:
     resolved: bool = False
 
 
-class _Malformed(Exception):
+class _MalformedError(Exception):
     """A malformed line: becomes a LogFormatError (strict) or a skipped record (lenient)."""
 
     def __init__(self, reason: str, field: str | None = None) -> None:
@@ -138,7 +139,7 @@ def _open_binary(path: Path) -> IO[bytes]:
     with path.open("rb") as probe:
         magic = probe.read(2)
     if magic == b"\x1f\x8b":
-        return gzip.open(path, "rb")
+        return cast(IO[bytes], gzip.open(path, "rb"))
     return path.open("rb")
 
 
@@ -146,9 +147,9 @@ def _number(token: str, what: str) -> float:
     try:
         value = float(token)
     except ValueError:
-        raise _Malformed(f"{token!r} is not a number", what) from None
+        raise _MalformedError(f"{token!r} is not a number", what) from None
     if not math.isfinite(value):
-        raise _Malformed(f"{token!r} is not a finite number", what)
+        raise _MalformedError(f"{token!r} is not a finite number", what)
     return value
 
 
@@ -156,9 +157,9 @@ def _count(token: str, what: str) -> int:
     try:
         value = int(token)
     except ValueError:
-        raise _Malformed(f"{token!r} is not a whole number", what) from None
+        raise _MalformedError(f"{token!r} is not a whole number", what) from None
     if value < 0:
-        raise _Malformed(f"negative count {value}", what)
+        raise _MalformedError(f"negative count {value}", what)
     return value
 
 
@@ -173,17 +174,17 @@ def _ranges(tokens: list[str], start: int, n: int, kind: str) -> np.ndarray:
     bad = ~np.isfinite(ranges)
     if bad.any():
         i = int(np.argmax(bad))
-        raise _Malformed(f"{kind} range is {chunk[i]} (not a number)", f"range[{i}]")
+        raise _MalformedError(f"{kind} range is {chunk[i]} (not a number)", f"range[{i}]")
     neg = ranges < 0.0
     if neg.any():
         i = int(np.argmax(neg))
-        raise _Malformed(f"{kind} range is negative ({chunk[i]})", f"range[{i}]")
+        raise _MalformedError(f"{kind} range is negative ({chunk[i]})", f"range[{i}]")
     return ranges
 
 
 def _need(tokens: list[str], count: int, kind: str, layout: str) -> None:
     if len(tokens) < count:
-        raise _Malformed(
+        raise _MalformedError(
             f"{kind} record too short: {len(tokens)} fields, at least {count} expected ({layout})"
         )
 
@@ -195,7 +196,7 @@ def _timestamp(tokens: list[str], index: int, kind: str) -> float:
         try:
             logger_ts = float(tokens[index + 2])
         except ValueError:
-            raise _Malformed(f"{kind} logger timestamp {tokens[index + 2]!r} is not a number") from None
+            raise _MalformedError(f"{kind} logger timestamp {tokens[index + 2]!r} is not a number") from None
         if math.isfinite(logger_ts):
             ts = logger_ts
     return ts
@@ -247,7 +248,7 @@ class CarmenReader:
             empty = False
             try:
                 item = self._parse(tokens)
-            except _Malformed as exc:
+            except _MalformedError as exc:
                 self._malformed(exc, lineno)
                 continue
             if isinstance(item, _RawScan):
@@ -279,7 +280,7 @@ class CarmenReader:
                             raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
                         text = raw.decode("utf-8")
                     except UnicodeDecodeError:
-                        self._malformed(_Malformed("binary data, not a line of CARMEN text"), lineno)
+                        self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
                         continue
                     tokens = text.split()
                     if not tokens or tokens[0].startswith("#"):
@@ -314,7 +315,7 @@ class CarmenReader:
             pass  # the main pass reports it, with the line
         return False
 
-    def _malformed(self, exc: _Malformed, lineno: int) -> None:
+    def _malformed(self, exc: _MalformedError, lineno: int) -> None:
         if not self.lenient:
             raise LogFormatError(exc.reason, path=self.path, line=lineno, field=exc.field)
         self.skipped += 1
@@ -337,7 +338,7 @@ class CarmenReader:
             return None
         if not _IDENT.match(kind):
             shown = kind if len(kind) <= 20 else kind[:20] + "..."
-            raise _Malformed(f"unrecognised record {shown!r} (a CARMEN line starts with its type)")
+            raise _MalformedError(f"unrecognised record {shown!r} (a CARMEN line starts with its type)")
         return None  # another CARMEN message type: not needed here
 
     def _parse_odom(self, tokens: list[str]) -> Odometry | None:
@@ -363,7 +364,7 @@ class CarmenReader:
         n = _count(tokens[1], "num_readings")
         _need(tokens, 2 + n + 7, kind, layout)
         if len(tokens) > 2 + n + 9:
-            raise _Malformed(
+            raise _MalformedError(
                 f"{kind} record has {len(tokens)} fields, at most {2 + n + 9} expected for {n} readings"
             )
         ranges = _ranges(tokens, 2, n, kind)
@@ -445,7 +446,7 @@ class CarmenReader:
         for k in range(m):
             _number(tokens[10 + n + k], f"remission[{k}]")
         if not max_range > 0:
-            raise _Malformed(f"{kind} maximum range must be positive, got {max_range}", "maximum_range")
+            raise _MalformedError(f"{kind} maximum range must be positive, got {max_range}", "maximum_range")
         inc = res if res > 0 else (fov / (n - 1) if n > 1 else 0.0)
         pose: Pose | None = None
         offset: Pose = (0.0, 0.0, 0.0)
@@ -466,7 +467,7 @@ class CarmenReader:
 
     def _parse_param(self, tokens: list[str]) -> None:
         if len(tokens) < 3:
-            raise _Malformed("PARAM record needs a name and a value (PARAM name value ...)")
+            raise _MalformedError("PARAM record needs a name and a value (PARAM name value ...)")
         name, value = tokens[1], tokens[2]
         if name.startswith("tourbot_"):
             self._tourbot_param(name[len("tourbot_") :], value)
@@ -572,9 +573,8 @@ class CarmenReader:
     def _flush(self, *, final: bool) -> Iterator[Record]:
         while self._queue:
             head = self._queue[0]
-            if isinstance(head, _RawScan) and not head.resolved:
-                if not self._resolve(head, final=final):
-                    return
+            if isinstance(head, _RawScan) and not head.resolved and not self._resolve(head, final=final):
+                return
             self._queue.popleft()
             yield head if isinstance(head, Odometry) else self._finish_scan(head)
 
@@ -617,20 +617,13 @@ class CarmenReader:
 
 
 def _interpolate(history: deque[Odometry], t: float) -> Pose:
-    """Odometry pose at time ``t`` by linear interpolation (angles along the short way)."""
+    """Odometry pose at time ``t`` from the recent readings (their times strictly increase)."""
     times = [o.timestamp for o in history]
     i = bisect.bisect_left(times, t)
     if i == 0:
         return history[0].pose
-    b = history[i]
-    if b.timestamp == t:
-        return b.pose
-    a = history[i - 1]
-    f = (t - a.timestamp) / (b.timestamp - a.timestamp)
-    ax, ay, ath = a.pose
-    bx, by, bth = b.pose
-    dth = float(wrap_angle(bth - ath))
-    return (ax + f * (bx - ax), ay + f * (by - ay), float(wrap_angle(ath + f * dth)))
+    a, b = history[i - 1], history[i]
+    return interpolate_pose(a.pose, b.pose, (t - a.timestamp) / (b.timestamp - a.timestamp))
 
 
 def iter_carmen(
