@@ -222,6 +222,7 @@ class CarmenReader:
         self.skipped = 0
         self.defaulted_max_range: set[str] = set()
         self._first_skip: str | None = None
+        self._content_lines = 0
         self._params = {"front": _LaserParams(), "rear": _LaserParams()}
         self._scan_odometry: str | None = None  # tourbot's PARAM: "line" or "none"
         self._scan_reference: str | None = None  # tourbot's PARAM: "line" or "none"
@@ -243,9 +244,7 @@ class CarmenReader:
         if self.path.is_dir():
             raise LogFormatError("is a folder, not a CARMEN log file", path=self.path)
         self._has_stream = self._find_odometry_stream()
-        empty = True
         for lineno, tokens in self._lines():
-            empty = False
             try:
                 item = self._parse(tokens)
             except _MalformedError as exc:
@@ -259,7 +258,7 @@ class CarmenReader:
             if item is None:
                 continue
             yield from self._push(item, lineno)
-        if empty:
+        if self._content_lines == 0:
             raise LogFormatError("empty file: no CARMEN records", path=self.path)
         yield from self._drain()
         if self.skipped:
@@ -275,6 +274,8 @@ class CarmenReader:
             with _open_binary(self.path) as stream:
                 for raw in stream:
                     lineno += 1
+                    if raw.strip():
+                        self._content_lines += 1
                     try:
                         if b"\x00" in raw:
                             raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
@@ -349,12 +350,13 @@ class CarmenReader:
         accel = _number(tokens[6], "accel")
         ts = _timestamp(tokens, 7, "ODOM")
         after_scan, self._last_laser_pose = self._last_laser_pose, None
-        if self._has_stream and (
-            ts == 0.0 or (pose == after_scan and tv == 0.0 and rv == 0.0 and accel == 0.0)
-        ):
+        if self._has_stream and self._scan_odometry is None:
             # Corrected logs repeat each scan's corrected pose on an ODOM line right after the
-            # scan, with a zero (sometimes garbage) timestamp: it is not odometry.
-            return None
+            # scan, with a zero (sometimes garbage, earlier) timestamp: it is not odometry.
+            copy = pose == after_scan and tv == 0.0 and rv == 0.0 and accel == 0.0
+            earlier = self._last_odom_time is not None and ts <= self._last_odom_time
+            if ts == 0.0 or (copy and earlier):
+                return None
         return Odometry(timestamp=ts, pose=pose, tv=tv, rv=rv)
 
     def _parse_old_laser(self, tokens: list[str]) -> _RawScan:

@@ -230,20 +230,41 @@ def _attach_odometry(
 
 
 def read_pose_arrays(path: str | Path, topic: str) -> list[tuple[float, NDArray[np.float64]]]:
-    """The ``geometry_msgs/PoseArray`` messages of ``topic``: ``(header time, (K, 2) x-y positions)``.
+    """The ``geometry_msgs/PoseArray`` messages of ``topic``: ``(time, (K, 2) x-y positions)``.
 
-    Positions are in the message's own frame (for ``/leg_cluster_positions``: the laser's).
+    Positions are in the message's own frame (for ``/leg_cluster_positions``: the laser's). The time
+    is the header stamp; where that is zero (as in the extracted leg_tracker bags) it is the header
+    stamp of the LaserScan in the same frame nearest in the bag, so annotations pair with the scans
+    ``read_bag`` returns by timestamp.
     """
     p = Path(path)
     topics = bag_topics(p)
     found = _pick(topics, POSE_ARRAY, topic, p, "PoseArray")
     if found is None:  # pragma: no cover - _pick raises when a topic is named
         raise BagError(f"no PoseArray topic {topic!r}", path=p)
-    out: list[tuple[float, NDArray[np.float64]]] = []
+    arrays: list[tuple[int, float, str, NDArray[np.float64]]] = []
+    lasers: dict[str, tuple[list[int], list[float]]] = {}
     with _open(p) as reader:
-        conns = [c for c in reader.connections if c.topic == found]
+        conns = [c for c in reader.connections if c.topic == found or c.msgtype == LASER_SCAN]
         for conn, bag_ns, raw in reader.messages(connections=conns):
             msg = reader.deserialize(raw, conn.msgtype)
+            stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
+            if conn.topic != found:
+                bag_times, stamps = lasers.setdefault(msg.header.frame_id, ([], []))
+                bag_times.append(bag_ns)
+                stamps.append(stamp)
+                continue
             xy = np.array([[q.position.x, q.position.y] for q in msg.poses], dtype=np.float64).reshape(-1, 2)
-            out.append((_stamp(msg.header, bag_ns), xy))
+            arrays.append((bag_ns, stamp, msg.header.frame_id, xy))
+    out: list[tuple[float, NDArray[np.float64]]] = []
+    for bag_ns, stamp, frame, xy in arrays:
+        t = stamp
+        if t <= 0.0:
+            same = lasers.get(frame)
+            if same and same[0]:
+                bag_times = np.array(same[0], dtype=np.int64)
+                t = same[1][int(np.argmin(np.abs(bag_times - bag_ns)))]
+            else:
+                t = 1e-9 * bag_ns
+        out.append((t, xy))
     return out
