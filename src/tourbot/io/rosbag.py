@@ -262,8 +262,8 @@ def read_pose_arrays(path: str | Path, topic: str) -> list[tuple[float, NDArray[
         if t <= 0.0:
             same = lasers.get(frame)
             if same and same[0]:
-                bag_times = np.array(same[0], dtype=np.int64)
-                t = same[1][int(np.argmin(np.abs(bag_times - bag_ns)))]
+                laser_ns = np.array(same[0], dtype=np.int64)
+                t = same[1][int(np.argmin(np.abs(laser_ns - bag_ns)))]
             else:
                 t = 1e-9 * bag_ns
         out.append((t, xy))
