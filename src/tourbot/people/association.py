@@ -51,17 +51,17 @@ def pair_likelihoods_reference(
     features: FloatArray,
     pair_track: IntArray,
     pair_feature: IntArray,
-    sigma: float,
+    sigma: FloatArray,
 ) -> FloatArray:
-    """``P_D(x_{i,n}) N(z_j; x_{i,n}, sigma^2 I)`` for pairs ``(P,)`` and samples: ``(P, N)``.
+    """``P_D(x_{i,n}) N(z_j; x_{i,n}, sigma_j^2 I)`` for pairs ``(P,)`` and samples: ``(P, N)``.
 
     ``samples`` ``(K, N, 4)``, ``detect`` ``(K, N)`` the detection probability of each sample (zero
-    where occluded), ``features`` ``(M, 2)``.
+    where occluded), ``features`` ``(M, 2)`` with their position noise ``sigma`` ``(M,)``.
     """
     diff = samples[pair_track, :, 0:2] - features[pair_feature][:, None, :]
     sq = np.sum(diff * diff, axis=-1)
-    norm = 1.0 / (2.0 * math.pi * sigma * sigma)
-    return detect[pair_track] * norm * np.exp(-0.5 * sq / (sigma * sigma))
+    s2 = (sigma[pair_feature] ** 2)[:, None]
+    return detect[pair_track] / (2.0 * math.pi * s2) * np.exp(-0.5 * sq / s2)
 
 
 @numba.njit(cache=True)
@@ -71,14 +71,15 @@ def _pair_likelihoods_kernel(
     features: FloatArray,
     pair_track: IntArray,
     pair_feature: IntArray,
-    sigma: float,
+    sigma: FloatArray,
 ) -> FloatArray:
     P = pair_track.shape[0]
     N = samples.shape[1]
     out = np.empty((P, N))
-    norm = 1.0 / (2.0 * math.pi * sigma * sigma)
-    inv = 0.5 / (sigma * sigma)
     for p in range(P):
+        s2 = sigma[pair_feature[p]] ** 2
+        norm = 1.0 / (2.0 * math.pi * s2)
+        inv = 0.5 / s2
         k = pair_track[p]
         zx = features[pair_feature[p], 0]
         zy = features[pair_feature[p], 1]
@@ -95,7 +96,7 @@ def pair_likelihoods(
     features: FloatArray,
     pair_track: IntArray,
     pair_feature: IntArray,
-    sigma: float,
+    sigma: FloatArray,
 ) -> FloatArray:
     """Numba kernel of :func:`pair_likelihoods_reference`."""
     if pair_track.shape[0] == 0:
@@ -106,7 +107,7 @@ def pair_likelihoods(
         np.ascontiguousarray(features, dtype=np.float64),
         np.ascontiguousarray(pair_track, dtype=np.int64),
         np.ascontiguousarray(pair_feature, dtype=np.int64),
-        float(sigma),
+        np.ascontiguousarray(sigma, dtype=np.float64),
     )
 
 

@@ -36,6 +36,8 @@ class LegConfig:
     local minimum (Burgard et al., Sec. 4: "legs ... appear as local minima in the scans").
     ``max_range`` ignores features too far away to be resolved as legs.
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
+    ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
+    laser sees only the near side of a leg (about 2/3 of a 6 cm radius behind the visible arc).
     """
 
     leg_width: float = 0.12
@@ -48,6 +50,7 @@ class LegConfig:
     contrast_scale: float = 0.05
     max_range: float = 8.0
     max_leg_separation: float = 0.55
+    depth_offset: float = 0.04
     min_probability: float = 0.1
 
 
@@ -137,6 +140,7 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     keep &= prob >= cfg.min_probability
     idx = np.flatnonzero(keep)
     pts = np.stack([sx[idx] / count[idx], sy[idx] / count[idx]], -1)
+    pts += cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
     return LegFeatures(pts, width[idx], prob[idx])
 
 

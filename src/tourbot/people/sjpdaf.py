@@ -40,7 +40,8 @@ class SJPDAFConfig:
     """Every parameter of the people tracker, with its typed home and default.
 
     Filter (Burgard et al. Sec. 4; Schulz et al. 2001): ``num_samples`` per person;
-    ``measurement_std`` the spread of a person feature around the person (m);
+    ``measurement_std`` the spread of a two-leg person feature around the person (m), and
+    ``single_leg_std`` that of a lone leg (the person's centre is up to a stride's half away);
     ``detection_probability`` P_D of a visible person; ``clutter_density`` gamma of Eq. 7, false
     alarms per square metre; ``gate_sigmas`` / ``max_gate``: a feature can be caused by a person only
     within this many standard deviations (of samples and measurement together), and never beyond
@@ -48,7 +49,8 @@ class SJPDAFConfig:
     joint events of one cluster (the weakest pairs are pruned first).
 
     Track rules: a feature no person explains (sum of its betas below ``birth_threshold``), with
-    P(person) >= ``birth_probability`` and P(moving) >= ``birth_moving``, starts a tentative track;
+    P(person) >= ``birth_probability`` and P(moving) >= ``birth_moving`` (above the 0.5 of
+    "unknown": a feature must be seen to move), starts a tentative track;
     ``confirm_hits`` detections confirm it; a tentative track ends after ``tentative_misses`` misses
     while visible, a confirmed one after ``max_misses``, or when its samples spread beyond
     ``max_position_std`` (an occluded person lost for good), or leave ``max_range`` of the robot.
@@ -56,7 +58,8 @@ class SJPDAFConfig:
     """
 
     num_samples: int = 200
-    measurement_std: float = 0.10
+    measurement_std: float = 0.08
+    single_leg_std: float = 0.15
     detection_probability: float = 0.9
     clutter_density: float = 0.02
     gate_sigmas: float = 4.0
@@ -64,7 +67,7 @@ class SJPDAFConfig:
     max_events: int = 5000
     birth_threshold: float = 0.5
     birth_probability: float = 0.3
-    birth_moving: float = 0.5
+    birth_moving: float = 0.6
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
     confirm_hits: int = 3
@@ -149,7 +152,7 @@ class PeopleTracker:
         features, moving = self._features(scan, pose)  # legs -> person features z_j(t), world frame
         self._predict(dt)  # p(x_i^t | x_i^{t-1}, dt) for every sample
         detect = self._detection_probability(scan, pose)  # P_D per sample, 0 where occluded
-        assoc = self._associate(features.points, detect)  # Eq. 6-8 over gated clusters
+        assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
         self._manage(assoc, features, moving, detect, pose)  # start, confirm, end tracks
         return self.tracks()
@@ -228,8 +231,11 @@ class PeopleTracker:
         )
         return (self.config.detection_probability * (1.0 - occluded)).reshape(K, N)
 
-    def _associate(self, features: FloatArray, detect: FloatArray) -> _Association:
+    def _associate(self, persons: PersonFeatures, detect: FloatArray) -> _Association:
         cfg = self.config
+        features = persons.points
+        two_legs = persons.members[:, 1] >= 0
+        sigma = np.where(two_legs, cfg.measurement_std, cfg.single_leg_std)
         K, N = self._samples.shape[:2]
         M = features.shape[0]
         miss = 1.0 - detect
@@ -240,11 +246,11 @@ class PeopleTracker:
         # Gating: a feature near enough to the person's sample mean, given the samples' spread.
         mean = self._samples[..., 0:2].mean(axis=1)
         var = self._samples[..., 0:2].var(axis=1).sum(axis=1)
-        gate = np.minimum(cfg.gate_sigmas * np.sqrt(var + 2.0 * cfg.measurement_std**2), cfg.max_gate)
+        gate = cfg.gate_sigmas * np.sqrt(var[:, None] + sigma[None, :] ** 2)
         dist = np.linalg.norm(mean[:, None, :] - features[None, :, :], axis=-1)
-        pt, pf = np.nonzero(dist <= gate[:, None])
+        pt, pf = np.nonzero(dist <= np.minimum(gate, cfg.max_gate))
         # Eq. 8: p(z_j | x_i) = 1/N sum_n p(z_j | x_{i,n}), with P_D folded in.
-        lik = pair_likelihoods(self._samples, detect, features, pt, pf, cfg.measurement_std)
+        lik = pair_likelihoods(self._samples, detect, features, pt, pf, sigma)
         mean_lik = lik.mean(axis=1)
         live = mean_lik > 1e-12
         pt, pf, lik, mean_lik = pt[live], pf[live], lik[live], mean_lik[live]
