@@ -52,7 +52,9 @@ def test_keyframe_is_within_half_a_quantum(
 def _walk(t: float, i: int) -> Body:
     """A person on a circle: velocity changes all the time, so dead reckoning must be corrected."""
     r, w = 2.0 + i, 0.4 / (1 + i)
-    return Body(i, r * math.cos(w * t), r * math.sin(w * t), -r * w * math.sin(w * t), r * w * math.cos(w * t))
+    return Body(
+        i, r * math.cos(w * t), r * math.sin(w * t), -r * w * math.sin(w * t), r * w * math.cos(w * t)
+    )
 
 
 @settings(max_examples=30, deadline=None)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Hashable
 from dataclasses import dataclass, field
-from enum import Enum
+from enum import StrEnum
 from typing import Generic, TypeVar
 
 __all__ = ["Role", "SlotArbiter", "SlotConfig", "SlotEvent", "SlotView"]
@@ -33,7 +33,7 @@ class SlotConfig:
     onboard_hold: float = 60.0
 
 
-class Role(str, Enum):
+class Role(StrEnum):
     HOLDER = "holder"
     QUEUED = "queued"
     WATCHER = "watcher"
