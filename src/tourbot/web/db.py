@@ -248,10 +248,17 @@ class TourData:
 
 def _exhibit_data(e: Exhibit) -> ExhibitData:
     return ExhibitData(
-        e.id, e.slug, e.name, e.text, e.summary, e.x, e.y, e.theta,
+        e.id,
+        e.slug,
+        e.name,
+        e.text,
+        e.summary,
+        e.x,
+        e.y,
+        e.theta,
         tuple((m.url, m.caption) for m in e.media if m.kind == "picture"),
         tuple((m.url, m.caption) for m in e.media if m.kind == "link"),
-    )  # fmt: skip
+    )
 
 
 class Database:
@@ -387,9 +394,12 @@ class Database:
         now = time.time()
         with self.session() as s:
             row = VisitorSession(
-                token_hash=token_hash(token), kind=kind, created=now, last_seen=now,
+                token_hash=token_hash(token),
+                kind=kind,
+                created=now,
+                last_seen=now,
                 staff_user_id=staff_user_id,
-            )  # fmt: skip
+            )
             s.add(row)
             s.flush()
             return token, row.id

@@ -153,9 +153,14 @@ class _Quantizer:
             payload += _ROBOT_EXTRA.pack(qth, qw)
             theta, omega = _wrap(qth * _TWO_PI / 65536), qw * c.turn_quantum
         held = _Held(
-            t, qx * c.position_quantum, qy * c.position_quantum, qvx * c.velocity_quantum,
-            qvy * c.velocity_quantum, theta, omega,
-        )  # fmt: skip
+            t,
+            qx * c.position_quantum,
+            qy * c.position_quantum,
+            qvx * c.velocity_quantum,
+            qvy * c.velocity_quantum,
+            theta,
+            omega,
+        )
         return payload, held
 
 
@@ -196,9 +201,12 @@ class StreamEncoder:
             encoded = [quantizer.body(t_client, b) for b in bodies.values()]
             self._held = {b.id: held for b, (_, held) in zip(bodies.values(), encoded, strict=True)}
             return (
-                bytes([KEYFRAME]) + parts[0] + struct.pack("<HB", ticks, len(encoded))
-                + b"".join(p for p, _ in encoded) + b"\x00"
-            )  # fmt: skip
+                bytes([KEYFRAME])
+                + parts[0]
+                + struct.pack("<HB", ticks, len(encoded))
+                + b"".join(p for p, _ in encoded)
+                + b"\x00"
+            )
         ticks, t_client = self._stamp(scene.t)
         updates: list[bytes] = []
         for body in bodies.values():
@@ -213,9 +221,11 @@ class StreamEncoder:
         if not updates and not removed:
             return None
         return (
-            _HEAD.pack(DELTA, ticks, len(updates)) + b"".join(updates)
-            + bytes([len(removed)]) + b"".join(_ID.pack(i) for i in removed[:_MAX_BODIES])
-        )  # fmt: skip
+            _HEAD.pack(DELTA, ticks, len(updates))
+            + b"".join(updates)
+            + bytes([len(removed)])
+            + b"".join(_ID.pack(i) for i in removed[:_MAX_BODIES])
+        )
 
     def _stale(self, held: _Held, body: Body, t: float) -> bool:
         c = self.config
@@ -267,9 +277,14 @@ class StreamDecoder:
                 offset += _ROBOT_EXTRA.size
                 theta, omega = _wrap(qth * _TWO_PI / 65536), qw * c.turn_quantum
             held[i] = _Held(
-                t, qx * c.position_quantum, qy * c.position_quantum, qvx * c.velocity_quantum,
-                qvy * c.velocity_quantum, theta, omega,
-            )  # fmt: skip
+                t,
+                qx * c.position_quantum,
+                qy * c.position_quantum,
+                qvx * c.velocity_quantum,
+                qvy * c.velocity_quantum,
+                theta,
+                omega,
+            )
         (removed,) = struct.unpack_from("<B", data, offset)
         offset += 1
         for _ in range(removed):
