@@ -119,13 +119,12 @@ def _trace_one(
         t_next = min(next_x, next_y)  # where it leaves the current cell
         if t_next - t_enter > _EPS:
             inside = 0 <= cx < cols and 0 <= cy < rows
-            if is_hit and t_next > length:
-                # the current cell holds the endpoint; with ``crossing`` it is the hit cell only if
-                # the beam entered it nearer to the endpoint than where it leaves it
-                if not crossing or length - t_enter <= t_next - length:
-                    if inside:
-                        hits[cy, cx] += 1
-                    return
+            # past the endpoint: the current cell holds it; with ``crossing`` it is the hit cell
+            # only if the beam entered it nearer to the endpoint than where it leaves it
+            if is_hit and t_next > length and (not crossing or length - t_enter <= t_next - length):
+                if inside:
+                    hits[cy, cx] += 1
+                return
             if inside:
                 misses[cy, cx] += 1
             if not is_hit and t_next >= length:
