@@ -23,15 +23,15 @@ from tourbot.localization.mcl import (
 )
 from tourbot.maps.grid import OccupancyGrid
 
-from .conftest import simulate, waypoints_path
+from .conftest import Drive, simulate, waypoints_path
 
 
 def _errors(est_poses: np.ndarray, truth: np.ndarray) -> np.ndarray:
     return np.hypot(est_poses[:, 0] - truth[:, 0], est_poses[:, 1] - truth[:, 1])
 
 
-def _run(mcl: MonteCarloLocalization, drive: object) -> np.ndarray:
-    poses = [mcl.update(s.odom, s).pose for s in drive.scans]  # type: ignore[attr-defined]
+def _run(mcl: MonteCarloLocalization, drive: Drive) -> np.ndarray:
+    poses = [mcl.update(drive.odom[k], s).pose for k, s in enumerate(drive.scans)]
     return np.array(poses)
 
 
@@ -160,7 +160,7 @@ def _people_in_front(truth: np.ndarray, rng: np.random.Generator) -> list[np.nda
             d = rng.uniform(0.8, 1.5)
             a = rng.uniform(-0.6, 0.6)
             c = compose(p, np.array([d * math.cos(a), d * math.sin(a), 0.0]))
-            pts += [c[:2] + [0.0, 0.12], c[:2] - [0.0, 0.12]]
+            pts += [c[:2] + np.array([0.0, 0.12]), c[:2] - np.array([0.0, 0.12])]
         out.append(np.array(pts))
     return out
 
@@ -176,7 +176,7 @@ def test_filters_drop_beams_that_hit_people(room: OccupancyGrid, kind: BeamFilte
     mcl.reset_tracking(truth[0])
     dropped_people = kept_people = dropped_other = kept_other = 0
     for s, c in zip(drive.scans, clean.scans, strict=True):
-        est = mcl.update(s.odom, s)
+        est = mcl.update(np.asarray(s.odom), s)
         hit_person = c.ranges - s.ranges > 0.3
         dropped_people += int((~est.used_beams & hit_person).sum())
         kept_people += int((est.used_beams & hit_person).sum())
@@ -200,7 +200,7 @@ def test_unfiltered_uses_every_return(room: OccupancyGrid) -> None:
         room, MCLConfig(max_samples=300, min_samples=100, beam_filter=BeamFilter.NONE)
     )
     mcl.reset_tracking(drive.truth[0])
-    est = mcl.update(drive.scans[0].odom, drive.scans[0])
+    est = mcl.update(drive.odom[0], drive.scans[0])
     assert np.array_equal(est.used_beams, drive.scans[0].ranges < drive.scans[0].geometry.max_range)
     assert est.covariance.shape == (3, 3)
     assert est.n_samples == mcl.samples.shape[0] == mcl.weights.shape[0]
@@ -210,7 +210,7 @@ def test_update_before_reset_is_an_error(room: OccupancyGrid) -> None:
     drive = simulate(room, waypoints_path(2), seed=9)
     mcl = MonteCarloLocalization(room)
     with pytest.raises(LocalizationError, match="reset"):
-        mcl.update(drive.scans[0].odom, drive.scans[0])
+        mcl.update(drive.odom[0], drive.scans[0])
 
 
 def test_map_without_free_space() -> None:

@@ -37,7 +37,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from statistics import NormalDist
 
 import numba
 import numpy as np
@@ -53,7 +54,10 @@ from tourbot.localization.beam_filters import (
 )
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from tourbot.maps.raycast import DistanceCaster, RayCaster
 from tourbot.records import LaserGeometry, Scan
 
 __all__ = [
@@ -157,8 +161,6 @@ class MonteCarloLocalization:
     """
 
     def __init__(self, grid: OccupancyGrid, config: MCLConfig | None = None, seed: int | None = None) -> None:
-        from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
-
         self.grid = grid
         self.config = config or MCLConfig()
         self.rng = np.random.default_rng(seed)
@@ -172,9 +174,8 @@ class MonteCarloLocalization:
             z_rand=self.config.z_rand,
             max_dist=self.config.max_dist,
         )
-        self._field_cls = LikelihoodField
         self._fields: dict[float, LikelihoodField] = {}
-        self._casters: dict[float, object] = {}
+        self._casters: dict[float, RayCaster] = {}
         self.samples: FloatArray = np.zeros((0, 3))
         self.weights: FloatArray = np.zeros(0)
         self._odom: FloatArray | None = None
@@ -294,38 +295,34 @@ class MonteCarloLocalization:
 
     # ------------------------------------------------------------------ steps
 
-    def _field(self, geometry: LaserGeometry):  # type: ignore[no-untyped-def]
+    def _field(self, geometry: LaserGeometry) -> LikelihoodField:
+        """The likelihood field for this laser's maximum range (built once per laser)."""
         key = float(geometry.max_range)
         f = self._fields.get(key)
         if f is None:
-            from dataclasses import replace
-
-            f = self._field_cls.from_grid(self.grid, replace(self._field_params, max_range=key))
+            f = LikelihoodField.from_grid(self.grid, replace(self._field_params, max_range=key))
             self._fields[key] = f
         return f
 
-    def _caster(self, max_range: float):  # type: ignore[no-untyped-def]
+    def _caster(self, max_range: float) -> RayCaster:
+        """The project's ray caster for expected ranges (built once per laser)."""
         c = self._casters.get(max_range)
         if c is None:
-            from tourbot.maps.raycast import DistanceCaster
-
             c = DistanceCaster(self.grid, max_range)
             self._casters[max_range] = c
         return c
 
     def _select_beams(
-        self, valid: NDArray[np.bool_], ranges: FloatArray, geometry: LaserGeometry, field_: object
+        self, valid: NDArray[np.bool_], ranges: FloatArray, geometry: LaserGeometry, field_: LikelihoodField
     ) -> NDArray[np.bool_]:
         cfg = self.config
         if cfg.beam_filter == BeamFilter.NONE or not valid.any():
             return valid
         if cfg.beam_filter == BeamFilter.ENTROPY:
-            lik = np.exp(field_.beam_log_likelihoods(self.samples, ranges, geometry)[:, valid])  # type: ignore[attr-defined]
+            lik = np.exp(field_.beam_log_likelihoods(self.samples, ranges, geometry)[:, valid])
             groups = _cell_keys(self.samples, cfg.entropy_cell[0], cfg.entropy_cell[1])
             keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance)
         else:
-            from tourbot.maps.beam_model import BeamModel
-
             m = min(cfg.novelty_samples, self.samples.shape[0])
             idx = low_variance_resample(self.weights, m, float(self.rng.random()))
             laser = compose(self.samples[idx], np.asarray(geometry.offset, dtype=np.float64))
@@ -351,7 +348,7 @@ class MonteCarloLocalization:
         inject_fraction: float,
         ranges: FloatArray,
         geometry: LaserGeometry,
-        field_: object,
+        field_: LikelihoodField,
         valid: NDArray[np.bool_],
     ) -> int:
         cfg = self.config
@@ -360,7 +357,7 @@ class MonteCarloLocalization:
         drawn = drawn[self.rng.permutation(n_max)]
         n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
         new = drawn[:n].copy()
-        n_inject = int(round(inject_fraction * n))
+        n_inject = round(inject_fraction * n)
         if n_inject:
             new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid)
             # Injected samples are a new hypothesis: the averages start over from the present.
@@ -374,7 +371,7 @@ class MonteCarloLocalization:
         n: int,
         ranges: FloatArray,
         geometry: LaserGeometry,
-        field_: object,
+        field_: LikelihoodField,
         valid: NDArray[np.bool_],
     ) -> FloatArray:
         """Sensor resetting: candidate poses over the free space, drawn by their scan likelihood."""
@@ -385,7 +382,7 @@ class MonteCarloLocalization:
         mask &= valid
         if not mask.any():
             return cand[:n]
-        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)  # type: ignore[attr-defined]
+        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)
         # Tempered as the main update, scaled up for the subsampled beams.
         logw = cfg.likelihood_exponent * ll * (valid.sum() / mask.sum())
         w = np.exp(logw - logw.max())
@@ -408,7 +405,7 @@ def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:
     """An integer label per sample: the cell of a ``cell x cell x cell_theta`` grid holding it."""
     ix = np.floor(samples[:, 0] / cell).astype(np.int64)
     iy = np.floor(samples[:, 1] / cell).astype(np.int64)
-    n_th = max(1, int(round(2 * math.pi / cell_theta)))
+    n_th = max(1, round(2 * math.pi / cell_theta))
     it = np.floor((samples[:, 2] + math.pi) / (2 * math.pi) * n_th).astype(np.int64) % n_th
     ix -= ix.min()
     iy -= iy.min()
@@ -474,14 +471,14 @@ def _bin_keys(samples: FloatArray, cell: float, cell_theta: float) -> tuple[IntA
 @numba.njit(cache=True)
 def _bin_keys_kernel(samples: FloatArray, cell: float, cell_theta: float) -> tuple[IntArray, int, int]:
     n = samples.shape[0]
-    n_th = max(1, int(round(2.0 * math.pi / cell_theta)))
+    n_th = max(1, round(2.0 * math.pi / cell_theta))
     ix = np.empty(n, np.int64)
     iy = np.empty(n, np.int64)
     it = np.empty(n, np.int64)
     for i in range(n):
-        ix[i] = int(math.floor(samples[i, 0] / cell))
-        iy[i] = int(math.floor(samples[i, 1] / cell))
-        t = int(math.floor((samples[i, 2] + math.pi) / (2.0 * math.pi) * n_th)) % n_th
+        ix[i] = math.floor(samples[i, 0] / cell)
+        iy[i] = math.floor(samples[i, 1] / cell)
+        t = math.floor((samples[i, 2] + math.pi) / (2.0 * math.pi) * n_th) % n_th
         it[i] = t
     x0 = ix.min() - 1 if n else 0
     y0 = iy.min() - 1 if n else 0
@@ -496,9 +493,7 @@ def kld_bounds(k_max: int, epsilon: float, quantile: float) -> IntArray:
     """Fox 2003, Eq. 13, for ``k = 0 .. k_max``: samples needed so that, with probability
     ``quantile``, the KL divergence between the sample-based and the true belief stays below
     ``epsilon`` when the samples fall in ``k`` bins."""
-    from scipy.stats import norm
-
-    z = float(norm.ppf(quantile))
+    z = NormalDist().inv_cdf(quantile)
     k = np.arange(k_max + 1, dtype=np.float64)
     km1 = np.maximum(k - 1.0, 1.0)
     a = 2.0 / (9.0 * km1)
