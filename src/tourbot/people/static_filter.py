@@ -33,9 +33,9 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True, slots=True)
 class StaticConfig:
-    """``lag``: compare with each of the last ``lag`` scans and keep the strongest evidence of motion
-    (1 = consecutive scans only, the paper's; 5 at 10 Hz also catches people walking slowly, whose
-    legs move only a few centimetres between consecutive scans);
+    """``lag``: compare with the previous scan (the paper's consecutive scans) and with the scan
+    ``lag`` scans back, keeping the stronger evidence of motion (5 at 10 Hz also catches people
+    walking slowly, whose legs move only a few centimetres between consecutive scans);
     ``tolerance``: how close (m) a previous return must be to call the cell occupied then;
     ``p_free`` / ``p_occupied``: the inverse sensor model's values; ``map_clearance``: features
     within this distance (m) of an occupied map cell are static."""
@@ -111,14 +111,17 @@ class StaticFilter:
 
         The difference map ``P_now - P_prev`` at each feature's cell, rescaled to [0, 1]
         (``P_now = p_occupied``: the feature is a return of the current scan), the largest over the
-        remembered scans; 0.5 ("unknown") before any history; 0 on the map.
+        previous scan and the one ``lag`` back; 0.5 ("unknown") before any history; 0 on the map.
         """
         cfg = self.config
         pose = np.asarray(robot_pose, dtype=np.float64)
         out = np.full(world_points.shape[0], 0.5)
         if self._history and world_points.shape[0]:
             out[:] = 0.0
-            for prev_scan, prev_pose in self._history:
+            earlier = (
+                [self._history[-1]] if len(self._history) == 1 else [self._history[-1], self._history[0]]
+            )
+            for prev_scan, prev_pose in earlier:
                 local = points_in_sensor_frame(world_points, prev_pose, prev_scan)
                 g = prev_scan.geometry
                 p_prev = previous_occupancy(
