@@ -366,7 +366,8 @@ def _real_bags(report: BenchReport, folder: Path) -> None:
         verdict = "met" if rate <= NEGATIVE_RATE_LIMIT else "MISSED"
         report.notes.append(
             f"negative_2.bag {row['topic']}: {rate:.4f} confirmed tracks per scan over {row['scans']:.0f} "
-            f"scans ({row['legs_per_scan']:.2f} leg candidates per scan); limit {NEGATIVE_RATE_LIMIT}: {verdict}"
+            f"scans ({row['legs_per_scan']:.2f} leg candidates per scan); "
+            f"limit {NEGATIVE_RATE_LIMIT}: {verdict}"
         )
         report.meta[f"negative_2 {row['topic']}"] = row
 
