@@ -287,7 +287,7 @@ def cluster_betas(
     the betas of the pairs ``(P,)`` and each person's ``beta_0`` ``(K,)`` (``miss`` ``(K,)`` is
     the weight of a person going undetected).
     """
-    return _cluster_betas_kernel(  # type: ignore[no-any-return]
+    return _cluster_betas_kernel(
         np.ascontiguousarray(pair_track, dtype=np.int64),
         np.ascontiguousarray(pair_feature, dtype=np.int64),
         np.ascontiguousarray(ratio, dtype=np.float64),

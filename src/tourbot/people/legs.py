@@ -246,7 +246,7 @@ def leg_segments(
     ``min_width``-``max_width`` wide, and P(leg) = P(width) * P(local minimum) reaches
     ``min_probability`` (numba kernel of :func:`leg_segments_reference`).
     """
-    return _leg_segments_kernel(  # type: ignore[no-any-return]
+    return _leg_segments_kernel(
         np.ascontiguousarray(r, dtype=np.float64),
         np.ascontiguousarray(angles, dtype=np.float64),
         np.ascontiguousarray(valid, dtype=np.bool_),
