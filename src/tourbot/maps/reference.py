@@ -258,7 +258,9 @@ def trace_beams_reference(
 # From a log to a map
 
 
-def beam_rays(log: RobotLog, *, use_reference: bool = True) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+def beam_rays(
+    log: RobotLog, *, use_reference: bool = True
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
     """Every beam of ``log`` as world rays: origins x, y, headings, ranges, and "ended on a hit".
 
     Beams start at the laser (pose ``compose(robot pose, geometry.offset)``); readings at or above
