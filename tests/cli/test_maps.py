@@ -1,4 +1,4 @@
-"""``tourbot map from-poses``, ``tourbot show`` and ``tourbot demo``: from a log to a map and a picture."""
+"""``tourbot map from-poses`` and ``tourbot show``: from a log to a map and a picture in two commands."""
 
 from __future__ import annotations
 
@@ -58,14 +58,3 @@ def test_map_info_and_bad_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     bad.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\n")
     assert _run(["map", "info", str(bad)]) == 2
     assert "origin must be [x, y, yaw]" in capsys.readouterr().err
-
-
-@pytest.mark.slow
-def test_demo(tmp_path: Path, shared_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert shared_data.exists()
-    assert _run(["demo", "--out", str(tmp_path)]) == 0
-    assert (tmp_path / "demo" / "fhw.png").stat().st_size > 50_000
-    assert (tmp_path / "maps" / "fhw.yaml").exists()
-    out = " ".join(capsys.readouterr().out.split())
-    assert "picture:" in out
-    assert "median |ray cast - measured|" in out
