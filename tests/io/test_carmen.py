@@ -331,3 +331,42 @@ def test_writer_refuses_mixed_reference(tmp_path: Path) -> None:
     )
     with pytest.raises(LogFormatError, match="only some scans"):
         write_carmen(log, tmp_path / "m.log")
+
+
+def test_param_lines_set_the_old_laser_geometry(tmp_path: Path) -> None:
+    lines = [
+        "PARAM laser_front_laser_fov 100 nohost 0",
+        "PARAM laser_front_laser_max_range 32.767 nohost 0",
+        "PARAM robot_rearlaser_offset -0.2 nohost 0",
+        "PARAM robot_rear_laser_max 8.0 nohost 0",
+        "PARAM some_device /dev/ttyS0 nohost 0",
+        _flaser([1.0] * 101, (0, 0, 0), 1.0),
+        _flaser([1.0] * 181, (0, 0, 0), 2.0).replace("FLASER", "RLASER"),
+    ]
+    path = _write(tmp_path, lines)
+    front = read_carmen(path).scans[0].geometry
+    assert front.angle_min == pytest.approx(-math.radians(50))
+    assert front.fov == pytest.approx(math.radians(100))
+    assert front.max_range == 32.767
+    rear = read_carmen(path, laser="RLASER").scans[0].geometry
+    assert rear.offset == (-0.2, 0.0, math.pi)
+    assert rear.max_range == 8.0
+    assert rear.angle_increment == pytest.approx(math.radians(1))  # CARMEN's guess for 181 beams
+
+
+def test_iter_carmen_collects_warnings(tmp_path: Path) -> None:
+    path = _write(tmp_path, ["FLASER 1 1.0 0 0 0 0 0 0 0 h 0", "FLASER 1 -1 0 0 0 0 0 0 1 h 1"])
+    warnings: list[str] = []
+    records = list(iter_carmen(path, lenient=True, warnings=warnings))
+    assert len(records) == 1
+    assert len(warnings) == 2  # zero timestamps, one skipped record
+    assert any("record order" in w for w in warnings)
+    assert any("skipped 1" in w for w in warnings)
+
+
+def test_angles_are_wrapped(tmp_path: Path) -> None:
+    log = read_carmen(_write(tmp_path, [_odom((0, 0, 4.0), 1.0), _flaser([1.0], (0, 0, -3.5), 1.0)]))
+    assert log.odometry[0].pose[2] == pytest.approx(4.0 - 2 * math.pi)
+    scan = log.scans[0]
+    assert scan.reference is not None
+    assert scan.reference[2] == pytest.approx(2 * math.pi - 3.5)
