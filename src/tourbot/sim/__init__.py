@@ -1,0 +1,1 @@
+"""The simulator: robot, odometry error, laser, the crowd of visitors, changing doors and furniture."""

@@ -1,0 +1,843 @@
+"""The crowd of museum visitors: a pure, step-able social-force model shared by the simulator and
+the crowd overlay on real logs.
+
+Visitors walk the free space of an :class:`~tourbot.maps.grid.OccupancyGrid` at their own preferred
+speed (0.5-1.5 m/s), avoid walls and each other with the social-force model of Helbing & Molnár
+(1995, Phys. Rev. E 51, Eq. 1-5: driving term, exponential repulsion from other people and from
+walls), wander between points in view or visit points of interest (exhibits) where they dwell, in
+small groups, and, as in the crowded museum experiments of Fox, Burgard, Thrun & Cremers (1998,
+"Position estimation for mobile robots in dynamic environments", Sec. "Experimental results",
+Fig. 1a), many of them are drawn to the robot and stand around it for minutes. The laser sees each
+visitor as two legs at sensor height (circles that swing with a walking gait) or, if configured,
+as one body circle: :meth:`Crowd.legs` and :meth:`Crowd.circles`.
+
+Everything random is drawn from the ``numpy.random.Generator`` given to the constructor and to
+:meth:`Crowd.step`, so a crowd is deterministic for a seed. The hot loops (pairwise social forces,
+line-of-sight tests, the geodesic distance field used to walk around walls) are numba kernels,
+each with a plain-numpy/Python reference beside it for the property tests.
+
+Internally positions are kept in the grid frame (metres, the frame of cell ``(0, 0)``'s corner);
+the public API speaks world coordinates.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy import ndimage
+
+from tourbot.errors import TourbotError
+from tourbot.geometry import compose, invert, transform_points, wrap_angle
+from tourbot.maps.grid import OccupancyGrid
+
+__all__ = [
+    "PRESETS",
+    "Crowd",
+    "CrowdConfig",
+    "CrowdError",
+    "distance_field",
+    "distance_field_reference",
+    "line_of_sight",
+    "line_of_sight_reference",
+    "social_forces",
+    "social_forces_reference",
+]
+
+FloatArray = NDArray[np.float64]
+
+# Visitor activity: walking to a goal, dwelling at it, or drawn to the robot.
+WALK, DWELL, ROBOT = 0, 1, 2
+
+PresetName = Literal["empty", "sparse", "peak"]
+
+
+class CrowdError(TourbotError):
+    """A crowd that cannot be built as asked (no free space, bad parameters)."""
+
+
+@dataclass(frozen=True)
+class CrowdConfig:
+    """Every parameter of the crowd, with its source.
+
+    Speeds: preferred walking speeds uniform in ``[speed_min, speed_max]`` = 0.5-1.5 m/s (issue 3
+    §2; Helbing & Molnár 1995 use a mean of 1.34 m/s, sd 0.26). Social force (Helbing & Molnár
+    1995, Eq. 3-5, per unit mass): relaxation time ``tau`` = 0.5 s, person-person potential
+    ``social_strength`` V0 = 2.1 m²/s² over ``social_range`` σ = 0.3 m, wall potential
+    ``wall_strength`` U0 = 10 m²/s² over ``wall_range`` R = 0.2 m. Attraction to the robot
+    (Fox et al. 1998, Fig. 1a: visitors surround the robot): in the long run a fraction
+    ``robot_interest`` of the visitor groups stands around the robot, each for
+    ``interest_duration`` seconds on average, at ``stand_distance`` metres inside an arc of
+    ``±stand_arc`` radians in front of it (where its screen and face are). Legs at sensor height:
+    radius 5-8 cm, 20 cm apart, swinging ``leg_swing`` metres with a gait cycle of
+    ``stride_length`` metres.
+    """
+
+    num_people: int = 40
+    speed_min: float = 0.5
+    speed_max: float = 1.5
+    # Helbing & Molnár 1995, Eq. 2-5 (per unit mass).
+    tau: float = 0.5
+    social_strength: float = 2.1
+    social_range: float = 0.3
+    wall_strength: float = 10.0
+    wall_range: float = 0.2
+    person_radius: float = 0.25
+    # The robot as an obstacle people keep clear of (RHINO/TOURBOT robots are ~0.5-0.6 m wide).
+    robot_radius: float = 0.4
+    robot_strength: float = 10.0
+    robot_range: float = 0.2
+    # Interest in the robot (Fox et al. 1998, Fig. 1a).
+    robot_interest: float = 0.3
+    interest_duration: float = 120.0
+    stand_distance: tuple[float, float] = (0.7, 1.8)
+    stand_arc: float = math.radians(100.0)
+    # Where visitors go when not at the robot.
+    points_of_interest: tuple[tuple[float, float], ...] = ()
+    poi_probability: float = 0.5
+    dwell_time: tuple[float, float] = (3.0, 30.0)
+    wander_distance: tuple[float, float] = (2.0, 12.0)
+    group_size_max: int = 3
+    group_cohesion: float = 0.5
+    # What the laser sees.
+    target: Literal["legs", "body"] = "legs"
+    leg_radius: tuple[float, float] = (0.05, 0.08)
+    hip_half_width: float = 0.1
+    leg_swing: float = 0.15
+    stride_length: float = 1.3
+    body_radius: float = 0.22
+    # Numerics.
+    max_substep: float = 0.1
+    field_resolution: float = 0.25
+    field_period: float = 1.0
+    field_max_distance: float = 40.0
+
+    def __post_init__(self) -> None:
+        checks = [
+            (self.num_people >= 0, "num_people must be >= 0"),
+            (0.0 < self.speed_min <= self.speed_max, "need 0 < speed_min <= speed_max"),
+            (0.0 <= self.robot_interest <= 1.0, "robot_interest must be in [0, 1]"),
+            (0.0 <= self.poi_probability <= 1.0, "poi_probability must be in [0, 1]"),
+            (self.interest_duration > 0.0, "interest_duration must be positive"),
+            (self.tau > 0.0 and self.max_substep > 0.0, "tau and max_substep must be positive"),
+            (self.group_size_max >= 1, "group_size_max must be >= 1"),
+            (0.0 < self.stand_distance[0] <= self.stand_distance[1], "bad stand_distance"),
+            (0.0 < self.wander_distance[0] <= self.wander_distance[1], "bad wander_distance"),
+            (0.0 <= self.dwell_time[0] <= self.dwell_time[1], "bad dwell_time"),
+            (self.target in ("legs", "body"), "target must be 'legs' or 'body'"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise CrowdError(f"crowd config: {message}")
+
+    @classmethod
+    def preset(cls, name: str, **overrides: object) -> CrowdConfig:
+        """One of :data:`PRESETS` (``empty``, ``sparse``, ``peak``), with fields overridden."""
+        if name not in PRESETS:
+            raise CrowdError(f"unknown crowd preset {name!r}; choose one of {', '.join(PRESETS)}")
+        return replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
+
+
+# The paper's two datasets (Fox et al. 1998, Sec. "Experimental results", Fig. 4): "sparse" is the
+# museum closed (a few % of the beams corrupted), "peak" the most crowded day at peak hours (on
+# average >= 40 % corrupted, stretches above 50 % lasting minutes). The numbers of people and the
+# interest were calibrated on the FHW log with `tourbot crowd` (see docs/benchmarks.md).
+PRESETS: dict[str, CrowdConfig] = {
+    "empty": CrowdConfig(num_people=0, robot_interest=0.0),
+    "sparse": CrowdConfig(num_people=6, robot_interest=0.05, interest_duration=30.0),
+    "peak": CrowdConfig(num_people=120, robot_interest=0.35, interest_duration=240.0),
+}
+
+
+# --------------------------------------------------------------------------------------------
+# Kernels (numba) and their references
+# --------------------------------------------------------------------------------------------
+
+
+@numba.njit(cache=True)
+def social_forces(pos: FloatArray, radius: FloatArray, strength: float, scale: float) -> FloatArray:
+    """Pairwise repulsion between people, ``(N, 2)`` accelerations.
+
+    Helbing & Molnár 1995, Eq. 3 in its common circular form: person ``j`` pushes ``i`` along
+    ``n_ij = (x_i - x_j)/d_ij`` with magnitude ``(V0/σ) exp((r_i + r_j - d_ij)/σ)``.
+    """
+    n = pos.shape[0]
+    out = np.zeros((n, 2))
+    cutoff = 8.0 * scale
+    for i in range(n):
+        for j in range(i + 1, n):
+            dx = pos[i, 0] - pos[j, 0]
+            dy = pos[i, 1] - pos[j, 1]
+            d = math.sqrt(dx * dx + dy * dy)
+            gap = d - radius[i] - radius[j]
+            if gap > cutoff:
+                continue
+            if d < 1e-9:
+                # Coincident people: push apart along a fixed, index-dependent direction.
+                dx, dy, d = math.cos(i - j), math.sin(i - j), 1.0
+            mag = strength / scale * math.exp(-gap / scale)
+            fx = mag * dx / d
+            fy = mag * dy / d
+            out[i, 0] += fx
+            out[i, 1] += fy
+            out[j, 0] -= fx
+            out[j, 1] -= fy
+    return out
+
+
+def social_forces_reference(pos: FloatArray, radius: FloatArray, strength: float, scale: float) -> FloatArray:
+    """Plain-numpy :func:`social_forces` (all pairs, same cutoff) for the property tests."""
+    diff = pos[:, None, :] - pos[None, :, :]
+    d = np.linalg.norm(diff, axis=-1)
+    gap = d - radius[:, None] - radius[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = diff / d[..., None]
+    mag = strength / scale * np.exp(-gap / scale)
+    mask = (gap <= 8.0 * scale) & ~np.eye(len(pos), dtype=bool) & (d >= 1e-9)
+    return np.asarray(np.sum(np.where(mask[..., None], mag[..., None] * unit, 0.0), axis=1))
+
+
+@numba.njit(cache=True)
+def line_of_sight(walkable: NDArray[np.bool_], res: float, a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
+    """Whether the straight segment ``a[k] -> b[k]`` (grid-frame metres) stays on walkable cells.
+
+    Samples the segment every quarter cell; points outside the grid are not walkable.
+    """
+    rows, cols = walkable.shape
+    out = np.empty(a.shape[0], dtype=np.bool_)
+    for k in range(a.shape[0]):
+        dx = b[k, 0] - a[k, 0]
+        dy = b[k, 1] - a[k, 1]
+        steps = math.ceil(math.sqrt(dx * dx + dy * dy) / (0.25 * res)) + 1
+        ok = True
+        for s in range(steps + 1):
+            t = s / steps
+            c = math.floor((a[k, 0] + t * dx) / res)
+            r = math.floor((a[k, 1] + t * dy) / res)
+            if r < 0 or r >= rows or c < 0 or c >= cols or not walkable[r, c]:
+                ok = False
+                break
+        out[k] = ok
+    return out
+
+
+def line_of_sight_reference(
+    walkable: NDArray[np.bool_], res: float, a: FloatArray, b: FloatArray
+) -> NDArray[np.bool_]:
+    """Plain-numpy :func:`line_of_sight` for the property tests."""
+    out = np.empty(len(a), dtype=bool)
+    for k in range(len(a)):
+        length = float(np.hypot(*(b[k] - a[k])))
+        steps = math.ceil(length / (0.25 * res)) + 1
+        t = np.arange(steps + 1) / steps
+        pts = a[k] + t[:, None] * (b[k] - a[k])
+        cells = np.floor(pts / res).astype(np.int64)
+        inside = (
+            (cells[:, 1] >= 0)
+            & (cells[:, 1] < walkable.shape[0])
+            & (cells[:, 0] >= 0)
+            & (cells[:, 0] < walkable.shape[1])
+        )
+        out[k] = bool(inside.all() and walkable[cells[:, 1], cells[:, 0]].all())
+    return out
+
+
+_NEIGHBOURS = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)], dtype=np.int64)
+
+
+@numba.njit(cache=True)
+def distance_field(walkable: NDArray[np.bool_], source_r: int, source_c: int, max_cost: float) -> FloatArray:
+    """Geodesic distance (in cells) from one cell over walkable cells, 8-connected (Dijkstra).
+
+    Diagonal steps cost sqrt(2); cells farther than ``max_cost`` or unreachable are ``inf``.
+    Visitors descend this field to walk around walls to the robot or an exhibit.
+    """
+    rows, cols = walkable.shape
+    dist = np.full((rows, cols), np.inf)
+    if source_r < 0 or source_r >= rows or source_c < 0 or source_c >= cols:
+        return dist
+    if not walkable[source_r, source_c]:
+        return dist
+    cap = 8 * rows * cols + 1
+    hk = np.empty(cap)
+    hv = np.empty(cap, dtype=np.int64)
+    size = 0
+    dist[source_r, source_c] = 0.0
+    hk[0] = 0.0
+    hv[0] = source_r * cols + source_c
+    size = 1
+    diag = math.sqrt(2.0)
+    while size > 0:
+        # Pop the minimum.
+        key = hk[0]
+        cell = hv[0]
+        size -= 1
+        if size > 0:
+            lk = hk[size]
+            lv = hv[size]
+            i = 0
+            while True:
+                child = 2 * i + 1
+                if child >= size:
+                    break
+                if child + 1 < size and hk[child + 1] < hk[child]:
+                    child += 1
+                if hk[child] < lk:
+                    hk[i] = hk[child]
+                    hv[i] = hv[child]
+                    i = child
+                else:
+                    break
+            hk[i] = lk
+            hv[i] = lv
+        r = cell // cols
+        c = cell % cols
+        if key > dist[r, c] or key > max_cost:
+            continue
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                if dr == 0 and dc == 0:
+                    continue
+                nr = r + dr
+                nc = c + dc
+                if nr < 0 or nr >= rows or nc < 0 or nc >= cols or not walkable[nr, nc]:
+                    continue
+                step = diag if dr != 0 and dc != 0 else 1.0
+                nd = key + step
+                if nd < dist[nr, nc]:
+                    dist[nr, nc] = nd
+                    # Push.
+                    i = size
+                    size += 1
+                    while i > 0:
+                        parent = (i - 1) // 2
+                        if hk[parent] > nd:
+                            hk[i] = hk[parent]
+                            hv[i] = hv[parent]
+                            i = parent
+                        else:
+                            break
+                    hk[i] = nd
+                    hv[i] = nr * cols + nc
+    for r in range(rows):
+        for c in range(cols):
+            if dist[r, c] > max_cost:
+                dist[r, c] = np.inf
+    return dist
+
+
+def distance_field_reference(
+    walkable: NDArray[np.bool_], source_r: int, source_c: int, max_cost: float
+) -> FloatArray:
+    """Plain-Python :func:`distance_field` (heapq Dijkstra) for the property tests."""
+    import heapq
+
+    rows, cols = walkable.shape
+    dist = np.full((rows, cols), np.inf)
+    if not (0 <= source_r < rows and 0 <= source_c < cols) or not walkable[source_r, source_c]:
+        return dist
+    dist[source_r, source_c] = 0.0
+    heap: list[tuple[float, int, int]] = [(0.0, source_r, source_c)]
+    while heap:
+        d, r, c = heapq.heappop(heap)
+        if d > dist[r, c] or d > max_cost:
+            continue
+        for dr, dc in _NEIGHBOURS:
+            nr, nc = r + int(dr), c + int(dc)
+            if 0 <= nr < rows and 0 <= nc < cols and walkable[nr, nc]:
+                nd = d + (math.sqrt(2.0) if dr and dc else 1.0)
+                if nd < dist[nr, nc]:
+                    dist[nr, nc] = nd
+                    heapq.heappush(heap, (nd, nr, nc))
+    dist[dist > max_cost] = np.inf
+    return dist
+
+
+@numba.njit(cache=True)
+def _descend(field: FloatArray, res: float, pos: FloatArray, active: NDArray[np.bool_]) -> FloatArray:
+    """Unit directions from each active position towards its lowest 8-neighbour in ``field``.
+
+    Zero where the field is infinite around the person (unreachable) or where it is the minimum.
+    """
+    rows, cols = field.shape
+    out = np.zeros((pos.shape[0], 2))
+    for k in range(pos.shape[0]):
+        if not active[k]:
+            continue
+        c0 = math.floor(pos[k, 0] / res)
+        r0 = math.floor(pos[k, 1] / res)
+        best = np.inf
+        br = -1
+        bc = -1
+        for dr in range(-1, 2):
+            for dc in range(-1, 2):
+                r = r0 + dr
+                c = c0 + dc
+                if r < 0 or r >= rows or c < 0 or c >= cols:
+                    continue
+                if field[r, c] < best:
+                    best = field[r, c]
+                    br = r
+                    bc = c
+        if br < 0 or not math.isfinite(best):
+            continue
+        dx = (bc + 0.5) * res - pos[k, 0]
+        dy = (br + 0.5) * res - pos[k, 1]
+        d = math.sqrt(dx * dx + dy * dy)
+        if d > 1e-9:
+            out[k, 0] = dx / d
+            out[k, 1] = dy / d
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# The walkable space of a map
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Space:
+    """Where people can be: wall distances on the map grid, walkable cells on a coarser grid."""
+
+    res: float  # map resolution
+    wall_dist: NDArray[np.float64]  # (R, C) metres to the nearest non-free cell
+    wall_dir: NDArray[np.float64]  # (R, C, 2) unit vectors pointing away from it (grid frame)
+    coarse_res: float
+    walkable: NDArray[np.bool_]  # (Rc, Cc)
+    free_cells: NDArray[np.int64]  # (K, 2) walkable coarse (row, col)
+
+    @classmethod
+    def from_grid(cls, grid: OccupancyGrid, clearance: float, coarse_res: float) -> _Space:
+        blocked = ~grid.free()
+        dist, idx = ndimage.distance_transform_edt(~blocked, return_indices=True)
+        rows, cols = np.indices(blocked.shape)
+        away = np.stack([cols - idx[1], rows - idx[0]], axis=-1).astype(np.float64)
+        norm = np.linalg.norm(away, axis=-1, keepdims=True)
+        away = np.divide(away, norm, out=np.zeros_like(away), where=norm > 0)
+        # Distances from cell centre to the nearest blocked cell's boundary (half a cell less).
+        wall_dist = np.maximum(dist * grid.resolution - 0.5 * grid.resolution, 0.0)
+        k = max(1, round(coarse_res / grid.resolution))
+        cres = k * grid.resolution
+        rc, cc = blocked.shape[0] // k, blocked.shape[1] // k
+        centres = wall_dist[k // 2 : rc * k : k, k // 2 : cc * k : k][:rc, :cc]
+        walkable = np.ascontiguousarray(centres >= clearance)
+        return cls(
+            res=grid.resolution,
+            wall_dist=wall_dist,
+            wall_dir=away,
+            coarse_res=cres,
+            walkable=walkable,
+            free_cells=np.argwhere(walkable),
+        )
+
+    def wall(self, pos: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Distance to the nearest wall and the unit vector away from it, for points (N, 2)."""
+        rows, cols = self.wall_dist.shape
+        c = np.clip(np.floor(pos[:, 0] / self.res).astype(np.int64), 0, cols - 1)
+        r = np.clip(np.floor(pos[:, 1] / self.res).astype(np.int64), 0, rows - 1)
+        return self.wall_dist[r, c], self.wall_dir[r, c]
+
+    def is_walkable(self, pos: FloatArray) -> NDArray[np.bool_]:
+        rows, cols = self.walkable.shape
+        c = np.floor(pos[:, 0] / self.coarse_res).astype(np.int64)
+        r = np.floor(pos[:, 1] / self.coarse_res).astype(np.int64)
+        inside = (r >= 0) & (r < rows) & (c >= 0) & (c < cols)
+        out = np.zeros(len(pos), dtype=bool)
+        out[inside] = self.walkable[r[inside], c[inside]]
+        return out
+
+    def field_to(self, point: FloatArray, max_distance: float) -> FloatArray:
+        r = math.floor(point[1] / self.coarse_res)
+        c = math.floor(point[0] / self.coarse_res)
+        r, c = self._nearest_walkable(r, c)
+        return distance_field(self.walkable, r, c, max_distance / self.coarse_res)
+
+    def _nearest_walkable(self, r: int, c: int) -> tuple[int, int]:
+        rows, cols = self.walkable.shape
+        if 0 <= r < rows and 0 <= c < cols and self.walkable[r, c]:
+            return r, c
+        d2 = (self.free_cells[:, 0] - r) ** 2 + (self.free_cells[:, 1] - c) ** 2
+        best = self.free_cells[int(np.argmin(d2))]
+        return int(best[0]), int(best[1])
+
+
+# --------------------------------------------------------------------------------------------
+# The crowd
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _People:
+    pos: FloatArray
+    vel: FloatArray
+    heading: FloatArray
+    speed: FloatArray  # preferred speed
+    mode: NDArray[np.int64]
+    goal: FloatArray
+    goal_poi: NDArray[np.int64]  # index of the point of interest walked to, -1 for none
+    timer: FloatArray  # dwell time left, s
+    interested: NDArray[np.bool_]
+    stand: FloatArray  # (N, 2) polar (distance, bearing) of the standing spot, robot frame
+    phase: FloatArray  # gait phase, rad
+    leg_radius: FloatArray  # (N, 2)
+    group: NDArray[np.int64]  # index of the group's leader
+
+
+class Crowd:
+    """Visitors walking in a map's free space; step it with the robot's pose.
+
+    ``Crowd(config, grid, rng, robot_pose)`` spawns ``config.num_people`` visitors in groups in
+    the free space, clear of the robot. :meth:`step` advances them by ``dt`` seconds (in substeps
+    of at most ``config.max_substep``; the robot is taken to be at ``robot_pose`` throughout, so
+    callers with a moving robot step at their own rate). :meth:`legs` gives what a laser at leg
+    height hits.
+    """
+
+    def __init__(
+        self,
+        config: CrowdConfig,
+        grid: OccupancyGrid,
+        rng: np.random.Generator,
+        robot_pose: ArrayLike = (0.0, 0.0, 0.0),
+    ) -> None:
+        self.config = config
+        self.grid = grid
+        self.time = 0.0
+        self._space = _Space.from_grid(grid, config.person_radius, config.field_resolution)
+        if config.num_people > 0 and len(self._space.free_cells) == 0:
+            raise CrowdError("the map has no free space wide enough for a person")
+        self._robot = self._local_pose(robot_pose)
+        self._robot_field: FloatArray | None = None
+        self._robot_field_time = -np.inf
+        self._poi = np.array(
+            [self._local_point(p) for p in config.points_of_interest], dtype=np.float64
+        ).reshape(-1, 2)
+        self._poi_fields = [self._space.field_to(p, config.field_max_distance * 4.0) for p in self._poi]
+        self._people = self._spawn(rng)
+
+    # ---- frames ------------------------------------------------------------------------------
+
+    def _local_pose(self, pose: ArrayLike) -> FloatArray:
+        return compose(invert(self.grid.origin), np.asarray(pose, dtype=np.float64))
+
+    def _local_point(self, point: ArrayLike) -> FloatArray:
+        return transform_points(invert(self.grid.origin), np.asarray(point, dtype=np.float64))
+
+    def _to_world(self, points: FloatArray) -> FloatArray:
+        return transform_points(self.grid.origin, points)
+
+    def _vec_to_world(self, vectors: FloatArray) -> FloatArray:
+        th = self.grid.origin[2]
+        c, s = math.cos(th), math.sin(th)
+        return np.stack(
+            [c * vectors[:, 0] - s * vectors[:, 1], s * vectors[:, 0] + c * vectors[:, 1]], axis=-1
+        )
+
+    # ---- public state ------------------------------------------------------------------------
+
+    @property
+    def num_people(self) -> int:
+        return len(self._people.pos)
+
+    @property
+    def positions(self) -> FloatArray:
+        """Centres of the visitors in the world, ``(N, 2)``."""
+        return self._to_world(self._people.pos)
+
+    @property
+    def velocities(self) -> FloatArray:
+        """Velocities in the world, ``(N, 2)`` m/s."""
+        return self._vec_to_world(self._people.vel)
+
+    @property
+    def headings(self) -> FloatArray:
+        """Facing directions in the world, ``(N,)`` rad."""
+        return np.asarray(wrap_angle(self._people.heading + self.grid.origin[2]))
+
+    @property
+    def at_robot(self) -> NDArray[np.bool_]:
+        """Which visitors are currently drawn to the robot, ``(N,)``."""
+        return self._people.mode == ROBOT
+
+    def legs(self) -> tuple[FloatArray, FloatArray]:
+        """Two legs per person at sensor height: world centres ``(2N, 2)`` and radii ``(2N,)``.
+
+        Legs ``2i`` and ``2i+1`` belong to person ``i``; they sit ``hip_half_width`` either side
+        of the body and swing ``± leg_swing · sin(phase)`` along the heading while walking.
+        """
+        p = self._people
+        cfg = self.config
+        fwd = np.stack([np.cos(p.heading), np.sin(p.heading)], axis=-1)
+        side = np.stack([-fwd[:, 1], fwd[:, 0]], axis=-1)
+        speed = np.linalg.norm(p.vel, axis=-1)
+        swing = (cfg.leg_swing * np.sin(p.phase) * np.minimum(1.0, speed / 0.5))[:, None]
+        left = p.pos + cfg.hip_half_width * side + swing * fwd
+        right = p.pos - cfg.hip_half_width * side - swing * fwd
+        centres = np.stack([left, right], axis=1).reshape(-1, 2)
+        return self._to_world(centres), p.leg_radius.reshape(-1).copy()
+
+    def circles(self) -> tuple[FloatArray, FloatArray]:
+        """What the laser sees, per ``config.target``: :meth:`legs`, or one body circle each."""
+        if self.config.target == "legs":
+            return self.legs()
+        n = self.num_people
+        return self.positions, np.full(n, self.config.body_radius)
+
+    # ---- spawning ----------------------------------------------------------------------------
+
+    def _random_free_points(self, rng: np.random.Generator, n: int) -> FloatArray:
+        cells = self._space.free_cells[rng.integers(0, len(self._space.free_cells), size=n)]
+        jitter = rng.uniform(0.2, 0.8, size=(n, 2))
+        res = self._space.coarse_res
+        return np.stack([(cells[:, 1] + jitter[:, 0]) * res, (cells[:, 0] + jitter[:, 1]) * res], axis=-1)
+
+    def _spawn(self, rng: np.random.Generator) -> _People:
+        cfg = self.config
+        n = cfg.num_people
+        # Groups of 1..group_size_max visitors; the first of each group leads.
+        group = np.empty(n, dtype=np.int64)
+        i = 0
+        while i < n:
+            size = min(int(rng.integers(1, cfg.group_size_max + 1)), n - i)
+            group[i : i + size] = i
+            i += size
+        pos = np.empty((n, 2))
+        keep_clear = cfg.robot_radius + cfg.person_radius + 0.3
+        for k in range(n):
+            for _ in range(100):
+                if group[k] == k:
+                    cand = self._random_free_points(rng, 1)[0]
+                else:
+                    cand = pos[group[k]] + rng.normal(0.0, 0.6, size=2)
+                ok = self._space.is_walkable(cand[None])[0]
+                if ok and np.hypot(*(cand - self._robot[:2])) > keep_clear:
+                    break
+            pos[k] = cand
+        speed = rng.uniform(cfg.speed_min, cfg.speed_max, size=n)
+        speed = speed[group]  # a group walks at its leader's pace
+        heading = rng.uniform(-np.pi, np.pi, size=n)
+        interested = (rng.random(n) < cfg.robot_interest)[group]
+        stand = np.stack(
+            [
+                rng.uniform(cfg.stand_distance[0], cfg.stand_distance[1], size=n),
+                rng.uniform(-cfg.stand_arc, cfg.stand_arc, size=n),
+            ],
+            axis=-1,
+        )
+        return _People(
+            pos=pos,
+            vel=np.zeros((n, 2)),
+            heading=heading,
+            speed=speed,
+            mode=np.where(interested, ROBOT, DWELL).astype(np.int64),
+            goal=pos.copy(),
+            goal_poi=np.full(n, -1, dtype=np.int64),
+            timer=rng.uniform(0.0, cfg.dwell_time[1], size=n),
+            interested=interested,
+            stand=stand,
+            phase=rng.uniform(0.0, 2.0 * np.pi, size=n),
+            leg_radius=rng.uniform(cfg.leg_radius[0], cfg.leg_radius[1], size=(n, 2)),
+            group=group,
+        )
+
+    # ---- stepping ----------------------------------------------------------------------------
+
+    def step(self, dt: float, robot_pose: ArrayLike, rng: np.random.Generator) -> None:
+        """Advance the crowd by ``dt`` seconds with the robot at ``robot_pose`` (world)."""
+        if dt < 0:
+            raise CrowdError(f"cannot step a crowd backwards in time (dt={dt})")
+        self._robot = self._local_pose(robot_pose)
+        if self.num_people == 0:
+            self.time += dt
+            return
+        n_sub = max(1, math.ceil(dt / self.config.max_substep - 1e-9))
+        h = dt / n_sub
+        for _ in range(n_sub):
+            self._substep(h, rng)
+
+    def _update_interest(self, h: float, rng: np.random.Generator) -> None:
+        """Leaders start or stop being drawn to the robot (a two-state Markov chain whose
+        stationary share is ``robot_interest`` and mean stay ``interest_duration``); their group
+        follows."""
+        cfg = self.config
+        p = self._people
+        if cfg.robot_interest <= 0.0:
+            p.interested[:] = False
+        else:
+            off_rate = 1.0 / cfg.interest_duration
+            on_rate = off_rate * cfg.robot_interest / max(1e-9, 1.0 - cfg.robot_interest)
+            u = rng.random(len(p.pos))
+            leader = p.group == np.arange(len(p.pos))
+            flip_on = leader & ~p.interested & (u < 1.0 - math.exp(-on_rate * h))
+            flip_off = leader & p.interested & (u < 1.0 - math.exp(-off_rate * h))
+            lead_state = p.interested.copy()
+            lead_state[flip_on] = True
+            lead_state[flip_off] = False
+            p.interested = lead_state[p.group]
+            if flip_on.any():
+                # A new standing spot around the robot for each member of the groups that join.
+                joined = flip_on[p.group]
+                m = int(joined.sum())
+                p.stand[joined, 0] = rng.uniform(cfg.stand_distance[0], cfg.stand_distance[1], size=m)
+                p.stand[joined, 1] = rng.uniform(-cfg.stand_arc, cfg.stand_arc, size=m)
+        start = p.interested & (p.mode != ROBOT)
+        p.mode[start] = ROBOT
+        stop = ~p.interested & (p.mode == ROBOT)
+        if stop.any():
+            p.mode[stop] = DWELL
+            p.timer[stop] = 0.0
+
+    def _choose_goals(self, who: NDArray[np.int64], rng: np.random.Generator) -> None:
+        """New goals for people whose dwell ended: an exhibit, or a point in view (group-wide)."""
+        cfg = self.config
+        p = self._people
+        for k in who.tolist():
+            lead = int(p.group[k])
+            if lead != k and p.mode[lead] == WALK:
+                # Follow the leader's goal, a little apart.
+                p.goal[k] = p.goal[lead] + rng.normal(0.0, 0.4, size=2)
+                p.goal_poi[k] = p.goal_poi[lead]
+                p.mode[k] = WALK
+                continue
+            if len(self._poi) and rng.random() < cfg.poi_probability:
+                j = int(rng.integers(0, len(self._poi)))
+                p.goal[k] = self._poi[j] + rng.normal(0.0, 0.7, size=2)
+                p.goal_poi[k] = j
+                p.mode[k] = WALK
+                continue
+            p.goal_poi[k] = -1
+            found = False
+            for _ in range(10):
+                dist = rng.uniform(*cfg.wander_distance)
+                ang = rng.uniform(-np.pi, np.pi)
+                cand = p.pos[k] + dist * np.array([math.cos(ang), math.sin(ang)])
+                if (
+                    self._space.is_walkable(cand[None])[0]
+                    and line_of_sight(
+                        self._space.walkable, self._space.coarse_res, p.pos[k][None], cand[None]
+                    )[0]
+                ):
+                    found = True
+                    break
+            if found:
+                p.goal[k] = cand
+                p.mode[k] = WALK
+            else:
+                p.mode[k] = DWELL
+                p.timer[k] = rng.uniform(0.5, 2.0)
+
+    def _substep(self, h: float, rng: np.random.Generator) -> None:
+        cfg = self.config
+        p = self._people
+        sp = self._space
+        self.time += h
+        self._update_interest(h, rng)
+
+        # Dwelling people whose time is up pick a new goal.
+        p.timer = np.where(p.mode == DWELL, p.timer - h, p.timer)
+        done = np.flatnonzero((p.mode == DWELL) & (p.timer <= 0.0))
+        if len(done):
+            self._choose_goals(done, rng)
+
+        # Targets: the goal, or the standing spot around the robot.
+        rx, ry, rth = self._robot
+        at_robot = p.mode == ROBOT
+        spot = np.stack(
+            [
+                rx + p.stand[:, 0] * np.cos(rth + p.stand[:, 1]),
+                ry + p.stand[:, 0] * np.sin(rth + p.stand[:, 1]),
+            ],
+            axis=-1,
+        )
+        target = np.where(at_robot[:, None], spot, p.goal)
+        to_target = target - p.pos
+        dist = np.linalg.norm(to_target, axis=-1)
+
+        # Arrivals: walkers start dwelling; robot visitors stand.
+        arrived = (p.mode == WALK) & (dist < 0.5)
+        if arrived.any():
+            p.mode[arrived] = DWELL
+            p.timer[arrived] = rng.uniform(cfg.dwell_time[0], cfg.dwell_time[1], size=int(arrived.sum()))
+        moving = (p.mode == WALK) | (at_robot & (dist > 0.15))
+
+        # Desired direction: straight if in view, else down a geodesic field around the walls.
+        direction = np.divide(
+            to_target, dist[:, None], out=np.zeros_like(to_target), where=dist[:, None] > 1e-9
+        )
+        in_view = line_of_sight(sp.walkable, sp.coarse_res, p.pos, target)
+        blind = moving & ~in_view
+        if blind.any():
+            blind_robot = blind & at_robot
+            if blind_robot.any():
+                if self._robot_field is None or self.time - self._robot_field_time >= cfg.field_period:
+                    self._robot_field = sp.field_to(self._robot[:2], cfg.field_max_distance)
+                    self._robot_field_time = self.time
+                d = _descend(self._robot_field, sp.coarse_res, p.pos, blind_robot)
+                direction[blind_robot] = d[blind_robot]
+            for j, poi_field in enumerate(self._poi_fields):
+                sel = blind & ~at_robot & (p.goal_poi == j)
+                if sel.any():
+                    direction[sel] = _descend(poi_field, sp.coarse_res, p.pos, sel)[sel]
+            lost = blind & ~at_robot & (p.goal_poi < 0)
+            if lost.any():
+                # A wanderer pushed out of view of its goal picks another one.
+                p.mode[lost] = DWELL
+                p.timer[lost] = 0.0
+                moving &= ~lost
+        # Slow down on arrival (arrive within ~tau), stand still when there.
+        want = np.minimum(p.speed, dist / (2.0 * cfg.tau))
+        desired = np.where(moving[:, None], direction * want[:, None], 0.0)
+
+        # Social forces (Helbing & Molnár 1995, Eq. 1-5, per unit mass).
+        radius = np.full(len(p.pos), cfg.person_radius)
+        acc = (desired - p.vel) / cfg.tau
+        acc += social_forces(p.pos, radius, cfg.social_strength, cfg.social_range)
+        wall_d, wall_n = sp.wall(p.pos)
+        acc += (cfg.wall_strength / cfg.wall_range * np.exp(-(wall_d - cfg.person_radius) / cfg.wall_range))[
+            :, None
+        ] * wall_n
+        rel = p.pos - self._robot[:2]
+        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+        gap = rd - cfg.robot_radius - cfg.person_radius
+        acc += (cfg.robot_strength / cfg.robot_range * np.exp(-gap / cfg.robot_range) / rd)[:, None] * rel
+        # Group cohesion: keep near the leader while walking.
+        to_lead = p.pos[p.group] - p.pos
+        acc += cfg.group_cohesion * np.where(
+            np.linalg.norm(to_lead, axis=-1, keepdims=True) > 1.5, to_lead, 0.0
+        )
+
+        vel = p.vel + h * acc
+        speed = np.linalg.norm(vel, axis=-1)
+        cap = np.minimum(cfg.speed_max, 1.3 * p.speed)
+        vel *= np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
+        pos = p.pos + h * vel
+
+        # Hard constraints: never into walls nor into the robot.
+        new_d, new_n = sp.wall(pos)
+        inside = new_d < 0.5 * cfg.person_radius
+        pos = np.where(inside[:, None], pos + (0.5 * cfg.person_radius - new_d)[:, None] * new_n, pos)
+        bad = ~sp.is_walkable(pos) & sp.is_walkable(p.pos)
+        pos[bad] = p.pos[bad]
+        vel[bad] = 0.0
+        rel = pos - self._robot[:2]
+        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+        min_gap = cfg.robot_radius + 0.5 * cfg.person_radius
+        close = rd < min_gap
+        pos = np.where(close[:, None], self._robot[:2] + rel / rd[:, None] * min_gap, pos)
+
+        # Gait and heading.
+        speed = np.linalg.norm(vel, axis=-1)
+        p.phase = np.mod(p.phase + 2.0 * np.pi * speed * h / cfg.stride_length, 2.0 * np.pi)
+        walking = speed > 0.1
+        face_robot = np.arctan2(self._robot[1] - pos[:, 1], self._robot[0] - pos[:, 0])
+        p.heading = np.where(
+            walking,
+            np.arctan2(vel[:, 1], vel[:, 0]),
+            np.where(at_robot, face_robot, p.heading),
+        )
+        p.pos = pos
+        p.vel = vel

@@ -1,0 +1,161 @@
+"""The crowd of visitors: kernels against their references, and the behaviour the paper needs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.sim.crowd import (
+    Crowd,
+    CrowdConfig,
+    CrowdError,
+    distance_field,
+    distance_field_reference,
+    line_of_sight,
+    line_of_sight_reference,
+    social_forces,
+    social_forces_reference,
+)
+
+
+def _room(
+    width: float = 16.0, height: float = 10.0, res: float = 0.1, wall_at: float | None = None
+) -> OccupancyGrid:
+    """A walled room; optionally an interior wall at x = ``wall_at`` with no opening."""
+    rows, cols = round(height / res), round(width / res)
+    prob = np.zeros((rows, cols), dtype=np.float32)
+    prob[:2, :] = prob[-2:, :] = prob[:, :2] = prob[:, -2:] = 1.0
+    if wall_at is not None:
+        c = round(wall_at / res)
+        prob[:, c : c + 2] = 1.0
+    return OccupancyGrid(prob, res, (0.0, 0.0, 0.0))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(np.float64, (12, 2), elements=st.floats(-3.0, 3.0)),
+    arrays(np.float64, (12,), elements=st.floats(0.05, 0.4)),
+)
+def test_social_forces_match_reference(pos: np.ndarray, radius: np.ndarray) -> None:
+    # Coincident people get an arbitrary push in the kernel; the reference leaves them out.
+    d = np.linalg.norm(pos[:, None] - pos[None], axis=-1) + np.eye(len(pos))
+    if (d < 1e-6).any():
+        return
+    np.testing.assert_allclose(
+        social_forces(pos, radius, 2.1, 0.3),
+        social_forces_reference(pos, radius, 2.1, 0.3),
+        rtol=1e-9,
+        atol=1e-9,
+    )
+
+
+def test_social_forces_push_apart_and_cancel() -> None:
+    pos = np.array([[0.0, 0.0], [0.5, 0.0]])
+    f = social_forces(pos, np.array([0.25, 0.25]), 2.1, 0.3)
+    assert f[0, 0] < 0 < f[1, 0]
+    np.testing.assert_allclose(f.sum(axis=0), 0.0, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    arrays(np.bool_, (9, 11), elements=st.booleans()),
+    arrays(np.float64, (6, 4), elements=st.floats(-0.5, 3.0)),
+)
+def test_line_of_sight_matches_reference(walkable: np.ndarray, ends: np.ndarray) -> None:
+    a, b = ends[:, :2].copy(), ends[:, 2:].copy()
+    np.testing.assert_array_equal(
+        line_of_sight(walkable, 0.25, a, b), line_of_sight_reference(walkable, 0.25, a, b)
+    )
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.bool_, (8, 10), elements=st.booleans()), st.integers(0, 7), st.integers(0, 9))
+def test_distance_field_matches_reference(walkable: np.ndarray, r: int, c: int) -> None:
+    np.testing.assert_allclose(
+        distance_field(walkable, r, c, 50.0), distance_field_reference(walkable, r, c, 50.0)
+    )
+
+
+def test_distance_field_goes_around_a_wall() -> None:
+    walkable = np.ones((10, 10), dtype=bool)
+    walkable[:8, 5] = False  # a wall with an opening at the bottom rows 8-9
+    d = distance_field(walkable, 0, 0, 100.0)
+    assert np.isinf(d[0, 5])
+    assert d[0, 9] > 9.0 + 7.0  # down, through the opening, and back up
+
+
+def test_same_seed_same_crowd() -> None:
+    grid = _room()
+    cfg = CrowdConfig(num_people=30, robot_interest=0.5)
+
+    def run(seed: int) -> np.ndarray:
+        rng = np.random.default_rng(seed)
+        crowd = Crowd(cfg, grid, rng, (8.0, 5.0, 0.0))
+        for i in range(50):
+            crowd.step(0.25, (8.0 + 0.01 * i, 5.0, 0.0), rng)
+        return crowd.legs()[0]
+
+    np.testing.assert_array_equal(run(3), run(3))
+    assert not np.array_equal(run(3), run(4))
+
+
+def test_people_stay_in_free_space_at_walking_speed() -> None:
+    grid = _room(wall_at=8.0)
+    cfg = CrowdConfig(num_people=60, robot_interest=0.5)
+    rng = np.random.default_rng(0)
+    robot = (4.0, 5.0, 0.0)
+    crowd = Crowd(cfg, grid, rng, robot)
+    left = crowd.positions[:, 0] < 8.0
+    for _ in range(100):
+        crowd.step(0.2, robot, rng)
+        cells = grid.world_to_cell(crowd.positions)
+        assert grid.free()[cells[:, 0], cells[:, 1]].all()
+        assert np.linalg.norm(crowd.velocities, axis=1).max() <= cfg.speed_max + 1e-9
+        assert np.linalg.norm(crowd.positions - robot[:2], axis=1).min() >= cfg.robot_radius
+    # The closed interior wall is never crossed.
+    np.testing.assert_array_equal(crowd.positions[:, 0] < 8.0, left)
+
+
+def test_interest_draws_visitors_around_the_robot() -> None:
+    grid = _room(24.0, 16.0)
+    robot = (12.0, 8.0, 0.0)
+
+    def near(interest: float) -> int:
+        rng = np.random.default_rng(5)
+        crowd = Crowd(
+            CrowdConfig(num_people=40, robot_interest=interest, interest_duration=1e6), grid, rng, robot
+        )
+        for _ in range(150):
+            crowd.step(0.2, robot, rng)
+        return int((np.linalg.norm(crowd.positions - robot[:2], axis=1) < 2.5).sum())
+
+    assert near(1.0) >= 10
+    assert near(0.0) <= 5
+
+
+def test_legs_two_per_person_near_the_body() -> None:
+    grid = _room()
+    rng = np.random.default_rng(2)
+    crowd = Crowd(CrowdConfig(num_people=10), grid, rng, (8.0, 5.0, 0.0))
+    for _ in range(20):
+        crowd.step(0.1, (8.0, 5.0, 0.0), rng)
+    centres, radii = crowd.legs()
+    assert centres.shape == (20, 2)
+    assert radii.shape == (20,)
+    body = np.repeat(crowd.positions, 2, axis=0)
+    assert np.linalg.norm(centres - body, axis=1).max() <= 0.1 + 0.15 + 1e-9
+    bodies, body_radii = Crowd(CrowdConfig(num_people=10, target="body"), grid, rng).circles()
+    assert bodies.shape == (10, 2)
+    assert body_radii.shape == (10,)
+
+
+def test_bad_config_and_preset_are_errors() -> None:
+    with pytest.raises(CrowdError, match="preset"):
+        CrowdConfig.preset("rush-hour")
+    with pytest.raises(CrowdError, match="speed"):
+        CrowdConfig(speed_min=2.0, speed_max=1.0)
+    assert CrowdConfig.preset("peak").num_people > CrowdConfig.preset("sparse").num_people
