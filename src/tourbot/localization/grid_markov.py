@@ -89,10 +89,14 @@ class GridMarkovConfig:
 
     - ``table_angle_step``: angular step of the expected-range table (1 degree: the laser's beam
       spacing, so neighbouring beams do not share a ray).
-    - ``range_bin``: range resolution of the table and of the per-scan likelihood tables (m).
+    - ``range_bin``: range resolution of the table and of the per-scan likelihood tables (m; a
+      quarter of the beam model's ``sigma_hit``).
     - ``prune_ratio``: poses whose belief is below this fraction of the largest are dropped (the
       selective update); ``max_active`` caps how many are held.
-    - ``sweep_poses``: poses of the uniform mixture scored per update (recovery).
+    - ``sweep_poses``: poses of the uniform mixture scored per update (recovery). They are first
+      screened on ``screen_beams`` of the used beams (evenly spread); only the ``screen_keep``
+      best get the full Eq. 2 update, the rest count as negligible, like unswept poses.
+    - ``filter_sample``: how many swept poses stand for the mixture when the filters judge beams.
     - ``min_translation``, ``min_rotation``: odometry is accumulated until the robot has moved
       half a cell or half a heading step, so slow motion is not rounded away.
     - ``motion_sigmas``: width of the motion kernel's window in standard deviations.
@@ -103,13 +107,16 @@ class GridMarkovConfig:
     cell_size: float = 0.15
     angle_step: float = math.radians(2.0)
     table_angle_step: float = math.radians(1.0)
-    range_bin: float = 0.02
+    range_bin: float = 0.05
     beam_filter: BeamFilter = BeamFilter.NOVELTY
     filters: BeamFilterConfig = field(default_factory=BeamFilterConfig)
     uniform_mixture: float = 0.01
     prune_ratio: float = 1e-6
     max_active: int = 300_000
     sweep_poses: int = 100_000
+    screen_beams: int = 24
+    screen_keep: int = 1_000
+    filter_sample: int = 2_000
     min_translation: float = 0.075
     min_rotation: float = math.radians(1.0)
     motion_sigmas: float = 3.0
@@ -475,13 +482,22 @@ class GridMarkovLocalization:
             self.config.motion_sigmas,
         )
 
-    def _sensor_tables(self, ranges: FloatArray, table: ExpectedRangeTable) -> tuple[FloatArray, FloatArray]:
-        """``log p(s_b | z*)`` and ``p_n(s_b | z*)`` (Eq. 5) for every beam and range bin, ``(B, n_bins)``."""
-        expected = np.arange(table.n_bins, dtype=np.float64) * table.range_bin
-        e = np.broadcast_to(expected[:, None].astype(np.float32), (table.n_bins, ranges.shape[0]))
-        p = self.sensor_model.probabilities(e, ranges, table.max_range)
-        ll = np.ascontiguousarray(np.log(np.maximum(p, 1e-300)).T)
-        ps = np.ascontiguousarray(self.sensor_model.prob_shorter(e, ranges, table.max_range).T)
+    def _sensor_tables(
+        self, ranges: FloatArray, valid: NDArray[np.bool_], table: ExpectedRangeTable
+    ) -> tuple[FloatArray, FloatArray]:
+        """``log p(s_b | z*)`` and ``p_n(s_b | z*)`` (Eq. 5) per beam and range bin, ``(B, n_bins)``.
+
+        From the project's beam model; rows of beams that are not ``valid`` are left at zero.
+        """
+        expected = (np.arange(table.n_bins, dtype=np.float64) * table.range_bin).astype(np.float32)
+        beams = np.flatnonzero(valid)
+        e = np.broadcast_to(expected[:, None], (table.n_bins, beams.size))
+        ll = np.zeros((ranges.shape[0], table.n_bins))
+        ps = np.zeros((ranges.shape[0], table.n_bins))
+        if beams.size:
+            p = self.sensor_model.probabilities(e, ranges[beams], table.max_range)
+            ll[beams] = np.log(np.maximum(p, 1e-300)).T
+            ps[beams] = self.sensor_model.prob_shorter(e, ranges[beams], table.max_range).T
         return ll, ps
 
     def _sensor_update(
@@ -494,7 +510,7 @@ class GridMarkovLocalization:
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         valid = np.isfinite(ranges) & (ranges >= geometry.min_range) & (ranges < geometry.max_range)
         ranges = np.where(np.isfinite(ranges), ranges, geometry.max_range)
-        ll, ps = self._sensor_tables(ranges, table)
+        ll, ps = self._sensor_tables(ranges, valid, table)
         args = (lat.n_free, lat.free_rc, lat.free_index, layout.laser_shift, table.bins, layout.beam_cols)
         info: dict[str, float] = {}
 
@@ -504,16 +520,17 @@ class GridMarkovLocalization:
         u = eps / lat.n_poses
         sweep = self._sweep_candidates() if eps > 0 else np.zeros(0, dtype=np.int64)
         prior_a = (1.0 - eps) * self._w + u
-        stands_for = (lat.n_poses - self._idx.size) / sweep.size if sweep.size else 0.0
+        sample = sweep[:: max(1, -(-sweep.size // max(cfg.filter_sample, 1)))]
+        stands_for = (lat.n_poses - self._idx.size) / sample.size if sample.size else 0.0
 
         # Eq. 3-6: judge every beam against the current belief, uniform mixture included (so a
         # beam that only a pose elsewhere explains raises the entropy and fails the entropy filter).
         used = valid.copy()
         if cfg.beam_filter != BeamFilter.NONE and valid.any():
             dh, pn = gk.filter_statistics(
-                np.concatenate([self._idx, sweep]),
-                np.concatenate([prior_a, np.full(sweep.size, u)]),
-                np.concatenate([np.ones(self._idx.size), np.full(sweep.size, stands_for)]),
+                np.concatenate([self._idx, sample]),
+                np.concatenate([prior_a, np.full(sample.size, u)]),
+                np.concatenate([np.ones(self._idx.size), np.full(sample.size, stands_for)]),
                 *args,
                 np.flatnonzero(valid),
                 ll,
@@ -527,7 +544,12 @@ class GridMarkovLocalization:
         if not used.any():
             return used, info
 
-        # Eq. 2 on the held poses and the swept ones.
+        # Screen the swept poses on a few beams; Eq. 2 on the held poses and the best swept ones.
+        if sweep.size > cfg.screen_keep:
+            few = np.zeros_like(used)
+            few[np.flatnonzero(used)[:: max(1, -(-int(used.sum()) // max(cfg.screen_beams, 1)))]] = True
+            partial = gk.scan_log_likelihood(sweep, *args, few, ll)
+            sweep = np.sort(sweep[np.argpartition(partial, -cfg.screen_keep)[-cfg.screen_keep :]])
         ll_a = gk.scan_log_likelihood(self._idx, *args, used, ll)
         ll_s = gk.scan_log_likelihood(sweep, *args, used, ll)
         top = max(ll_a.max(), ll_s.max() if ll_s.size else -np.inf)
