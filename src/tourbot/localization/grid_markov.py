@@ -31,7 +31,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -299,6 +299,7 @@ class GridMarkovLocalization:
         motion_model: OdometryMotionModel | None = None,
         sensor_model: BeamModel | None = None,
         caster_factory: Callable[[OccupancyGrid, float], RangeCaster] = _default_caster,
+        table: ExpectedRangeTable | None = None,
     ) -> None:
         self.config = config or GridMarkovConfig()
         self.motion_model = motion_model or OdometryMotionModel()
@@ -316,6 +317,8 @@ class GridMarkovLocalization:
         self._sweep_stride = 1
         if grid is not None:
             self.set_map(grid)
+        if table is not None:
+            self.use_table(table)
 
     # -------------------------------------------------------------------------------- map, tables
 
@@ -341,6 +344,18 @@ class GridMarkovLocalization:
     def table(self) -> ExpectedRangeTable | None:
         """The expected-range table, once built."""
         return self._table
+
+    def use_table(self, table: ExpectedRangeTable) -> None:
+        """Reuse an expected-range table built for the same map and configuration (it is costly)."""
+        lat = self.lattice
+        if table.bins.shape[0] != lat.n_free or not math.isclose(table.range_bin, self.config.range_bin):
+            raise GridMarkovError(
+                f"the expected-range table ({table.bins.shape[0]} cells, {table.range_bin} m bins) does not "
+                f"fit this map's lattice ({lat.n_free} cells, {self.config.range_bin} m bins)"
+            )
+        if not math.isclose(table.angle_step, self.config.table_angle_step):
+            raise GridMarkovError("the expected-range table has another angular step than the configuration")
+        self._table = table
 
     def prepare(self, max_range: float, progress: Progress | None = None) -> ExpectedRangeTable:
         """Build (once per map and maximum range) the expected-range table by ray casting."""
@@ -519,18 +534,22 @@ class GridMarkovLocalization:
         eps = cfg.uniform_mixture if not self._uniform else 0.0
         u = eps / lat.n_poses
         sweep = self._sweep_candidates() if eps > 0 else np.zeros(0, dtype=np.int64)
-        prior_a = (1.0 - eps) * self._w + u
-        sample = sweep[:: max(1, -(-sweep.size // max(cfg.filter_sample, 1)))]
-        stands_for = (lat.n_poses - self._idx.size) / sample.size if sample.size else 0.0
+        held, prior_a = self._idx, (1.0 - eps) * self._w + u
+        sample = _every(sweep, cfg.filter_sample)
+        stands_for = (lat.n_poses - held.size) / sample.size if sample.size else 0.0
+        # A uniform belief (global localization) is judged on a sample of itself.
+        judged = _every(np.arange(held.size), cfg.filter_sample) if self._uniform else np.arange(held.size)
 
         # Eq. 3-6: judge every beam against the current belief, uniform mixture included (so a
         # beam that only a pose elsewhere explains raises the entropy and fails the entropy filter).
         used = valid.copy()
         if cfg.beam_filter != BeamFilter.NONE and valid.any():
             dh, pn = gk.filter_statistics(
-                np.concatenate([self._idx, sample]),
-                np.concatenate([prior_a, np.full(sample.size, u)]),
-                np.concatenate([np.ones(self._idx.size), np.full(sample.size, stands_for)]),
+                np.concatenate([held[judged], sample]),
+                np.concatenate([prior_a[judged], np.full(sample.size, u)]),
+                np.concatenate(
+                    [np.full(judged.size, held.size / judged.size), np.full(sample.size, stands_for)]
+                ),
                 *args,
                 np.flatnonzero(valid),
                 ll,
@@ -544,20 +563,22 @@ class GridMarkovLocalization:
         if not used.any():
             return used, info
 
-        # Screen the swept poses on a few beams; Eq. 2 on the held poses and the best swept ones.
-        if sweep.size > cfg.screen_keep:
-            few = np.zeros_like(used)
-            few[np.flatnonzero(used)[:: max(1, -(-int(used.sum()) // max(cfg.screen_beams, 1)))]] = True
-            partial = gk.scan_log_likelihood(sweep, *args, few, ll)
-            sweep = np.sort(sweep[np.argpartition(partial, -cfg.screen_keep)[-cfg.screen_keep :]])
-        ll_a = gk.scan_log_likelihood(self._idx, *args, used, ll)
+        # Screen the swept poses (and a uniform belief's poses) on a few beams, keep the best;
+        # Eq. 2 on the held poses and the kept swept ones.
+        few = np.zeros_like(used)
+        few[_every(np.flatnonzero(used), cfg.screen_beams)] = True
+        sweep = self._screen(sweep, cfg.screen_keep, few, ll, args)
+        if self._uniform:
+            keep_held = self._screen(np.arange(held.size), cfg.max_active, few, ll, args, held)
+            held, prior_a = held[keep_held], prior_a[keep_held]
+        ll_a = gk.scan_log_likelihood(held, *args, used, ll)
         ll_s = gk.scan_log_likelihood(sweep, *args, used, ll)
         top = max(ll_a.max(), ll_s.max() if ll_s.size else -np.inf)
         post_a = prior_a * np.exp(ll_a - top)
         post_s = u * np.exp(ll_s - top)
         z = post_a.sum() + post_s.sum()
         info["sweep_mass"] = float(post_s.sum() / z)
-        idx = np.concatenate([self._idx, sweep])
+        idx = np.concatenate([held, sweep])
         w = np.concatenate([post_a, post_s]) / z
         keep = w >= cfg.prune_ratio * w.max()
         idx, w = idx[keep], w[keep]
@@ -569,21 +590,41 @@ class GridMarkovLocalization:
         info["swept"] = float(sweep.size)
         return used, info
 
+    @staticmethod
+    def _screen(
+        items: IntArray,
+        keep: int,
+        few: NDArray[np.bool_],
+        ll: FloatArray,
+        args: tuple[int, IntArray, IntArray, IntArray, NDArray[np.uint16], IntArray],
+        poses: IntArray | None = None,
+    ) -> IntArray:
+        """The ``keep`` items whose poses (``poses[items]``, or the items themselves) score best on
+        the beams ``few``, in increasing order; all of them when there are no more than ``keep``."""
+        if items.size <= keep:
+            return items
+        pose_idx = items if poses is None else poses[items]
+        partial = gk.scan_log_likelihood(pose_idx, *args, few, ll)
+        return np.sort(items[np.argpartition(partial, -keep)[-keep:]])
+
     def _sweep_candidates(self) -> IntArray:
-        """The next ``sweep_poses`` poses of a fixed pseudo-random tour of the grid, not held now."""
-        n = self.lattice.n_poses
+        """The next ``sweep_poses`` poses of a fixed pseudo-random tour of the grid, not held now.
+
+        The tour runs over ``cell * n_theta + heading`` so that, once sorted, consecutive poses read
+        the same rows of the range table.
+        """
+        lat = self.lattice
+        n = lat.n_poses
         m = min(self.config.sweep_poses, n)
         if m <= 0:
             return np.zeros(0, dtype=np.int64)
         steps = (self._sweep_next + np.arange(m, dtype=np.int64)) % n
         self._sweep_next = int((self._sweep_next + m) % n)
-        cand = (steps * self._sweep_stride) % n
-        self._dense[self._idx] = 1.0  # mark the held poses
-        fresh = cand[self._dense[cand] == 0.0]
-        self._dense[self._idx] = 0.0
-        # in cell order, so that consecutive poses read the same rows of the range table
-        n_free = self.lattice.n_free
-        return fresh[np.argsort(fresh % n_free, kind="stable")]
+        tour = np.sort((steps * self._sweep_stride) % n)
+        cand = (tour % lat.n_theta) * lat.n_free + tour // lat.n_theta
+        held = np.sort(self._idx)
+        at = np.minimum(np.searchsorted(held, cand), max(held.size - 1, 0))
+        return cand[held[at] != cand] if held.size else cand
 
     # -------------------------------------------------------------------------------- estimate
 
@@ -685,12 +726,19 @@ def layer_kernels(
         axis=-1,
     )  # (K, Kt, Kr, Kc, 3) offsets from the mean, in cells
     inv = np.linalg.inv(cov)
-    q = np.einsum("nabci,nij,nabcj->nabc", d, inv, d)
+    flat = d.reshape(n, -1, 3)
+    q = np.sum((flat @ inv) * flat, axis=-1).reshape(d.shape[:-1])  # Mahalanobis distances
     w = np.exp(-0.5 * q)
     inside = [np.arange(size[i])[None, :] <= (hi - lo)[:, i : i + 1] for i in range(3)]
     w *= inside[0][:, :, None, None] & inside[1][:, None, :, None] & inside[2][:, None, None, :]
     w /= w.sum(axis=(1, 2, 3), keepdims=True)
     return w, lo
+
+
+def _every(items: NDArray[Any], count: int) -> NDArray[Any]:
+    """About ``count`` items evenly spread over ``items`` (all of them if there are fewer)."""
+    step = max(1, -(-items.size // max(count, 1)))
+    return items[::step]
 
 
 def _coprime_stride(n: int) -> int:
