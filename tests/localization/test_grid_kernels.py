@@ -67,7 +67,7 @@ def cases(draw: st.DrawFn) -> Case:
     )
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(cases())
 def test_scan_log_likelihood_matches_reference(c: Case) -> None:
     fast = gk.scan_log_likelihood(c.idx, *c.args, c.used, c.ll)
@@ -75,7 +75,7 @@ def test_scan_log_likelihood_matches_reference(c: Case) -> None:
     np.testing.assert_allclose(fast, ref, rtol=1e-6, atol=1e-5)  # float32 table
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(cases())
 def test_filter_statistics_match_the_project_beam_filters(c: Case) -> None:
     beams = np.flatnonzero(c.used)
@@ -103,7 +103,7 @@ def motion_cases(draw: st.DrawFn) -> tuple[Case, np.ndarray, np.ndarray]:
     return c, weights, offsets
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(motion_cases())
 def test_motion_scatter_matches_reference(case: tuple[Case, np.ndarray, np.ndarray]) -> None:
     c, weights, offsets = case
