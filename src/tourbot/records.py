@@ -60,7 +60,9 @@ class Scan:
 
     ``odom`` is the odometry pose at the scan's time (interpolated from the odometry stream by
     the reader); ``reference`` is the reference ("ground truth") pose where the source has one, for
-    metrics only: estimators never read it.
+    metrics only: estimators never read it. ``sensor`` names the laser that took the scan (the
+    CARMEN record type such as ``FLASER``, or the ROS topic) so that logs with several lasers can
+    be told apart.
     """
 
     timestamp: float
@@ -68,6 +70,7 @@ class Scan:
     geometry: LaserGeometry
     odom: tuple[float, float, float] | None = None
     reference: tuple[float, float, float] | None = None
+    sensor: str = "laser"
 
 
 Record = Scan | Odometry

@@ -1,0 +1,387 @@
+"""``tourbot bench tracking``: the SJPDAF people tracker against Stone Soup's JPDA.
+
+Simulated crowds (the one crowd model, :mod:`tourbot.sim.crowd`, seen through the one ray caster,
+:mod:`tourbot.maps.raycast`) of 5, 20 and 50 visitors walk in an exhibition hall around a robot
+driving a loop; both trackers get the same person features, in the world frame through the robot's
+pose. Scored with CLEAR-MOT (MOTA, MOTP in metres, ID switches) and IDF1 by ``motmetrics`` against
+the visitors' true positions, with the time per scan. On the real bags of ``leg_tracker``: the leg
+detector's precision and recall against the annotated leg clusters, and the tracks confirmed on
+``negative_2.bag``, where no one is in view.
+
+Ground truth counted at a scan: the visitors within ``eval_range`` of the robot that some beam hit
+in the last ``seen_window`` scans (a visitor hidden for a moment still counts: the occlusion
+handling is part of what is scored); tracks beyond ``eval_range`` are left out. A track matches a
+visitor within ``match_distance`` (0.5 m, the usual threshold for people in 2D).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from numpy.typing import NDArray
+
+from tourbot.bench._report import BenchReport
+
+__all__ = ["SimConfig", "SimRun", "register", "score_frames", "simulate_crowd"]
+
+FloatArray = NDArray[np.float64]
+
+TARGET_MOTA = 0.85
+TARGET_MOTP = 0.10
+TARGET_RATE = 100.0
+NEGATIVE_RATE_LIMIT = 0.01  # confirmed tracks per scan allowed on people-free scans
+
+
+@dataclass(frozen=True, slots=True)
+class SimConfig:
+    """The simulated scene: a 20 x 16 m hall with pillars and thin leg-like poles (on the map),
+    a 360-degree laser with 0.5-degree beams and 1 cm noise, the robot driving a 3.5 m-radius loop
+    at 0.4 m/s, scans at 10 Hz after ``warmup`` seconds of crowd motion."""
+
+    hall: tuple[float, float] = (20.0, 16.0)
+    resolution: float = 0.05
+    beams: int = 720
+    max_range: float = 30.0
+    range_noise: float = 0.01
+    loop_radius: float = 3.5
+    robot_speed: float = 0.4
+    dt: float = 0.1
+    warmup: float = 5.0
+    eval_range: float = 7.0
+    seen_window: int = 10
+    match_distance: float = 0.5
+
+
+@dataclass
+class SimRun:
+    """Scans, robot poses and ground truth of one simulated crowd."""
+
+    scans: list[Any] = field(default_factory=list)
+    poses: list[FloatArray] = field(default_factory=list)
+    truth: list[FloatArray] = field(default_factory=list)  # (P, 2) every visitor, every scan
+    counted: list[NDArray[np.bool_]] = field(default_factory=list)  # (P,) in the ground truth now
+    grid: Any = None
+
+
+def hall_map(cfg: SimConfig) -> Any:
+    """The exhibition hall as an occupancy grid: walls, four 0.6 m pillars and six 8 cm poles."""
+    from tourbot.maps.grid import OccupancyGrid
+
+    w, h = cfg.hall
+    res = cfg.resolution
+    rows, cols = round(h / res), round(w / res)
+    prob = np.zeros((rows, cols), dtype=np.float32)
+    prob[:2, :] = prob[-2:, :] = 1.0
+    prob[:, :2] = prob[:, -2:] = 1.0
+
+    def block(x: float, y: float, size: float) -> None:
+        c0, r0 = int((x - size / 2) / res), int((y - size / 2) / res)
+        n = max(round(size / res), 1)
+        prob[r0 : r0 + n, c0 : c0 + n] = 1.0
+
+    for x, y in [(5.0, 4.0), (15.0, 4.0), (5.0, 12.0), (15.0, 12.0)]:
+        block(x, y, 0.6)
+    for x, y in [(3.0, 8.0), (17.0, 8.0), (10.0, 2.5), (10.0, 13.5), (8.0, 6.0), (12.0, 10.0)]:
+        block(x, y, 0.08)
+    return OccupancyGrid(prob=prob, resolution=res)
+
+
+def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None = None) -> SimRun:
+    """Run the crowd around the looping robot; record scans, poses and the ground truth."""
+    from tourbot.maps.raycast import DDACaster
+    from tourbot.records import LaserGeometry, Scan
+    from tourbot.sim.crowd import Crowd, CrowdConfig
+
+    cfg = cfg or SimConfig()
+    rng = np.random.default_rng(seed)
+    grid = hall_map(cfg)
+    centre = np.array(cfg.hall) / 2.0
+    omega = cfg.robot_speed / cfg.loop_radius
+
+    def robot_pose(t: float) -> FloatArray:
+        a = omega * t
+        x, y = centre + cfg.loop_radius * np.array([math.cos(a), math.sin(a)])
+        return np.array([x, y, math.atan2(math.sin(a + math.pi / 2), math.cos(a + math.pi / 2))])
+
+    geometry = LaserGeometry(
+        num_beams=cfg.beams,
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / cfg.beams,
+        max_range=cfg.max_range,
+    )
+    crowd = Crowd(CrowdConfig(num_people=num_people, robot_interest=0.0), grid, rng, robot_pose(0.0))
+    caster = DDACaster(grid, cfg.max_range)
+    t = 0.0
+    for _ in range(round(cfg.warmup / cfg.dt)):
+        crowd.step(cfg.dt, robot_pose(0.0), rng)
+    run = SimRun(grid=grid)
+    last_seen = np.full(num_people, -(10**9))
+    angles = geometry.angles
+    for k in range(scans):
+        t = k * cfg.dt
+        pose = robot_pose(t)
+        crowd.step(cfg.dt, pose, rng)
+        centres, radii = crowd.legs()
+        ranges = caster.cast_with_circles(pose[None, :], angles, centres, radii)[0].astype(np.float64)
+        ranges += rng.normal(0.0, cfg.range_noise, ranges.shape)
+        # Which visitors some beam hit: beam end points on a leg circle.
+        ends = pose[None, 0:2] + ranges[:, None] * np.stack(
+            [np.cos(angles + pose[2]), np.sin(angles + pose[2])], -1
+        )
+        d = np.linalg.norm(ends[:, None, :] - centres[None, :, :], axis=-1) - radii[None, :]
+        hit_leg = (d < 0.03).any(axis=0)
+        seen = hit_leg.reshape(-1, 2).any(axis=1)
+        last_seen[seen] = k
+        positions = crowd.positions.copy()
+        near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
+        run.scans.append(Scan(t, ranges, geometry))
+        run.poses.append(pose)
+        run.truth.append(positions)
+        run.counted.append(near & (k - last_seen < cfg.seen_window))
+    return run
+
+
+def score_frames(
+    run: SimRun, hypotheses: list[list[tuple[int, float, float]]], cfg: SimConfig | None = None
+) -> dict[str, float]:
+    """CLEAR-MOT and IDF1 (``motmetrics``) of per-scan hypotheses ``(id, x, y)`` against ``run``."""
+    import motmetrics as mm
+
+    cfg = cfg or SimConfig()
+    acc = mm.MOTAccumulator(auto_id=True)
+    for truth, counted, pose, hyps in zip(run.truth, run.counted, run.poses, hypotheses, strict=True):
+        gt_ids = np.flatnonzero(counted)
+        gt = truth[gt_ids]
+        h = np.array([(x, y) for _, x, y in hyps], dtype=np.float64).reshape(-1, 2)
+        h_ids = np.array([i for i, _, _ in hyps], dtype=np.int64)
+        inside = np.linalg.norm(h - pose[None, 0:2], axis=1) <= cfg.eval_range
+        h, h_ids = h[inside], h_ids[inside]
+        dist = np.linalg.norm(gt[:, None, :] - h[None, :, :], axis=-1)
+        dist[dist > cfg.match_distance] = np.nan
+        acc.update(gt_ids.tolist(), h_ids.tolist(), dist)
+    mh = mm.metrics.create()
+    names = ["mota", "motp", "num_switches", "idf1", "precision", "recall"]
+    summary = mh.compute(acc, metrics=names, name="run")
+    return {n: float(summary[n].iloc[0]) for n in names}
+
+
+def run_sjpdaf(
+    run: SimRun,
+) -> tuple[list[list[tuple[int, float, float]]], list[FloatArray], tuple[float, float]]:
+    """The SJPDAF over the run: confirmed tracks per scan, the features it saw, and the CPU and
+    wall seconds per scan."""
+    from tourbot.people.sjpdaf import PeopleTracker
+
+    tracker = PeopleTracker(grid_map=run.grid, rng=np.random.default_rng(1))
+    out: list[list[tuple[int, float, float]]] = []
+    features: list[FloatArray] = []
+    cpu = wall = 0.0
+    for scan, pose in zip(run.scans, run.poses, strict=True):
+        c0, w0 = time.process_time(), time.perf_counter()
+        tracks = tracker.update(scan, pose)
+        cpu += time.process_time() - c0
+        wall += time.perf_counter() - w0
+        out.append([(tr.id, tr.position[0], tr.position[1]) for tr in tracks if tr.confirmed])
+        features.append(tracker.last_features.points.copy())
+    n = max(len(run.scans), 1)
+    return out, features, (cpu / n, wall / n)
+
+
+def run_stonesoup(
+    run: SimRun, features: list[FloatArray], budget: float
+) -> tuple[list[list[tuple[int, float, float]]], tuple[float, float], bool]:
+    """Stone Soup's JPDA over the same features: tracks per scan, CPU and wall seconds per scan;
+    gives up (``False``) past ``budget`` CPU seconds."""
+    from tourbot.bench._stonesoup_jpda import StoneSoupJPDA
+
+    peer = StoneSoupJPDA()
+    out: list[list[tuple[int, float, float]]] = []
+    cpu = wall = 0.0
+    for scan, pts in zip(run.scans, features, strict=True):
+        c0, w0 = time.process_time(), time.perf_counter()
+        out.append(peer.update(scan.timestamp, pts))
+        cpu += time.process_time() - c0
+        wall += time.perf_counter() - w0
+        if cpu > budget:
+            return out, (cpu / len(out), wall / len(out)), False
+    n = max(len(out), 1)
+    return out, (cpu / n, wall / n), True
+
+
+def leg_detection_scores(bag: Path, match: float = 0.25) -> dict[str, float]:
+    """Precision and recall of :func:`~tourbot.people.legs.detect_legs` against a bag's annotated
+    leg clusters (``/leg_cluster_positions``, laser frame), matched one-to-one within ``match`` m."""
+    from scipy.optimize import linear_sum_assignment
+
+    from tourbot.io.rosbag import read_bag, read_pose_arrays
+    from tourbot.people.legs import detect_legs
+
+    log = read_bag(bag, scan_topic="/training_scan")
+    notes = read_pose_arrays(bag, "/leg_cluster_positions")
+    times = np.array([t for t, _ in notes])
+    tp = n_det = n_true = 0
+    for scan in log.scans:
+        i = int(np.argmin(np.abs(times - scan.timestamp))) if times.size else -1
+        if i < 0 or abs(times[i] - scan.timestamp) > 1e-3:
+            continue
+        truth = notes[i][1]
+        det = detect_legs(scan).points
+        n_det += det.shape[0]
+        n_true += truth.shape[0]
+        if det.shape[0] and truth.shape[0]:
+            d = np.linalg.norm(det[:, None, :] - truth[None, :, :], axis=-1)
+            r, c = linear_sum_assignment(d)
+            tp += int((d[r, c] <= match).sum())
+    return {
+        "precision": tp / n_det if n_det else float("nan"),
+        "recall": tp / n_true if n_true else float("nan"),
+        "scans": float(len(log.scans)),
+        "annotated": float(n_true),
+    }
+
+
+def negative_false_alarms(bag: Path) -> list[dict[str, float | str]]:
+    """Confirmed tracks per scan on each laser of a people-free bag (robot standing still)."""
+    from tourbot.io.rosbag import bag_topics, read_bag
+    from tourbot.people.sjpdaf import PeopleTracker
+
+    rows: list[dict[str, float | str]] = []
+    for topic, (kind, _) in sorted(bag_topics(bag).items()):
+        if not kind.endswith("LaserScan"):
+            continue
+        log = read_bag(bag, scan_topic=topic)
+        tracker = PeopleTracker(rng=np.random.default_rng(0))
+        confirmed = legs = 0
+        for scan in log.scans:
+            pose = np.asarray(scan.odom if scan.odom is not None else (0.0, 0.0, 0.0))
+            confirmed += sum(tr.confirmed for tr in tracker.update(scan, pose))
+            legs += len(tracker.last_legs)
+        n = max(len(log.scans), 1)
+        rows.append(
+            {"topic": topic, "scans": float(n), "tracks_per_scan": confirmed / n, "legs_per_scan": legs / n}
+        )
+    return rows
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("tracking")
+    def tracking(
+        people: Annotated[str, typer.Option(help="Crowd sizes, comma-separated.")] = "5,20,50",
+        scans: Annotated[int, typer.Option(help="Scans per crowd (10 Hz).")] = 300,
+        seed: Annotated[int, typer.Option(help="Seed of the crowd and the laser noise.")] = 0,
+        stonesoup: Annotated[bool, typer.Option(help="Run the Stone Soup JPDA peer.")] = True,
+        peer_budget: Annotated[
+            float, typer.Option(help="CPU seconds the peer may take per crowd before it is stopped.")
+        ] = 300.0,
+        real: Annotated[bool, typer.Option(help="Also score the real leg_tracker bags.")] = True,
+        output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+    ) -> None:
+        """People tracking: SJPDAF vs Stone Soup JPDA on simulated crowds; legs on the real bags."""
+        from rich.progress import Progress
+
+        from tourbot.data import data_dir
+
+        sizes = [int(s) for s in people.split(",") if s.strip()]
+        report = BenchReport("tracking", ["tracker", "people", *_COLUMNS])
+        report.meta.update(
+            {"scans": scans, "seed": seed, "targets": {"mota": TARGET_MOTA, "motp": TARGET_MOTP}}
+        )
+        report.notes.append(
+            "time per scan is CPU time of the tracking process (the 2-core machine is shared; wall "
+            "time in the JSON); sjpdaf's includes leg detection, the static filter and the occlusion "
+            "map, stonesoup's only its tracker (fed sjpdaf's features)"
+        )
+        with Progress(transient=True) as progress:
+            task = progress.add_task("crowds", total=len(sizes) * (2 if stonesoup else 1))
+            for n in sizes:
+                run = simulate_crowd(n, scans, seed)
+                hyps, feats, cost = run_sjpdaf(run)
+                m = score_frames(run, hyps)
+                report.add(tracker="sjpdaf", people=n, **_row(m, cost))
+                progress.advance(task)
+                if stonesoup:
+                    _peer(report, run, feats, n, m, cost, peer_budget)
+                    progress.advance(task)
+                if n == 20:
+                    _target_note(report, m, cost)
+        root = data_dir()
+        if real and root is not None:
+            _real_bags(report, root / "leg_tracker")
+        elif real:
+            report.notes.append("real bags not found (../shared/data/leg_tracker): skipped")
+        report.finish(output)
+
+
+_COLUMNS = ["MOTA", "MOTP m", "ID sw", "IDF1", "precision", "recall", "ms/scan", "scans/s"]
+
+
+def _peer(
+    report: BenchReport,
+    run: SimRun,
+    feats: list[FloatArray],
+    n: int,
+    m: dict[str, float],
+    cost: tuple[float, float],
+    budget: float,
+) -> None:
+    peer_hyps, peer_cost, done = run_stonesoup(run, feats, budget)
+    if done:
+        pm = score_frames(run, peer_hyps)
+        report.add(tracker="stonesoup-jpda", people=n, **_row(pm, peer_cost))
+        report.notes.append(
+            f"{n} people: MOTA sjpdaf {m['mota']:.3f} vs stonesoup {pm['mota']:.3f}; CPU time per scan "
+            f"stonesoup / sjpdaf = {peer_cost[0] / cost[0]:.1f}x"
+        )
+    else:
+        report.add(tracker="stonesoup-jpda", people=n, **{"ms/scan": peer_cost[0] * 1e3})
+        report.notes.append(
+            f"{n} people: Stone Soup JPDA stopped after {len(peer_hyps)} of {len(run.scans)} scans "
+            f"({peer_cost[0] * 1e3:.0f} ms/scan CPU, over the {budget:.0f} s budget): not scored"
+        )
+
+
+def _target_note(report: BenchReport, m: dict[str, float], cost: tuple[float, float]) -> None:
+    rate = 1.0 / cost[0]
+    ok = m["mota"] >= TARGET_MOTA and m["motp"] <= TARGET_MOTP and rate >= TARGET_RATE
+    report.notes.append(
+        f"target, 20 people (MOTA >= {TARGET_MOTA}, MOTP <= {TARGET_MOTP} m, >= {TARGET_RATE:.0f} scans/s): "
+        f"{'met' if ok else 'MISSED'} (MOTA {m['mota']:.3f}, MOTP {m['motp']:.3f} m, {rate:.0f} scans/s)"
+    )
+
+
+def _real_bags(report: BenchReport, folder: Path) -> None:
+    for name in ["positive_1_extracted.bag", "positive_4_extracted.bag"]:
+        s = leg_detection_scores(folder / name)
+        report.add(tracker=f"legs {name}", precision=s["precision"], recall=s["recall"])
+        report.meta[name] = s
+    for row in negative_false_alarms(folder / "negative_2.bag"):
+        rate = float(row["tracks_per_scan"])
+        report.add(tracker=f"negative_2 {row['topic']}")
+        verdict = "met" if rate <= NEGATIVE_RATE_LIMIT else "MISSED"
+        report.notes.append(
+            f"negative_2.bag {row['topic']}: {rate:.4f} confirmed tracks per scan over {row['scans']:.0f} "
+            f"scans ({row['legs_per_scan']:.2f} leg candidates per scan); "
+            f"limit {NEGATIVE_RATE_LIMIT}: {verdict}"
+        )
+        report.meta[f"negative_2 {row['topic']}"] = row
+
+
+def _row(m: dict[str, float], cost: tuple[float, float]) -> dict[str, float]:
+    sec = cost[0]
+    return {
+        "MOTA": m["mota"],
+        "MOTP m": m["motp"],
+        "ID sw": m["num_switches"],
+        "IDF1": m["idf1"],
+        "precision": m["precision"],
+        "recall": m["recall"],
+        "ms/scan": sec * 1e3,
+        "scans/s": 1.0 / sec if sec > 0 else float("nan"),
+        "wall ms/scan": cost[1] * 1e3,
+    }

@@ -1,0 +1,788 @@
+"""CARMEN robot logs (plain text or gzip): a streaming reader and a writer.
+
+A CARMEN log is one message per line, the message type first. The reader understands:
+
+- ``ODOM x y theta tv rv accel timestamp host logger_timestamp``: raw wheel odometry;
+- ``FLASER``/``RLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp``:
+  front/rear laser (old format; geometry from ``PARAM`` lines or CARMEN's guesses);
+- ``RAWLASER1``..``RAWLASER4 type start_angle fov resolution max_range accuracy remission_mode n
+  r1..rn m e1..em timestamp host logger_timestamp``: lasers with their geometry on the line;
+- ``ROBOTLASER1``: as ``RAWLASER`` plus the laser and robot poses, velocities and safety distances;
+- ``PARAM name value ...``: sensor parameters (field of view, resolution, maximum range, offset);
+- ``#`` comments; other message types (``NEFF``, ``SYNC``, ``TRUEPOS``...) are skipped.
+
+"Corrected" logs (a SLAM back end aligned every scan; see ``../shared/data/README.md``) keep the raw
+odometry as the timestamped ``ODOM`` stream and put the corrected pose on each laser line, with an
+extra ``ODOM ... 0 host 0`` line (timestamp zero) per scan. The reader therefore gives each scan:
+
+- ``odom``: the raw odometry interpolated at the scan's time from the timestamped ``ODOM`` stream
+  (or, when the log has no such stream, the odometry pose written on the laser line itself);
+- ``reference``: the pose on the laser line, when the log has a separate odometry stream (or that
+  pose differs from the line's own odometry pose); ``None`` otherwise.
+
+Timestamps that are zero, repeated or going backwards make time interpolation meaningless: the
+reader then matches each scan with the latest odometry reading before it in the file ("record
+order") and says so in one warning.
+
+Lines are parsed one at a time (``iter_carmen`` streams); a scan is held back only until the
+odometry reading that follows it in time has been read.
+"""
+
+from __future__ import annotations
+
+import bisect
+import gzip
+import math
+import re
+import zlib
+from collections import deque
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import IO, cast
+
+import numpy as np
+
+from tourbot.geometry import relative
+from tourbot.io._interp import interpolate_pose
+from tourbot.io.errors import LogFormatError
+from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
+
+__all__ = [
+    "DEFAULT_MAX_RANGE",
+    "LASER_TYPES",
+    "CarmenReader",
+    "guess_angle_increment",
+    "guess_fov",
+    "iter_carmen",
+    "read_carmen",
+    "write_carmen",
+]
+
+#: CARMEN's maximum range for old-format laser lines that carry no configuration (its ``readlog``).
+DEFAULT_MAX_RANGE = 80.0
+
+#: The laser message types the reader turns into scans.
+LASER_TYPES = ("FLASER", "RLASER", "ROBOTLASER1", "RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
+
+_IDENT = re.compile(r"^[A-Z][A-Z0-9_]*$")
+_ROBOTLASER = re.compile(r"^ROBOTLASER[1-9]$")
+_RAWLASER = re.compile(r"^RAWLASER[1-9]$")
+
+Pose = tuple[float, float, float]
+
+
+def guess_fov(num_beams: int) -> float:
+    """Field of view (radians) of a SICK laser with ``num_beams`` beams, as CARMEN guesses it.
+
+    180 and 360 beams mean the last beam of a 181/361-beam sweep was dropped (179 and 179.5
+    degrees); 181 and 361 beams span 180 degrees; 400/401 beams span 100 degrees.
+    """
+    deg = math.pi / 180.0
+    table = {181: 180.0 * deg, 180: 179.0 * deg, 361: 180.0 * deg, 360: 179.5 * deg}
+    table |= {401: 100.0 * deg, 400: 99.75 * deg}
+    return table.get(num_beams, math.pi)
+
+
+def guess_angle_increment(num_beams: int) -> float:
+    """Angle between two beams (radians), as CARMEN guesses it from the beam count."""
+    if num_beams in (180, 181):
+        return math.pi / 180.0
+    if num_beams in (360, 361):
+        return math.pi / 360.0
+    if num_beams in (400, 401):
+        return math.pi / 720.0
+    return guess_fov(num_beams) / max(num_beams - 1, 1)
+
+
+# --------------------------------------------------------------------------------------------------
+# Reading
+
+
+@dataclass
+class _LaserParams:
+    """What ``PARAM`` lines say about one old-format laser (``front`` or ``rear``)."""
+
+    fov: float | None = None  # radians
+    resolution: float | None = None  # radians
+    max_range: float | None = None
+    offset_x: float = 0.0
+    # tourbot's own exact (radian, unrounded) parameters, written by ``write_carmen``
+    exact: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class _RawScan:
+    """A laser line as read, before odometry is attached."""
+
+    line: int
+    timestamp: float
+    ranges: np.ndarray
+    geometry: LaserGeometry
+    sensor: str
+    pose: Pose | None  # the robot pose written on the line (corrected in corrected logs)
+    line_odom: Pose | None  # the odometry pose written on the line, if any
+    odom: Pose | None = None
+    resolved: bool = False
+
+
+class _MalformedError(Exception):
+    """A malformed line: becomes a LogFormatError (strict) or a skipped record (lenient)."""
+
+    def __init__(self, reason: str, field: str | None = None) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.field = field
+
+
+def _open_binary(path: Path) -> IO[bytes]:
+    with path.open("rb") as probe:
+        magic = probe.read(2)
+    if magic == b"\x1f\x8b":
+        return cast(IO[bytes], gzip.open(path, "rb"))
+    return path.open("rb")
+
+
+def _number(token: str, what: str) -> float:
+    try:
+        value = float(token)
+    except ValueError:
+        raise _MalformedError(f"{token!r} is not a number", what) from None
+    if not math.isfinite(value):
+        raise _MalformedError(f"{token!r} is not a finite number", what)
+    return value
+
+
+def _count(token: str, what: str) -> int:
+    try:
+        value = int(token)
+    except ValueError:
+        raise _MalformedError(f"{token!r} is not a whole number", what) from None
+    if value < 0:
+        raise _MalformedError(f"negative count {value}", what)
+    return value
+
+
+def _ranges(tokens: list[str], start: int, n: int, kind: str) -> np.ndarray:
+    chunk = tokens[start : start + n]
+    try:
+        ranges = np.array(chunk, dtype=np.float64)
+    except ValueError:
+        for i, tok in enumerate(chunk):
+            _number(tok, f"range[{i}]")
+        raise  # pragma: no cover - numpy and float() agree on what a number is
+    bad = ~np.isfinite(ranges)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise _MalformedError(f"{kind} range is {chunk[i]} (not a number)", f"range[{i}]")
+    neg = ranges < 0.0
+    if neg.any():
+        i = int(np.argmax(neg))
+        raise _MalformedError(f"{kind} range is negative ({chunk[i]})", f"range[{i}]")
+    return ranges
+
+
+def _need(tokens: list[str], count: int, kind: str, layout: str) -> None:
+    if len(tokens) < count:
+        raise _MalformedError(
+            f"{kind} record too short: {len(tokens)} fields, at least {count} expected ({layout})"
+        )
+
+
+def _timestamp(tokens: list[str], index: int, kind: str) -> float:
+    """The message's timestamp; the logger's timestamp (two fields later) when it is zero."""
+    ts = _number(tokens[index], "timestamp")
+    if ts == 0.0 and len(tokens) > index + 2:
+        try:
+            logger_ts = float(tokens[index + 2])
+        except ValueError:
+            raise _MalformedError(f"{kind} logger timestamp {tokens[index + 2]!r} is not a number") from None
+        if math.isfinite(logger_ts):
+            ts = logger_ts
+    return ts
+
+
+def _pose(tokens: list[str], start: int, names: Sequence[str]) -> Pose:
+    x, y, th = (_number(tokens[start + k], names[k]) for k in range(3))
+    return (x, y, th)
+
+
+class CarmenReader:
+    """Streams the records of one CARMEN log; iterate it once.
+
+    After (or during) iteration, ``warnings`` holds the warnings (timestamps, skipped records),
+    ``skipped`` the number of malformed records skipped in lenient mode, and ``defaulted_max_range``
+    the sensors whose maximum range no record or ``PARAM`` line gave (``DEFAULT_MAX_RANGE`` used).
+    """
+
+    def __init__(self, path: str | Path, *, lenient: bool = False) -> None:
+        self.path = Path(path)
+        self.lenient = lenient
+        self.warnings: list[str] = []
+        self.skipped = 0
+        self.defaulted_max_range: set[str] = set()
+        self._first_skip: str | None = None
+        self._content_lines = 0
+        self._params = {"front": _LaserParams(), "rear": _LaserParams()}
+        self._scan_odometry: str | None = None  # tourbot's PARAM: "line" or "none"
+        self._scan_reference: str | None = None  # tourbot's PARAM: "line" or "none"
+        self._geometries: dict[tuple[object, ...], LaserGeometry] = {}
+        self._has_stream = False
+        self._last_laser_pose: Pose | None = None  # pose of the laser line just read, if last
+        # odometry matching
+        self._record_order = False
+        self._history: deque[Odometry] = deque(maxlen=512)
+        self._queue: deque[Odometry | _RawScan] = deque()
+        self._last_odom_time: float | None = None
+        self._last_scan_time: dict[str, float] = {}
+
+    # -- public --------------------------------------------------------------------------------
+
+    def __iter__(self) -> Iterator[Record]:
+        if not self.path.exists():
+            raise LogFormatError("no such file", path=self.path)
+        if self.path.is_dir():
+            raise LogFormatError("is a folder, not a CARMEN log file", path=self.path)
+        self._has_stream = self._find_odometry_stream()
+        for lineno, tokens in self._lines():
+            try:
+                item = self._parse(tokens)
+            except _MalformedError as exc:
+                self._malformed(exc, lineno)
+                continue
+            if isinstance(item, _RawScan):
+                item.line = lineno
+                self._last_laser_pose = item.pose
+            elif tokens[0] not in ("ODOM", "NEFF"):
+                self._last_laser_pose = None
+            if item is None:
+                continue
+            yield from self._push(item, lineno)
+        if self._content_lines == 0:
+            raise LogFormatError("empty file: no CARMEN records", path=self.path)
+        yield from self._drain()
+        if self.skipped:
+            self.warnings.append(
+                f"{self.path}: skipped {self.skipped} malformed record(s) (first: {self._first_skip})"
+            )
+
+    # -- lines ---------------------------------------------------------------------------------
+
+    def _lines(self) -> Iterator[tuple[int, list[str]]]:
+        lineno = 0
+        try:
+            with _open_binary(self.path) as stream:
+                for raw in stream:
+                    lineno += 1
+                    if raw.strip():
+                        self._content_lines += 1
+                    try:
+                        if b"\x00" in raw:
+                            raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
+                        text = raw.decode("utf-8")
+                    except UnicodeDecodeError:
+                        self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+                        continue
+                    tokens = text.split()
+                    if not tokens or tokens[0].startswith("#"):
+                        continue
+                    yield lineno, tokens
+        except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
+            reason = (
+                "the gzip stream is truncated (the file was cut short)"
+                if isinstance(exc, EOFError)
+                else f"the gzip stream is corrupt ({exc})"
+            )
+            if not self.lenient:
+                raise LogFormatError(reason, path=self.path, line=lineno + 1) from None
+            self.warnings.append(f"{self.path}:{lineno + 1}: {reason}; kept the {lineno} lines before it")
+
+    def _find_odometry_stream(self) -> bool:
+        """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
+        try:
+            with _open_binary(self.path) as stream:
+                for raw in stream:
+                    if not raw.startswith(b"ODOM"):
+                        continue
+                    tokens = raw.split()
+                    for index in (7, 9):
+                        if len(tokens) > index:
+                            try:
+                                if float(tokens[index]) != 0.0:
+                                    return True
+                            except ValueError:
+                                pass
+        except (OSError, EOFError, zlib.error):
+            pass  # the main pass reports it, with the line
+        return False
+
+    def _malformed(self, exc: _MalformedError, lineno: int) -> None:
+        if not self.lenient:
+            raise LogFormatError(exc.reason, path=self.path, line=lineno, field=exc.field)
+        self.skipped += 1
+        if self._first_skip is None:
+            where = f"line {lineno}" + (f", field {exc.field}" if exc.field else "")
+            self._first_skip = f"{where}: {exc.reason}"
+
+    # -- parsing -------------------------------------------------------------------------------
+
+    def _parse(self, tokens: list[str]) -> Odometry | _RawScan | None:
+        kind = tokens[0]
+        if kind == "ODOM":
+            return self._parse_odom(tokens)
+        if kind in ("FLASER", "RLASER"):
+            return self._parse_old_laser(tokens)
+        if _ROBOTLASER.match(kind) or _RAWLASER.match(kind):
+            return self._parse_new_laser(tokens)
+        if kind == "PARAM":
+            self._parse_param(tokens)
+            return None
+        if not _IDENT.match(kind):
+            shown = kind if len(kind) <= 20 else kind[:20] + "..."
+            raise _MalformedError(f"unrecognised record {shown!r} (a CARMEN line starts with its type)")
+        return None  # another CARMEN message type: not needed here
+
+    def _parse_odom(self, tokens: list[str]) -> Odometry | None:
+        _need(tokens, 8, "ODOM", "ODOM x y theta tv rv accel timestamp host logger_timestamp")
+        pose = _pose(tokens, 1, ("x", "y", "theta"))
+        tv = _number(tokens[4], "tv")
+        rv = _number(tokens[5], "rv")
+        accel = _number(tokens[6], "accel")
+        ts = _timestamp(tokens, 7, "ODOM")
+        after_scan, self._last_laser_pose = self._last_laser_pose, None
+        if self._has_stream and self._scan_odometry is None:
+            # Corrected logs repeat each scan's corrected pose on an ODOM line right after the
+            # scan, with a zero (sometimes garbage, earlier) timestamp: it is not odometry.
+            copy = pose == after_scan and tv == 0.0 and rv == 0.0 and accel == 0.0
+            earlier = self._last_odom_time is not None and ts <= self._last_odom_time
+            if ts == 0.0 or (copy and earlier):
+                return None
+        return Odometry(timestamp=ts, pose=pose, tv=tv, rv=rv)
+
+    def _parse_old_laser(self, tokens: list[str]) -> _RawScan:
+        kind = tokens[0]
+        layout = f"{kind} n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp"
+        _need(tokens, 2, kind, layout)
+        n = _count(tokens[1], "num_readings")
+        _need(tokens, 2 + n + 7, kind, layout)
+        if len(tokens) > 2 + n + 9:
+            raise _MalformedError(
+                f"{kind} record has {len(tokens)} fields, at most {2 + n + 9} expected for {n} readings"
+            )
+        ranges = _ranges(tokens, 2, n, kind)
+        at = 2 + n
+        pose = _pose(tokens, at, ("x", "y", "theta"))
+        line_odom = _pose(tokens, at + 3, ("odom_x", "odom_y", "odom_theta"))
+        ts = _timestamp(tokens, at + 6, kind)
+        geometry = self._old_geometry(kind, n)
+        return _RawScan(0, ts, ranges, geometry, kind, pose, line_odom)
+
+    def _old_geometry(self, kind: str, n: int) -> LaserGeometry:
+        which = "front" if kind == "FLASER" else "rear"
+        p = self._params[which]
+        ex = p.exact
+        if "angle_increment" in ex:
+            inc = ex["angle_increment"]
+        elif p.resolution is not None and p.resolution * (n - 1) <= 2.0 * math.pi + 1e-9:
+            inc = p.resolution
+        elif p.fov is not None and n > 1:
+            inc = p.fov / (n - 1)
+        else:
+            inc = guess_angle_increment(n)
+        if "angle_min" in ex:
+            amin = ex["angle_min"]
+        elif p.fov is not None:
+            amin = -0.5 * p.fov
+        else:
+            amin = -0.5 * math.pi  # CARMEN: old-format lasers start at -90 degrees
+        if "max_range" in ex:
+            max_range = ex["max_range"]
+        elif p.max_range is not None:
+            max_range = p.max_range
+        else:
+            max_range = DEFAULT_MAX_RANGE
+            self.defaulted_max_range.add(kind)
+        min_range = ex.get("min_range", 0.0)
+        if all(k in ex for k in ("offset_x", "offset_y", "offset_theta")):
+            offset = (ex["offset_x"], ex["offset_y"], ex["offset_theta"])
+        else:
+            offset = (p.offset_x, 0.0, 0.0 if which == "front" else math.pi)
+        return self._geometry(n, amin, inc, max_range, min_range, offset)
+
+    def _geometry(
+        self, n: int, amin: float, inc: float, max_range: float, min_range: float, offset: Pose
+    ) -> LaserGeometry:
+        key = (n, amin, inc, max_range, min_range, offset)
+        geometry = self._geometries.get(key)
+        if geometry is None:
+            geometry = LaserGeometry(n, amin, inc, max_range, min_range, offset)
+            self._geometries[key] = geometry
+        return geometry
+
+    def _parse_new_laser(self, tokens: list[str]) -> _RawScan:
+        kind = tokens[0]
+        robot = kind.startswith("ROBOTLASER")
+        head = f"{kind} type start_angle fov resolution max_range accuracy remission_mode n r1..rn m e1..em"
+        tail = (
+            " laser_x laser_y laser_theta robot_x robot_y robot_theta tv rv forward_safety side_safety"
+            " turn_axis timestamp host logger_timestamp"
+            if robot
+            else " timestamp host logger_timestamp"
+        )
+        layout = head + tail
+        _need(tokens, 9, kind, layout)
+        _number(tokens[1], "laser_type")
+        start = _number(tokens[2], "start_angle")
+        fov = _number(tokens[3], "fov")
+        res = _number(tokens[4], "angular_resolution")
+        max_range = _number(tokens[5], "maximum_range")
+        _number(tokens[6], "accuracy")
+        _number(tokens[7], "remission_mode")
+        n = _count(tokens[8], "num_readings")
+        _need(tokens, 9 + n + 1, kind, layout)
+        ranges = _ranges(tokens, 9, n, kind)
+        m = _count(tokens[9 + n], "num_remissions")
+        at = 10 + n + m
+        extra = 11 if robot else 0
+        _need(tokens, at + extra + 1, kind, layout)
+        for k in range(m):
+            _number(tokens[10 + n + k], f"remission[{k}]")
+        if not max_range > 0:
+            raise _MalformedError(f"{kind} maximum range must be positive, got {max_range}", "maximum_range")
+        inc = res if res > 0 else (fov / (n - 1) if n > 1 else 0.0)
+        pose: Pose | None = None
+        offset: Pose = (0.0, 0.0, 0.0)
+        if robot:
+            laser_pose = _pose(tokens, at, ("laser_x", "laser_y", "laser_theta"))
+            pose = _pose(tokens, at + 3, ("robot_x", "robot_y", "robot_theta"))
+            for k, name in enumerate(("tv", "rv", "forward_safety", "side_safety", "turn_axis")):
+                _number(tokens[at + 6 + k], name)
+            rel = relative(pose, laser_pose)
+            offset = (float(rel[0]), float(rel[1]), float(rel[2]))
+        else:
+            p = self._params["front" if kind == "RAWLASER1" else "rear"]
+            if kind in ("RAWLASER1", "RAWLASER2"):
+                offset = (p.offset_x, 0.0, 0.0 if kind == "RAWLASER1" else math.pi)
+        ts = _timestamp(tokens, at + extra, kind)
+        geometry = self._geometry(n, start, inc, max_range, 0.0, offset)
+        return _RawScan(0, ts, ranges, geometry, kind, pose, pose)
+
+    def _parse_param(self, tokens: list[str]) -> None:
+        if len(tokens) < 3:
+            raise _MalformedError("PARAM record needs a name and a value (PARAM name value ...)")
+        name, value = tokens[1], tokens[2]
+        if name.startswith("tourbot_"):
+            self._tourbot_param(name[len("tourbot_") :], value)
+            return
+        key = name.lower().replace("_", "")
+        which = "front" if "frontlaser" in key else "rear" if "rearlaser" in key else None
+        if which is None:
+            return
+        try:
+            number = float(value)
+        except ValueError:
+            return  # a parameter we do not use (e.g. a device name)
+        if not math.isfinite(number):
+            return
+        p = self._params[which]
+        if "offset" in key:
+            p.offset_x = number
+        elif "fov" in key and number > 0:
+            p.fov = math.radians(number)
+        elif "resolution" in key and number > 0:
+            p.resolution = math.radians(number)
+        elif ("maxrange" in key or key.endswith("max")) and number > 0:
+            p.max_range = number
+
+    def _tourbot_param(self, name: str, value: str) -> None:
+        if name == "scan_odometry":
+            self._scan_odometry = value
+            return
+        if name == "scan_reference":
+            self._scan_reference = value
+            return
+        for which, prefix in (("front", "flaser_"), ("rear", "rlaser_")):
+            if name.startswith(prefix):
+                self._params[which].exact[name[len(prefix) :]] = _number(value, name)
+
+    # -- odometry matching ---------------------------------------------------------------------
+
+    def _needs_stream(self, scan: _RawScan) -> bool:
+        if self._scan_odometry is not None:
+            return False
+        return self._has_stream or scan.line_odom is None
+
+    def _finish_scan(self, scan: _RawScan) -> Scan:
+        reference: Pose | None
+        if self._scan_reference == "line":
+            reference = scan.pose
+        elif self._scan_reference == "none":
+            reference = None
+        elif scan.pose is not None and (self._has_stream or scan.pose != scan.line_odom):
+            reference = scan.pose
+        else:
+            reference = None
+        if self._scan_odometry == "line":
+            odom = scan.line_odom
+        elif self._scan_odometry == "none":
+            odom = None
+        elif self._needs_stream(scan):
+            odom = scan.odom
+        else:
+            odom = scan.line_odom
+        return Scan(
+            timestamp=scan.timestamp,
+            ranges=scan.ranges,
+            geometry=scan.geometry,
+            odom=odom,
+            reference=reference,
+            sensor=scan.sensor,
+        )
+
+    def _fall_back(self, lineno: int, why: str) -> None:
+        if self._record_order:
+            return
+        self._record_order = True
+        self.warnings.append(
+            f"{self.path}:{lineno}: timestamps {why}; odometry is matched to scans in record order "
+            "(the latest odometry reading before each scan)"
+        )
+
+    def _push(self, item: Odometry | _RawScan, lineno: int) -> Iterator[Record]:
+        if isinstance(item, Odometry):
+            last = self._last_odom_time
+            if item.timestamp == 0.0:
+                self._fall_back(lineno, "of odometry are zero")
+            elif last is not None and item.timestamp <= last:
+                what = "repeat" if item.timestamp == last else "go backwards"
+                self._fall_back(lineno, f"of odometry {what} ({last!r} then {item.timestamp!r})")
+            self._last_odom_time = item.timestamp
+            self._history.append(item)
+        else:
+            last_scan = self._last_scan_time.get(item.sensor)
+            if item.timestamp == 0.0:
+                self._fall_back(lineno, f"of {item.sensor} scans are zero")
+            elif last_scan is not None and item.timestamp <= last_scan:
+                what = "repeat" if item.timestamp == last_scan else "go backwards"
+                self._fall_back(
+                    lineno, f"of {item.sensor} scans {what} ({last_scan!r} then {item.timestamp!r})"
+                )
+            self._last_scan_time[item.sensor] = item.timestamp
+            item.resolved = not self._needs_stream(item)
+        self._queue.append(item)
+        yield from self._flush(final=False)
+
+    def _flush(self, *, final: bool) -> Iterator[Record]:
+        while self._queue:
+            head = self._queue[0]
+            if isinstance(head, _RawScan) and not head.resolved and not self._resolve(head, final=final):
+                return
+            self._queue.popleft()
+            yield head if isinstance(head, Odometry) else self._finish_scan(head)
+
+    def _resolve(self, scan: _RawScan, *, final: bool) -> bool:
+        """Attach the odometry at the scan's time; False while the reading after it is unread."""
+        history = self._history
+        if self._record_order:
+            # the latest reading before the scan in the file: the readings queued after the scan
+            # are not in ``history`` order-wise before it, so look at what preceded it.
+            before = self._reading_before(scan)
+            if before is None and not final and not history:
+                return False
+            scan.odom = before.pose if before is not None else (history[0].pose if history else None)
+            scan.resolved = True
+            return True
+        if not history or history[-1].timestamp < scan.timestamp:
+            if not final:
+                return False
+            scan.odom = history[-1].pose if history else None
+            scan.resolved = True
+            return True
+        scan.odom = _interpolate(history, scan.timestamp)
+        scan.resolved = True
+        return True
+
+    def _reading_before(self, scan: _RawScan) -> Odometry | None:
+        """The latest odometry reading read before ``scan`` (the queue holds what came after)."""
+        after = 0
+        seen_scan = False
+        for item in self._queue:
+            if item is scan:
+                seen_scan = True
+            elif seen_scan and isinstance(item, Odometry):
+                after += 1
+        index = len(self._history) - 1 - after
+        return self._history[index] if index >= 0 else None
+
+    def _drain(self) -> Iterator[Record]:
+        yield from self._flush(final=True)
+
+
+def _interpolate(history: deque[Odometry], t: float) -> Pose:
+    """Odometry pose at time ``t`` from the recent readings (their times strictly increase)."""
+    times = [o.timestamp for o in history]
+    i = bisect.bisect_left(times, t)
+    if i == 0:
+        return history[0].pose
+    a, b = history[i - 1], history[i]
+    return interpolate_pose(a.pose, b.pose, (t - a.timestamp) / (b.timestamp - a.timestamp))
+
+
+def iter_carmen(
+    path: str | Path, *, lenient: bool = False, warnings: list[str] | None = None
+) -> Iterator[Record]:
+    """Stream the records (odometry readings and scans of every laser) of a CARMEN log in order.
+
+    Malformed records raise :class:`LogFormatError` naming the file, line and field, or with
+    ``lenient=True`` are skipped and counted. Warnings are appended to ``warnings`` when given.
+    """
+    reader = CarmenReader(path, lenient=lenient)
+    try:
+        yield from reader
+    finally:
+        if warnings is not None:
+            warnings.extend(reader.warnings)
+
+
+def _infer_max_range(scans: list[Scan]) -> float | None:
+    """The maximum range of a laser whose log does not state it: where readings pile up at the top.
+
+    A SICK laser reports "no return" as its maximum reading, so many readings share the largest
+    values; the smallest value (within 2 m of the largest) shared by at least 10 readings is taken
+    as the maximum range. None when no such pile-up exists.
+    """
+    top = max(float(s.ranges.max()) for s in scans if s.ranges.size)
+    near = np.concatenate([s.ranges[s.ranges >= top - 2.0] for s in scans])
+    values, counts = np.unique(near, return_counts=True)
+    piled = values[counts >= 10]
+    return float(piled.min()) if piled.size else None
+
+
+def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = None) -> RobotLog:
+    """Read a whole CARMEN log (plain or gzip) into a :class:`RobotLog`.
+
+    ``laser`` picks the laser (``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``RAWLASER1``...); by
+    default the first one in the file. Scans carry ``odom`` (raw odometry interpolated at the scan
+    time) and, in corrected logs, ``reference`` (the corrected pose). When no record or ``PARAM``
+    line gives the laser's maximum range it is inferred from the readings (see
+    :func:`_infer_max_range`).
+    """
+    reader = CarmenReader(path, lenient=lenient)
+    scans: list[Scan] = []
+    odometry: list[Odometry] = []
+    for record in reader:
+        if isinstance(record, Odometry):
+            odometry.append(record)
+        else:
+            scans.append(record)
+    warnings = list(reader.warnings)
+    if not scans:
+        extra = f" ({reader.skipped} malformed records skipped)" if reader.skipped else ""
+        raise LogFormatError(
+            "no laser scans found (FLASER, RLASER, ROBOTLASER1 or RAWLASER1-4 records)" + extra,
+            path=path,
+        )
+    sensors = list(dict.fromkeys(s.sensor for s in scans))
+    chosen = laser or sensors[0]
+    if chosen not in sensors:
+        raise LogFormatError(f"no {chosen} scans in this log (it has: {', '.join(sensors)})", path=path)
+    if len(sensors) > 1:
+        others = ", ".join(f"{sum(s.sensor == o for s in scans)} {o}" for o in sensors if o != chosen)
+        warnings.append(f"{path}: read the {chosen} scans; also holds {others} scans (choose with laser=)")
+    scans = [s for s in scans if s.sensor == chosen]
+    if chosen in reader.defaulted_max_range:
+        inferred = _infer_max_range(scans)
+        if inferred is not None:
+            cache: dict[LaserGeometry, LaserGeometry] = {}
+            fixed = []
+            for s in scans:
+                g = cache.setdefault(s.geometry, replace(s.geometry, max_range=inferred))
+                fixed.append(replace(s, geometry=g))
+            scans = fixed
+    return RobotLog(source=str(path), scans=scans, odometry=odometry, warnings=warnings)
+
+
+# --------------------------------------------------------------------------------------------------
+# Writing
+
+
+def _fmt(values: Sequence[float]) -> str:
+    """Floats written so that reading them back gives the same floats (shortest round-trip form)."""
+    return " ".join(repr(float(v)) for v in values)
+
+
+def _policy(values: list[Pose | None], what: str, path: str | Path) -> str:
+    present = [v is not None for v in values]
+    if all(present):
+        return "line"
+    if not any(present):
+        return "none"
+    raise LogFormatError(
+        f"cannot write a CARMEN log where only some scans have a {what} pose "
+        f"({sum(present)} of {len(present)})",
+        path=path,
+    )
+
+
+def write_carmen(log: RobotLog, path: str | Path) -> None:
+    """Write ``log`` as a CARMEN log (gzip when ``path`` ends in ``.gz``).
+
+    Odometry readings become ``ODOM`` lines and scans ``FLASER`` (``RLASER`` for rear scans) lines
+    with the reference pose and the scan's odometry pose; exact laser geometry and how to read the
+    poses back go in ``PARAM tourbot_...`` lines, so ``read_carmen`` gives back the same log.
+    Other lasers (RAWLASER, ROBOTLASER, ROS topics) are written as ``FLASER``, one laser at most.
+    """
+    path = Path(path)
+    kinds = {s.sensor: ("RLASER" if s.sensor == "RLASER" else "FLASER") for s in log.scans}
+    if len([k for k, v in kinds.items() if v == "FLASER"]) > 1:
+        raise LogFormatError(
+            f"cannot write several lasers as FLASER: {', '.join(sorted(kinds))}; keep one", path=path
+        )
+    odom_policy = _policy([s.odom for s in log.scans], "odometry", path)
+    ref_policy = _policy([s.reference for s in log.scans], "reference", path)
+    opener = gzip.open if path.name.endswith(".gz") else open
+    with opener(path, "wt", encoding="utf-8", newline="\n") as out:
+        out.write(f"# CARMEN log written by tourbot from {log.source}\n")
+        out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
+        out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
+        out.write(f"PARAM tourbot_scan_reference {ref_policy} nohost 0\n")
+        current: dict[str, LaserGeometry] = {}
+        odometry = log.odometry
+        k = 0
+        for scan in log.scans:
+            while k < len(odometry) and odometry[k].timestamp <= scan.timestamp:
+                _write_odom(out, odometry[k])
+                k += 1
+            kind = kinds[scan.sensor]
+            if current.get(kind) != scan.geometry:
+                _write_geometry(out, kind, scan.geometry)
+                current[kind] = scan.geometry
+            pose = scan.reference or scan.odom or (0.0, 0.0, 0.0)
+            odom = scan.odom or pose
+            ts = repr(float(scan.timestamp))
+            out.write(
+                f"{kind} {scan.ranges.size} {_fmt(scan.ranges.tolist())} {_fmt(pose)} {_fmt(odom)} "
+                f"{ts} tourbot {ts}\n"
+            )
+        for reading in odometry[k:]:
+            _write_odom(out, reading)
+
+
+def _write_odom(out: IO[str], o: Odometry) -> None:
+    ts = repr(float(o.timestamp))
+    out.write(f"ODOM {_fmt(o.pose)} {_fmt((o.tv, o.rv))} 0 {ts} tourbot {ts}\n")
+
+
+def _write_geometry(out: IO[str], kind: str, g: LaserGeometry) -> None:
+    prefix = "flaser" if kind == "FLASER" else "rlaser"
+    values = {
+        "angle_min": g.angle_min,
+        "angle_increment": g.angle_increment,
+        "max_range": g.max_range,
+        "min_range": g.min_range,
+        "offset_x": g.offset[0],
+        "offset_y": g.offset[1],
+        "offset_theta": g.offset[2],
+    }
+    for name, value in values.items():
+        out.write(f"PARAM tourbot_{prefix}_{name} {float(value)!r} nohost 0\n")

@@ -1,0 +1,270 @@
+"""ROS 1 and ROS 2 bags through ``rosbags`` (pure Python, no ROS install needed).
+
+``read_bag`` turns ``sensor_msgs/LaserScan`` messages into scans and ``nav_msgs/Odometry`` messages
+(or, without them, the ``odom -> base_link`` transforms on ``/tf``) into odometry readings, and
+gives each scan the odometry interpolated at its header time. Ranges follow REP 117: ``+inf`` and
+NaN mean "no return" and become the laser's ``range_max``; ``-inf`` ("too close") becomes 0, below
+``range_min``. ``read_pose_arrays`` reads ``geometry_msgs/PoseArray`` topics such as the annotated
+``/leg_cluster_positions`` of the leg_tracker bags.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.io._interp import interpolate_poses
+from tourbot.io.errors import BagError
+from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan
+
+__all__ = ["bag_topics", "read_bag", "read_pose_arrays"]
+
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+ODOMETRY = "nav_msgs/msg/Odometry"
+TF = "tf2_msgs/msg/TFMessage"
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+
+_BASE_FRAMES = ("base_link", "base_footprint")
+
+
+def _bag_paths(path: Path) -> Path:
+    """What ``rosbags`` opens: a ROS 1 ``.bag`` file or a ROS 2 bag folder (also from its file)."""
+    if path.suffix.lower() in (".db3", ".mcap") and (path.parent / "metadata.yaml").exists():
+        return path.parent
+    return path
+
+
+@contextmanager
+def _open(path: str | Path) -> Iterator[Any]:
+    from rosbags.highlevel import AnyReader
+
+    p = Path(path)
+    if not p.exists():
+        raise BagError("no such file or folder", path=p)
+    reader = AnyReader([_bag_paths(p)])
+    try:
+        reader.open()
+    except Exception as exc:  # rosbags raises several unrelated types for unreadable bags
+        raise BagError(f"not a readable ROS bag ({type(exc).__name__}: {exc})", path=p) from None
+    try:
+        yield reader
+    finally:
+        reader.close()
+
+
+def bag_topics(path: str | Path) -> dict[str, tuple[str, int]]:
+    """Topic name -> (message type, message count) of a bag."""
+    with _open(path) as reader:
+        out: dict[str, tuple[str, int]] = {}
+        for c in reader.connections:
+            kind, count = out.get(c.topic, (c.msgtype, 0))
+            out[c.topic] = (kind, count + c.msgcount)
+        return out
+
+
+def _stamp(header: Any, bag_time_ns: int) -> float:
+    t = float(header.stamp.sec) + 1e-9 * float(header.stamp.nanosec)
+    return t if t > 0.0 else 1e-9 * bag_time_ns
+
+
+def _yaw(q: Any) -> float:
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def _describe(topics: dict[str, tuple[str, int]]) -> str:
+    return ", ".join(f"{t} ({k})" for t, (k, _) in sorted(topics.items())) or "none"
+
+
+def _pick(
+    topics: dict[str, tuple[str, int]], msgtype: str, wanted: str | None, path: Path, what: str
+) -> str | None:
+    matching = [t for t, (k, _) in topics.items() if k == msgtype]
+    if wanted is not None:
+        names = {wanted, wanted.lstrip("/"), "/" + wanted.lstrip("/")}
+        found = [t for t in matching if t in names]
+        if not found:
+            raise BagError(f"no {what} topic {wanted!r} (topics: {_describe(topics)})", path=path)
+        return found[0]
+    if not matching:
+        return None
+    return max(matching, key=lambda t: (topics[t][1], t))
+
+
+def read_bag(
+    path: str | Path,
+    *,
+    scan_topic: str | None = None,
+    odom_topic: str | None = None,
+    lenient: bool = False,
+) -> RobotLog:
+    """Read the laser scans and odometry of a ROS 1 or ROS 2 bag into a :class:`RobotLog`.
+
+    Without ``scan_topic`` the LaserScan topic with the most messages is read (the others are named
+    in a warning). Odometry comes from ``odom_topic`` or the first ``nav_msgs/Odometry`` topic, else
+    from ``/tf`` (``odom`` -> ``base_link``/``base_footprint``); without any, scans have no odometry.
+    A malformed scan (negative range, beam count not matching the angles) raises :class:`BagError`,
+    or is skipped and counted with ``lenient=True``.
+    """
+    p = Path(path)
+    topics = bag_topics(p)
+    scan_t = _pick(topics, LASER_SCAN, scan_topic, p, "LaserScan")
+    if scan_t is None:
+        raise BagError(f"no sensor_msgs/LaserScan topic in this bag (topics: {_describe(topics)})", path=p)
+    warnings: list[str] = []
+    others = [t for t, (k, _) in topics.items() if k == LASER_SCAN and t != scan_t]
+    if others:
+        warnings.append(f"{p}: read {scan_t}; also holds LaserScan topics {', '.join(sorted(others))}")
+    odom_t = _pick(topics, ODOMETRY, odom_topic, p, "Odometry")
+    tf_t = None if odom_t is not None else next((t for t, (k, _) in topics.items() if k == TF), None)
+
+    scans: list[Scan] = []
+    odometry: list[Odometry] = []
+    order: list[tuple[int, int]] = []  # (kind 0 = odometry / 1 = scan, index) in bag order
+    geometries: dict[tuple[object, ...], LaserGeometry] = {}
+    skipped = 0
+    first_skip = ""
+    with _open(p) as reader:
+        wanted = [c for c in reader.connections if c.topic in {scan_t, odom_t, tf_t}]
+        for index, (conn, bag_ns, raw) in enumerate(reader.messages(connections=wanted)):
+            msg = reader.deserialize(raw, conn.msgtype)
+            if conn.topic == scan_t:
+                try:
+                    scan = _scan(msg, bag_ns, scan_t, geometries)
+                except ValueError as exc:
+                    if not lenient:
+                        raise BagError(f"{scan_t} message {index}: {exc}", path=p) from None
+                    skipped += 1
+                    first_skip = first_skip or f"message {index}: {exc}"
+                    continue
+                order.append((1, len(scans)))
+                scans.append(scan)
+            elif conn.topic == odom_t:
+                pose = msg.pose.pose
+                twist = msg.twist.twist
+                odometry.append(
+                    Odometry(
+                        timestamp=_stamp(msg.header, bag_ns),
+                        pose=(float(pose.position.x), float(pose.position.y), _yaw(pose.orientation)),
+                        tv=float(twist.linear.x),
+                        rv=float(twist.angular.z),
+                    )
+                )
+                order.append((0, len(odometry) - 1))
+            else:
+                for tf in msg.transforms:
+                    parent = tf.header.frame_id.lstrip("/")
+                    child = tf.child_frame_id.lstrip("/")
+                    if parent == "odom" and child in _BASE_FRAMES:
+                        tr = tf.transform.translation
+                        pose3 = (float(tr.x), float(tr.y), _yaw(tf.transform.rotation))
+                        odometry.append(Odometry(timestamp=_stamp(tf.header, bag_ns), pose=pose3))
+                        order.append((0, len(odometry) - 1))
+    if skipped:
+        warnings.append(f"{p}: skipped {skipped} malformed scan(s) (first: {first_skip})")
+    if not scans:
+        raise BagError(f"no readable scans on {scan_t}", path=p)
+    if odometry:
+        scans = _attach_odometry(scans, odometry, order, warnings, p)
+    return RobotLog(source=str(p), scans=scans, odometry=odometry, warnings=warnings)
+
+
+def _scan(msg: Any, bag_ns: int, topic: str, geometries: dict[tuple[object, ...], LaserGeometry]) -> Scan:
+    ranges = np.asarray(msg.ranges, dtype=np.float64).copy()
+    n = ranges.size
+    expected = round((float(msg.angle_max) - float(msg.angle_min)) / float(msg.angle_increment)) + 1
+    if n == 0:
+        raise ValueError("a scan with no ranges")
+    if abs(expected - n) > 1:
+        raise ValueError(f"{n} ranges but the angles give {expected} beams")
+    max_range = float(msg.range_max)
+    if not max_range > 0:
+        raise ValueError(f"range_max must be positive, got {max_range}")
+    neg = np.isfinite(ranges) & (ranges < 0)
+    if neg.any():
+        i = int(np.argmax(neg))
+        raise ValueError(f"range[{i}] is negative ({ranges[i]})")
+    ranges[np.isnan(ranges) | (ranges == np.inf)] = max_range
+    ranges[ranges == -np.inf] = 0.0
+    key = (n, float(msg.angle_min), float(msg.angle_increment), max_range, float(msg.range_min))
+    geometry = geometries.get(key)
+    if geometry is None:
+        geometry = LaserGeometry(n, key[1], key[2], max_range, key[4])
+        geometries[key] = geometry
+    return Scan(timestamp=_stamp(msg.header, bag_ns), ranges=ranges, geometry=geometry, sensor=topic)
+
+
+def _attach_odometry(
+    scans: list[Scan],
+    odometry: list[Odometry],
+    order: list[tuple[int, int]],
+    warnings: list[str],
+    path: Path,
+) -> list[Scan]:
+    """Odometry at each scan's time, or in bag order when the odometry times do not increase."""
+    times = np.array([o.timestamp for o in odometry])
+    poses = np.array([o.pose for o in odometry])
+    scan_times = np.array([s.timestamp for s in scans])
+    if np.all(np.diff(times) > 0) and np.all(np.diff(scan_times) > 0):
+        at = interpolate_poses(times, poses, scan_times)
+    else:
+        warnings.append(
+            f"{path}: timestamps are repeated or go backwards; odometry is matched to scans in bag order"
+        )
+        at = np.empty((len(scans), 3))
+        last = -1
+        for kind, i in order:
+            if kind == 0:
+                last = i
+            else:
+                at[i] = poses[max(last, 0)]
+    return [
+        Scan(s.timestamp, s.ranges, s.geometry, (float(a[0]), float(a[1]), float(a[2])), None, s.sensor)
+        for s, a in zip(scans, at, strict=True)
+    ]
+
+
+def read_pose_arrays(path: str | Path, topic: str) -> list[tuple[float, NDArray[np.float64]]]:
+    """The ``geometry_msgs/PoseArray`` messages of ``topic``: ``(time, (K, 2) x-y positions)``.
+
+    Positions are in the message's own frame (for ``/leg_cluster_positions``: the laser's). The time
+    is the header stamp; where that is zero (as in the extracted leg_tracker bags) it is the header
+    stamp of the LaserScan in the same frame nearest in the bag, so annotations pair with the scans
+    ``read_bag`` returns by timestamp.
+    """
+    p = Path(path)
+    topics = bag_topics(p)
+    found = _pick(topics, POSE_ARRAY, topic, p, "PoseArray")
+    if found is None:  # pragma: no cover - _pick raises when a topic is named
+        raise BagError(f"no PoseArray topic {topic!r}", path=p)
+    arrays: list[tuple[int, float, str, NDArray[np.float64]]] = []
+    lasers: dict[str, tuple[list[int], list[float]]] = {}
+    with _open(p) as reader:
+        conns = [c for c in reader.connections if c.topic == found or c.msgtype == LASER_SCAN]
+        for conn, bag_ns, raw in reader.messages(connections=conns):
+            msg = reader.deserialize(raw, conn.msgtype)
+            stamp = float(msg.header.stamp.sec) + 1e-9 * float(msg.header.stamp.nanosec)
+            if conn.topic != found:
+                bag_times, stamps = lasers.setdefault(msg.header.frame_id, ([], []))
+                bag_times.append(bag_ns)
+                stamps.append(stamp)
+                continue
+            xy = np.array([[q.position.x, q.position.y] for q in msg.poses], dtype=np.float64).reshape(-1, 2)
+            arrays.append((bag_ns, stamp, msg.header.frame_id, xy))
+    out: list[tuple[float, NDArray[np.float64]]] = []
+    for bag_ns, stamp, frame, xy in arrays:
+        t = stamp
+        if t <= 0.0:
+            same = lasers.get(frame)
+            if same and same[0]:
+                laser_ns = np.array(same[0], dtype=np.int64)
+                t = same[1][int(np.argmin(np.abs(laser_ns - bag_ns)))]
+            else:
+                t = 1e-9 * bag_ns
+        out.append((t, xy))
+    return out

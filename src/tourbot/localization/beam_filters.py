@@ -1,0 +1,224 @@
+"""The entropy and novelty filters of Fox, Burgard, Thrun and Cremers (1998), Eq. 3-6.
+
+Both decide, beam by beam, which range readings of a scan are integrated into the belief, so that
+readings corrupted by people (or anything else not in the map) do not mislead the localizer. They
+operate on any weighted set of hypotheses ``l`` with belief ``Bel(l)``: the samples of Monte Carlo
+localization or the cells of a position probability grid. One implementation, used by both
+estimators.
+
+- Entropy filter (Eq. 3-4): ``H(l) = -sum_l Bel(l) log Bel(l)``; a beam ``s`` is used only if
+  ``Delta H(l | s) = H(l) - H(l | s) >= 0``, i.e. only if integrating it alone into the current
+  belief does not make the robot less certain. Each beam is judged against the same current belief
+  (before any beam of this scan is integrated), so the result does not depend on beam order.
+- Novelty filter (Eq. 5-6): ``p_n(d | l)`` is the probability that reading ``d`` is shorter than
+  expected at ``l`` (from the sensor model, ``tourbot.maps.beam_model``); averaged over the belief,
+  ``p_n(d) = sum_l p_n(d | l) Bel(l)``; a beam is dropped when ``p_n(d) > theta`` with
+  ``theta = 0.99`` ("set to 0.99 in all experiments").
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "BeamFilter",
+    "BeamFilterConfig",
+    "belief_entropy",
+    "entropy_change",
+    "entropy_change_reference",
+    "entropy_filter",
+    "novelty_filter",
+    "novelty_probability",
+]
+
+FloatArray = NDArray[np.float64]
+BoolArray = NDArray[np.bool_]
+
+
+class BeamFilter(enum.StrEnum):
+    """Which beams a localizer integrates: all valid ones, or those passing a filter of the paper."""
+
+    NONE = "none"
+    ENTROPY = "entropy"
+    NOVELTY = "novelty"
+
+
+@dataclass(frozen=True)
+class BeamFilterConfig:
+    """Parameters of the filters.
+
+    ``theta``: the novelty threshold, 0.99 in all experiments of Fox et al. 1998 (Sec. "Novelty
+    filter"). ``entropy_tolerance``: a beam whose entropy change is within this many nats of zero
+    counts as not increasing the entropy (Eq. 4 asks ``Delta H >= 0``; a beam that is equally
+    likely everywhere changes nothing and rounding must not decide its fate).
+    """
+
+    theta: float = 0.99
+    entropy_tolerance: float = 1e-9
+
+
+def _normalized(weights: ArrayLike) -> FloatArray:
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    total = w.sum()
+    if not total > 0:
+        raise ValueError("the belief's weights must have a positive sum")
+    return w / total
+
+
+def _group_ids(groups: ArrayLike | None, n: int) -> tuple[NDArray[np.int64], int]:
+    if groups is None:
+        return np.arange(n, dtype=np.int64), n
+    g = np.asarray(groups).ravel()
+    if g.shape[0] != n:
+        raise ValueError(f"groups has {g.shape[0]} entries for {n} hypotheses")
+    _, inverse = np.unique(g, return_inverse=True)
+    ids = inverse.astype(np.int64).ravel()
+    return ids, int(ids.max()) + 1 if n else 0
+
+
+def belief_entropy(weights: ArrayLike, groups: ArrayLike | None = None) -> float:
+    """Eq. 3: ``H = -sum Bel log Bel`` (nats) of a weighted set of hypotheses.
+
+    With ``groups`` (one label per hypothesis), hypotheses with the same label are one location
+    ``l`` whose belief is the sum of their weights: this is how a sample set is given the entropy of
+    the belief it represents over a grid of locations (see :func:`entropy_filter`).
+    """
+    w = _normalized(weights)
+    ids, n_groups = _group_ids(groups, w.shape[0])
+    p = np.bincount(ids, weights=w, minlength=n_groups)
+    p = p[p > 0]
+    return float(-(p * np.log(p)).sum())
+
+
+def entropy_change_reference(
+    beam_lik: ArrayLike, weights: ArrayLike, groups: ArrayLike | None = None
+) -> FloatArray:
+    """Plain-numpy reference of :func:`entropy_change`: ``Delta H(l | s_b)`` for every beam, ``(B,)``.
+
+    Beams with zero likelihood everywhere get ``-inf`` (they cannot be integrated).
+    """
+    lik = np.asarray(beam_lik, dtype=np.float64)
+    w = _normalized(weights)
+    ids, n_groups = _group_ids(groups, w.shape[0])
+    prior = np.bincount(ids, weights=w, minlength=n_groups)
+    h0 = -np.sum(prior[prior > 0] * np.log(prior[prior > 0]))
+    out = np.empty(lik.shape[1])
+    for b in range(lik.shape[1]):
+        post = np.bincount(ids, weights=w * lik[:, b], minlength=n_groups)
+        z = post.sum()
+        if not z > 0:
+            out[b] = -np.inf
+            continue
+        post = post[post > 0] / z
+        out[b] = h0 + np.sum(post * np.log(post))
+    return out
+
+
+def entropy_change(beam_lik: ArrayLike, weights: ArrayLike, groups: ArrayLike | None = None) -> FloatArray:
+    """Eq. 4: ``Delta H(l | s_b) = H(l) - H(l | s_b)`` for every beam ``b``, ``(B,)`` (numba kernel).
+
+    ``beam_lik[i, b]`` is ``p(s_b | l_i)`` (any positive scale per beam: it is normalized away),
+    ``weights[i]`` is ``Bel(l_i)`` (normalized here). ``H(l | s_b)`` is the entropy of the belief
+    after integrating beam ``b`` alone by Bayes' rule (Eq. 2). ``groups`` as in
+    :func:`belief_entropy`. Beams with zero likelihood everywhere get ``-inf``.
+    """
+    lik = np.ascontiguousarray(beam_lik, dtype=np.float64)
+    w = _normalized(weights)
+    if lik.ndim != 2 or lik.shape[0] != w.shape[0]:
+        raise ValueError(f"beam_lik must be (N, B) with N = {w.shape[0]}, got {lik.shape}")
+    ids, n_groups = _group_ids(groups, w.shape[0])
+    out = np.empty(lik.shape[1])
+    _entropy_change_kernel(lik, w, ids, n_groups, out)
+    return out
+
+
+@numba.njit(cache=True)
+def _entropy_change_kernel(
+    lik: FloatArray, w: FloatArray, ids: NDArray[np.int64], n_groups: int, out: FloatArray
+) -> None:
+    n, n_beams = lik.shape
+    prior = np.zeros(n_groups)
+    for i in range(n):
+        prior[ids[i]] += w[i]
+    h0 = 0.0
+    for g in range(n_groups):
+        if prior[g] > 0.0:
+            h0 -= prior[g] * math.log(prior[g])
+    identity = n_groups == n
+    if identity:
+        for i in range(n):
+            if ids[i] != i:
+                identity = False
+                break
+    acc = np.zeros(n_groups)
+    for b in range(n_beams):
+        if identity:
+            # H' = log Z - (1/Z) sum q log q with q = w * lik: one pass, no scratch array.
+            z = 0.0
+            s = 0.0
+            for i in range(n):
+                q = w[i] * lik[i, b]
+                if q > 0.0:
+                    z += q
+                    s += q * math.log(q)
+        else:
+            acc[:] = 0.0
+            for i in range(n):
+                acc[ids[i]] += w[i] * lik[i, b]
+            z = 0.0
+            s = 0.0
+            for g in range(n_groups):
+                q = acc[g]
+                if q > 0.0:
+                    z += q
+                    s += q * math.log(q)
+        if z > 0.0:
+            out[b] = h0 - (math.log(z) - s / z)
+        else:
+            out[b] = -math.inf
+
+
+def entropy_filter(
+    beam_lik: ArrayLike,
+    weights: ArrayLike,
+    groups: ArrayLike | None = None,
+    tolerance: float = BeamFilterConfig.entropy_tolerance,
+) -> BoolArray:
+    """The entropy filter (Fox et al. 1998, Eq. 3-4): the beams whose integration does not raise the entropy.
+
+    ``beam_lik (N, B)``: ``p(s_b | l_i)``; ``weights (N,)``: ``Bel(l_i)``. Returns the mask
+    ``(B,)`` of beams with ``Delta H(l | s_b) >= -tolerance``.
+
+    For a grid, each cell is a hypothesis. For a sample set, pass ``groups`` (e.g. the index of
+    the cell of the paper's 15 cm x 2 deg grid holding each sample): with equal weights right after
+    resampling, the entropy of the weights alone is at its maximum and *every* informative beam
+    would lower it, whereas the entropy of the belief the samples represent is what Eq. 3 means.
+    """
+    return entropy_change(beam_lik, weights, groups) >= -tolerance
+
+
+def novelty_probability(p_shorter: ArrayLike, weights: ArrayLike) -> FloatArray:
+    """Eq. 6: ``p_n(d_b) = sum_l p_n(d_b | l) Bel(l)`` for every beam, ``(B,)``."""
+    p = np.asarray(p_shorter, dtype=np.float64)
+    w = _normalized(weights)
+    if p.ndim != 2 or p.shape[0] != w.shape[0]:
+        raise ValueError(f"p_shorter must be (N, B) with N = {w.shape[0]}, got {p.shape}")
+    return np.asarray(w @ p, dtype=np.float64)
+
+
+def novelty_filter(
+    p_shorter: ArrayLike, weights: ArrayLike, theta: float = BeamFilterConfig.theta
+) -> BoolArray:
+    """The novelty filter (Fox et al. 1998, Eq. 5-6): drop beams likely shorter than expected.
+
+    ``p_shorter (N, B)``: ``p_n(d_b | l_i)`` of Eq. 5, the probability that reading ``b`` is
+    shorter than expected at hypothesis ``i`` (``tourbot.maps.beam_model``); ``weights (N,)``:
+    ``Bel(l_i)``. Returns the mask ``(B,)`` of kept beams, ``p_n(d_b) <= theta``.
+    """
+    return novelty_probability(p_shorter, weights) <= theta

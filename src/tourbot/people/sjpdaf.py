@@ -1,0 +1,328 @@
+"""People tracking with sample-based joint probabilistic data association filters (SJPDAF).
+
+Burgard et al., Sec. 4 (after Schulz et al. 2001): one particle filter per person, the features of
+each scan (people's legs) shared out among the persons by the joint association probabilities
+``beta_ji`` (Eq. 6-7) computed from the samples (Eq. 8), the samples weighted by them (Eq. 9) and
+resampled. Around it: features from the scan (:mod:`tourbot.people.legs`), static look-alikes
+removed by the difference of occupancy grids and the map (:mod:`tourbot.people.static_filter`), an
+occlusion map that keeps hidden people's tracks alive (:mod:`tourbot.people.occlusion`), tracks
+that start, are confirmed and end by rule. Tracks are in the world frame, through the robot's pose
+estimate given with every scan.
+
+:meth:`PeopleTracker.update` reads as the algorithm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.geometry import compose
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
+from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
+from tourbot.people.motion import WalkingModel, predict_samples
+from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
+from tourbot.people.static_filter import StaticConfig, StaticFilter
+from tourbot.records import Scan
+
+__all__ = ["PeopleTracker", "SJPDAFConfig", "Track"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, slots=True)
+class SJPDAFConfig:
+    """Every parameter of the people tracker, with its typed home and default.
+
+    Filter (Burgard et al. Sec. 4; Schulz et al. 2001): ``num_samples`` per person;
+    ``measurement_std`` the spread of a two-leg person feature around the person (m), and
+    ``single_leg_std`` that of a lone leg (the person's centre is up to a stride's half away);
+    ``detection_probability`` P_D of a visible person; ``clutter_density`` gamma of Eq. 7, false
+    alarms per square metre; ``gate_sigmas`` / ``max_gate``: a feature can be caused by a person only
+    within this many standard deviations (of samples and measurement together), and never beyond
+    ``max_gate`` metres, which keeps the joint events few with 20-50 people; ``max_events`` caps the
+    joint events of one cluster (the weakest pairs are pruned first).
+
+    Track rules: a feature no person explains (sum of its betas below ``birth_threshold``), with
+    P(person) >= ``birth_probability`` and P(moving) >= ``birth_moving`` (above the 0.5 of
+    "unknown": a feature must be seen to move) starts a tentative track; with a map and
+    ``birth_off_map``, any person feature off the map starts one too (the map is the static world,
+    so a person standing still is not taken for furniture); ``confirm_hits`` detections confirm
+    it; a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
+    after ``max_misses``, or when its samples spread beyond ``max_position_std`` (an occluded
+    person lost for good), or leave ``max_range`` of the robot.
+    Two tracks nearer than ``merge_distance`` are one person: the younger ends.
+    """
+
+    num_samples: int = 200
+    measurement_std: float = 0.08
+    single_leg_std: float = 0.15
+    detection_probability: float = 0.9
+    clutter_density: float = 0.02
+    gate_sigmas: float = 4.0
+    max_gate: float = 1.2
+    max_events: int = 5000
+    birth_threshold: float = 0.5
+    birth_probability: float = 0.3
+    birth_moving: float = 0.6
+    birth_off_map: bool = True
+    birth_position_std: float = 0.08
+    birth_velocity_std: float = 0.5
+    confirm_hits: int = 3
+    tentative_misses: int = 2
+    max_misses: int = 10
+    max_position_std: float = 1.0
+    max_range: float = 8.0
+    merge_distance: float = 0.25
+    max_dt: float = 1.0
+    walking: WalkingModel = field(default_factory=WalkingModel)
+    legs: LegConfig = field(default_factory=LegConfig)
+    occlusion: OcclusionConfig = field(default_factory=OcclusionConfig)
+    static: StaticConfig = field(default_factory=StaticConfig)
+
+
+@dataclass(frozen=True, slots=True)
+class Track:
+    """A person's track: the mean of its samples (Burgard et al. Sec. 4, Fig. 7), in the world frame.
+
+    ``covariance`` is the ``(4, 4)`` sample covariance of ``(x, y, vx, vy)``; ``occluded`` says the
+    person is currently hidden from the laser (its samples spreading out).
+    """
+
+    id: int
+    position: tuple[float, float]
+    velocity: tuple[float, float]
+    covariance: FloatArray
+    confirmed: bool
+    occluded: bool = False
+    hits: int = 0
+    age: int = 0
+
+
+@dataclass
+class _TrackState:
+    id: int
+    hits: int = 0
+    misses: int = 0
+    age: int = 0
+    confirmed: bool = False
+    occluded: bool = False
+
+
+@dataclass
+class _Association:
+    """What the correction step of one scan found: gated pairs, their betas, each person's beta_0."""
+
+    pair_track: NDArray[np.int64]
+    pair_feature: NDArray[np.int64]
+    likelihood: FloatArray
+    pair_beta: FloatArray
+    beta0: FloatArray
+    miss: FloatArray
+
+
+class PeopleTracker:
+    """The SJPDAF people tracker: feed scans with the robot's pose estimate, read the tracks."""
+
+    def __init__(
+        self,
+        config: SJPDAFConfig | None = None,
+        *,
+        grid_map: OccupancyGrid | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        self.config = config or SJPDAFConfig()
+        self.rng = rng or np.random.default_rng(0)
+        self.static = StaticFilter(self.config.static, grid_map)
+        self._samples = np.zeros((0, self.config.num_samples, 4))
+        self._states: list[_TrackState] = []
+        self._next_id = 1
+        self._time: float | None = None
+        self.last_legs = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
+        self.last_features = PersonFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64))
+
+    # --- the algorithm ----------------------------------------------------------------------------
+
+    def update(self, scan: Scan, robot_pose: FloatArray | tuple[float, float, float]) -> list[Track]:
+        """Integrate one scan taken at ``robot_pose`` (world frame); return all current tracks."""
+        pose = np.asarray(robot_pose, dtype=np.float64)
+        dt = self._advance_time(scan.timestamp)
+        features, moving = self._features(scan, pose)  # legs -> person features z_j(t), world frame
+        self._predict(dt)  # p(x_i^t | x_i^{t-1}, dt) for every sample
+        detect = self._detection_probability(scan, pose)  # P_D per sample, 0 where occluded
+        assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
+        self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
+        self._manage(assoc, features, moving, detect, pose)  # start, confirm, end tracks
+        return self.tracks()
+
+    def tracks(self) -> list[Track]:
+        """The current tracks (tentative ones too: check ``confirmed``)."""
+        s = self._samples
+        mean = s.mean(axis=1)
+        centred = s - mean[:, None, :]
+        cov = np.einsum("kni,knj->kij", centred, centred) / max(s.shape[1] - 1, 1)
+        return [
+            Track(
+                id=st.id,
+                position=(float(mean[k, 0]), float(mean[k, 1])),
+                velocity=(float(mean[k, 2]), float(mean[k, 3])),
+                covariance=cov[k],
+                confirmed=st.confirmed,
+                occluded=st.occluded,
+                hits=st.hits,
+                age=st.age,
+            )
+            for k, st in enumerate(self._states)
+        ]
+
+    def sample_sets(self) -> dict[int, FloatArray]:
+        """Each track's samples ``(N, 4)`` by id (for people-filtered mapping, Eq. 10)."""
+        return {st.id: self._samples[k].copy() for k, st in enumerate(self._states)}
+
+    # --- steps ------------------------------------------------------------------------------------
+
+    def _advance_time(self, t: float) -> float:
+        dt = 0.0 if self._time is None else float(np.clip(t - self._time, 0.0, self.config.max_dt))
+        self._time = t
+        return dt
+
+    def _features(self, scan: Scan, pose: FloatArray) -> tuple[PersonFeatures, FloatArray]:
+        cfg = self.config
+        legs = detect_legs(scan, cfg.legs)
+        sensor = compose(pose, np.asarray(scan.geometry.offset, dtype=np.float64))
+        persons = group_legs(legs, cfg.legs).transformed(sensor)
+        world_legs = LegFeatures(
+            np.asarray(compose(sensor, np.c_[legs.points, np.zeros(len(legs))])[:, :2])
+            if len(legs)
+            else legs.points,
+            legs.width,
+            legs.probability,
+        )
+        leg_moving = self.static.moving_probability(world_legs.points, scan, pose)
+        # A person moves when one of its legs does (the stance leg stands still while walking).
+        m = persons.members
+        moving = np.zeros(len(persons))
+        if len(persons):
+            second = np.where(m[:, 1] >= 0, leg_moving[np.maximum(m[:, 1], 0)], 0.0)
+            moving = np.maximum(leg_moving[m[:, 0]], second)
+        # Features on the map are furniture: drop them (Burgard et al. Sec. 4, static objects).
+        keep = ~self.static.on_map(persons.points)
+        persons = PersonFeatures(persons.points[keep], persons.probability[keep], persons.members[keep])
+        self.last_legs = world_legs
+        self.last_features = persons
+        return persons, moving[keep]
+
+    def _predict(self, dt: float) -> None:
+        if self._samples.shape[0] and dt > 0.0:
+            noise = self.config.walking.noise(self.rng, self._samples.shape[:2])
+            self._samples = predict_samples(self._samples, noise, dt, self.config.walking)
+
+    def _detection_probability(self, scan: Scan, pose: FloatArray) -> FloatArray:
+        K, N = self._samples.shape[:2]
+        if K == 0:
+            return np.zeros((0, N))
+        local = points_in_sensor_frame(self._samples[..., 0:2].reshape(-1, 2), pose, scan)
+        g = scan.geometry
+        occluded = occlusion_probability(
+            local, scan.ranges, g.angle_min, g.angle_increment, self.config.occlusion
+        )
+        return (self.config.detection_probability * (1.0 - occluded)).reshape(K, N)
+
+    def _associate(self, persons: PersonFeatures, detect: FloatArray) -> _Association:
+        cfg = self.config
+        features = persons.points
+        two_legs = persons.members[:, 1] >= 0
+        sigma = np.where(two_legs, cfg.measurement_std, cfg.single_leg_std)
+        K, N = self._samples.shape[:2]
+        M = features.shape[0]
+        miss = 1.0 - detect
+        beta0 = np.ones(K)
+        empty_i = np.zeros(0, dtype=np.int64)
+        if K == 0 or M == 0:
+            return _Association(empty_i, empty_i, np.zeros((0, N)), np.zeros(0), beta0, miss)
+        # Gating: a feature near enough to the person's sample mean, given the samples' spread.
+        mean = self._samples[..., 0:2].mean(axis=1)
+        var = self._samples[..., 0:2].var(axis=1).sum(axis=1)
+        gate = cfg.gate_sigmas * np.sqrt(var[:, None] + sigma[None, :] ** 2)
+        dist = np.linalg.norm(mean[:, None, :] - features[None, :, :], axis=-1)
+        pt, pf = np.nonzero(dist <= np.minimum(gate, cfg.max_gate))
+        # Eq. 8: p(z_j | x_i) = 1/N sum_n p(z_j | x_{i,n}), with P_D folded in.
+        lik = pair_likelihoods(self._samples, detect, features, pt, pf, sigma)
+        mean_lik = lik.mean(axis=1)
+        live = mean_lik > 1e-12
+        pt, pf, lik, mean_lik = pt[live], pf[live], lik[live], mean_lik[live]
+        q = miss.mean(axis=1)  # weight of "person i not detected"
+        # Independent clusters of persons and features, each with its own joint events (Eq. 6-7).
+        pair_beta, beta0 = cluster_betas(pt, pf, mean_lik / cfg.clutter_density, q, M, cfg.max_events)
+        return _Association(pt, pf, lik, pair_beta, beta0, miss)
+
+    def _correct(self, a: _Association) -> None:
+        K = self._samples.shape[0]
+        if K == 0:
+            return
+        w = sample_weights(a.likelihood, a.pair_track, a.pair_beta, a.miss, a.beta0)
+        idx = systematic_resample(w, self.rng.random(K))
+        self._samples = np.take_along_axis(self._samples, idx[:, :, None], axis=1)
+
+    def _manage(
+        self,
+        a: _Association,
+        features: PersonFeatures,
+        moving: FloatArray,
+        detect: FloatArray,
+        pose: FloatArray,
+    ) -> None:
+        cfg = self.config
+        K = len(self._states)
+        keep = np.ones(K, dtype=bool)
+        visible = detect.mean(axis=1) > 0.5 * cfg.detection_probability if K else np.zeros(0, dtype=bool)
+        spread = np.sqrt(self._samples[..., 0:2].var(axis=1).sum(axis=1)) if K else np.zeros(0)
+        mean = self._samples[..., 0:2].mean(axis=1) if K else np.zeros((0, 2))
+        far = np.linalg.norm(mean - pose[None, 0:2], axis=1) > cfg.max_range + 1.0
+        for k, st in enumerate(self._states):
+            st.age += 1
+            st.occluded = not bool(visible[k])
+            if a.beta0[k] < 0.5:
+                st.hits += 1
+                st.misses = 0
+            elif visible[k]:
+                st.misses += 1  # an occluded person is not missed: its samples just spread out
+            if st.hits >= cfg.confirm_hits:
+                st.confirmed = True
+            limit = cfg.max_misses if st.confirmed else cfg.tentative_misses
+            if st.misses >= limit or spread[k] > cfg.max_position_std or far[k]:
+                keep[k] = False
+        # Duplicates: two tracks on one person; the younger (fewer hits) ends.
+        if K > 1:
+            d = np.linalg.norm(mean[:, None] - mean[None, :], axis=-1)
+            for i, j in zip(*np.nonzero(np.triu(d < cfg.merge_distance, k=1)), strict=True):
+                if keep[i] and keep[j]:
+                    older = (self._states[i].hits, -i) >= (self._states[j].hits, -j)
+                    keep[j if older else i] = False
+        # Births: features no person explains, that look like a person and move.
+        M = len(features)
+        explained = np.zeros(M)
+        np.add.at(explained, a.pair_feature, a.pair_beta)
+        born = (explained < cfg.birth_threshold) & (features.probability >= cfg.birth_probability)
+        if not (cfg.birth_off_map and self.static.has_map):
+            born &= moving >= cfg.birth_moving
+        if K and M:
+            near = np.linalg.norm(mean[keep][:, None] - features.points[None], axis=-1) < cfg.merge_distance
+            born &= ~near.any(axis=0)
+        self._samples = self._samples[keep]
+        self._states = [st for st, k in zip(self._states, keep, strict=True) if k]
+        new = np.flatnonzero(born)
+        if new.size:
+            N = cfg.num_samples
+            s = np.empty((new.size, N, 4))
+            s[..., 0:2] = features.points[new][
+                :, None, :
+            ] + cfg.birth_position_std * self.rng.standard_normal((new.size, N, 2))
+            s[..., 2:4] = cfg.birth_velocity_std * self.rng.standard_normal((new.size, N, 2))
+            self._samples = np.concatenate([self._samples, s], axis=0)
+            for _ in range(new.size):
+                self._states.append(_TrackState(id=self._next_id, hits=1))
+                self._next_id += 1

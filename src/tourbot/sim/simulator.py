@@ -1,0 +1,267 @@
+"""The simulator: a tour-guide robot in a crowded exhibition site, as a drivable runtime source.
+
+Each :meth:`Simulator.poll` advances the world by ``dt``: the base follows its command within its
+limits (stopped by walls, doors, furniture and invisible obstacles, which count as collisions),
+the crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture
+change, the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the
+project's one ray caster against the world and the visitors' legs. It returns the odometry reading
+and the scan as records; the truth (robot, people, doors, furniture, collisions) is kept beside
+them for metrics only, and the whole sensor stream can be written as a CARMEN log.
+
+Deterministic for a seed: the crowd, the odometry, the laser and the objects each draw from their
+own generator spawned from one ``numpy.random.SeedSequence``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.records import Odometry, Record, RobotLog, Scan
+from tourbot.runtime.snapshot import GroundTruth, PersonState
+from tourbot.sim.crowd import Crowd, CrowdConfig
+from tourbot.sim.laser import LaserConfig, SimLaser
+from tourbot.sim.objects import DynamicObjects
+from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
+from tourbot.sim.robot import DiffDrive, DiffDriveConfig
+from tourbot.site.model import Site
+
+__all__ = ["Collisions", "SimConfig", "Simulator"]
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Everything the simulator needs besides the site; ``crowd=None`` means an empty museum."""
+
+    dt: float = 0.1
+    laser_rate: float = 10.0
+    robot: DiffDriveConfig = field(default_factory=DiffDriveConfig)
+    odometry: OdometryErrorConfig = field(default_factory=OdometryErrorConfig)
+    laser: LaserConfig = field(default_factory=LaserConfig)
+    crowd: CrowdConfig | None = None
+    dynamic_objects: bool = True
+    record: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.dt > 0 or not self.laser_rate > 0:
+            raise ValueError("SimConfig needs dt > 0 and laser_rate > 0")
+
+
+@dataclass
+class Collisions:
+    """Collision events (contacts starting), by what was hit."""
+
+    person: int = 0
+    invisible: int = 0
+    static: int = 0  # walls, doors, furniture
+
+    @property
+    def total(self) -> int:
+        return self.person + self.invisible + self.static
+
+
+class Simulator:
+    """A drivable source (``tourbot.runtime.interfaces.DrivableSource``) over a site."""
+
+    def __init__(
+        self,
+        site: Site,
+        config: SimConfig | None = None,
+        *,
+        seed: int = 0,
+        start: tuple[float, float, float] | None = None,
+    ) -> None:
+        self.site = site
+        self.config = cfg = config or SimConfig()
+        self.name = f"sim:{site.name}"
+        self.dt = cfg.dt
+        streams = np.random.SeedSequence(seed).spawn(4)
+        self._rng_crowd, self._rng_odom, self._rng_laser, self._rng_objects = (
+            np.random.default_rng(s) for s in streams
+        )
+        self.static = site.grid
+        if start is None:
+            start = site.exhibits[0].viewing_pose if site.exhibits else _some_free_pose(self.static)
+        self.robot = DiffDrive(cfg.robot, start)
+        self.odometry = OdometryError(cfg.odometry, start)
+        self.objects = DynamicObjects(site, self.static, self._rng_objects, enabled=cfg.dynamic_objects)
+        self._world = self.objects.grid()
+        self.laser = SimLaser(cfg.laser, self._world)
+        self._occupied = self._world.occupied()
+        self._invisible = site.invisible_mask(self.static)
+        self._footprint = _disc_offsets(cfg.robot.radius, self.static.resolution)
+        self.crowd: Crowd | None = None
+        if cfg.crowd is not None and cfg.crowd.num_people > 0:
+            crowd_cfg = cfg.crowd
+            if not crowd_cfg.points_of_interest and site.exhibits:
+                from dataclasses import replace
+
+                crowd_cfg = replace(crowd_cfg, points_of_interest=tuple(e.position for e in site.exhibits))
+            self.crowd = Crowd(crowd_cfg, self.static, self._rng_crowd, robot_pose=start)
+        self._legs: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+        self._time = 0.0
+        self._steps = 0
+        self._scan_every = max(1, round(1.0 / (cfg.laser_rate * cfg.dt)))
+        self.collisions = Collisions()
+        self._in_contact = {"person": False, "invisible": False, "static": False}
+        self.records: list[Record] = []
+        self.truth_poses: list[tuple[float, float, float]] = []
+        self.truth_times: list[float] = []
+        self.people_history: list[NDArray[np.float64]] = []
+
+    # -- DrivableSource ---------------------------------------------------------------------------
+
+    @property
+    def time(self) -> float:
+        return self._time
+
+    def command(self, speed: float, turn_rate: float) -> None:
+        self.robot.command(speed, turn_rate)
+
+    def poll(self) -> Sequence[Record] | None:
+        """Advance one step; the odometry reading and, at the laser rate, a scan."""
+        dt = self.dt
+        before = self.robot.pose
+        self._move_robot(dt)
+        self._time += dt
+        self._steps += 1
+        self._legs = None
+        if self.crowd is not None:
+            self.crowd.step(dt, self.robot.pose, self._rng_crowd)
+        self._check_people()
+        if self.objects.step(self._time, dt, self._rng_objects):
+            self._world = self.objects.grid()
+            self.laser.set_world(self._world)
+            self._occupied = self._world.occupied()
+        odom_pose = self.odometry.step(before, self.robot.pose, self._rng_odom)
+        out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
+        if self._steps % self._scan_every == 0:
+            centres, radii = self.legs()
+            ranges = self.laser.scan(self.robot.pose, centres, radii, self._rng_laser)
+            out.append(
+                Scan(self._time, ranges, self.laser.geometry, odom=odom_pose, reference=self.robot.pose)
+            )
+            if self.config.record:
+                self.truth_times.append(self._time)
+                self.truth_poses.append(self.robot.pose)
+                self.people_history.append(self.people_positions())
+        if self.config.record:
+            self.records.extend(out)
+        return out
+
+    def truth(self) -> GroundTruth:
+        pos = self.people_positions()
+        vel = self.crowd.velocities if self.crowd is not None else np.zeros((0, 2))
+        people = tuple(
+            PersonState(i, float(p[0]), float(p[1]), float(v[0]), float(v[1]))
+            for i, (p, v) in enumerate(zip(pos, vel, strict=True))
+        )
+        return GroundTruth(
+            pose=self.robot.pose,
+            people=people,
+            doors=self.objects.door_states(),
+            furniture=self.objects.furniture_states(),
+            collisions=self.collisions.person + self.collisions.invisible,
+        )
+
+    # -- views ------------------------------------------------------------------------------------
+
+    def legs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """What the laser sees besides the grid: people's legs, then the door leaves, as circles."""
+        doors, door_r = self.objects.door_circles()
+        if self.crowd is None:
+            return doors, door_r
+        c, r = self._crowd_circles()
+        return np.vstack([c, doors]), np.concatenate([r, door_r])
+
+    def _crowd_circles(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        assert self.crowd is not None
+        if self._legs is None:
+            self._legs = self.crowd.circles()
+        return self._legs
+
+    def people_positions(self) -> NDArray[np.float64]:
+        return self.crowd.positions.copy() if self.crowd is not None else np.zeros((0, 2))
+
+    @property
+    def world(self) -> OccupancyGrid:
+        """The static grid with doors and furniture at their current states."""
+        return self._world
+
+    def to_robot_log(self) -> RobotLog:
+        """The recorded sensor stream (``config.record``), scans carrying the true pose as reference."""
+        log = RobotLog(source=self.name)
+        for r in self.records:
+            if isinstance(r, Scan):
+                log.scans.append(r)
+            else:
+                log.odometry.append(r)
+        return log
+
+    # -- internals --------------------------------------------------------------------------------
+
+    def _move_robot(self, dt: float) -> None:
+        pose, v, w = self.robot.propose(dt)
+        radius = self.config.robot.radius
+        doors, door_r = self.objects.door_circles()
+        hit_door = bool(
+            len(door_r) and (np.hypot(doors[:, 0] - pose[0], doors[:, 1] - pose[1]) - door_r).min() < radius
+        )
+        hit_static = hit_door or _covers(self._occupied, self.static, pose, self._footprint)
+        hit_invisible = _covers(self._invisible, self.static, pose, self._footprint)
+        self._contact("static", hit_static)
+        self._contact("invisible", hit_invisible)
+        if hit_static or hit_invisible:
+            # a bump: the base stops where it was (its bumper halts it)
+            self.robot.halt()
+        else:
+            self.robot.apply(pose, v, w)
+
+    def _check_people(self) -> None:
+        if self.crowd is None:
+            self._contact("person", False)
+            return
+        centres, radii = self._crowd_circles()
+        x, y, _ = self.robot.pose
+        d = np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radii
+        self._contact("person", bool(d.size and d.min() < self.config.robot.radius))
+
+    def _contact(self, kind: str, now: bool) -> None:
+        if now and not self._in_contact[kind]:
+            setattr(self.collisions, kind, getattr(self.collisions, kind) + 1)
+        self._in_contact[kind] = now
+
+
+def _disc_offsets(radius: float, resolution: float) -> NDArray[np.int64]:
+    """``(row, col)`` offsets of the cells whose centres lie within ``radius`` of a cell's centre."""
+    k = math.ceil(radius / resolution)
+    rr, cc = np.mgrid[-k : k + 1, -k : k + 1]
+    inside = np.hypot(rr, cc) * resolution <= radius
+    return np.stack([rr[inside], cc[inside]], axis=-1).astype(np.int64)
+
+
+def _covers(
+    mask: NDArray[np.bool_], grid: OccupancyGrid, pose: tuple[float, float, float], disc: NDArray[np.int64]
+) -> bool:
+    """Whether the robot's footprint at ``pose`` covers a ``True`` cell of ``mask``."""
+    ox, oy, oth = grid.origin
+    c, s = math.cos(oth), math.sin(oth)
+    dx, dy = pose[0] - ox, pose[1] - oy
+    col = math.floor((c * dx + s * dy) / grid.resolution)
+    row = math.floor((-s * dx + c * dy) / grid.resolution)
+    rc = disc + np.array([row, col])
+    ok = (rc[:, 0] >= 0) & (rc[:, 0] < mask.shape[0]) & (rc[:, 1] >= 0) & (rc[:, 1] < mask.shape[1])
+    return bool(mask[rc[ok, 0], rc[ok, 1]].any())
+
+
+def _some_free_pose(grid: OccupancyGrid) -> tuple[float, float, float]:
+    d = ndimage.distance_transform_edt(grid.free())
+    r, c = np.unravel_index(int(np.argmax(d)), d.shape)
+    x, y = grid.cell_to_world(np.array([r, c]))
+    return (float(x), float(y), 0.0)

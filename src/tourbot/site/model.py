@@ -1,0 +1,311 @@
+"""The object-based world model of an exhibition site, read from one YAML file.
+
+A site is the static map (a ROS map_server occupancy grid and/or wall polygons), the exhibits
+(name, position, viewing pose, short text), tours (ordered exhibits), doors (hinge, leaf length,
+opening angle), movable furniture (outline and pose), obstacles the laser cannot see (glass cases,
+low tables: outline and height range) and ceiling lights (3D positions): the object-based model of
+Schulz and Burgard (2001, Sec. 3) and the exhibit/tour database of Burgard et al. (tele-presence).
+
+Units: metres and radians, world frame of the map. Paths in the file are relative to the file.
+A wrong file raises :class:`SiteError` naming the file and the field (``exhibits[3].viewing_pose``).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from tourbot.errors import InputError
+from tourbot.maps.grid import OccupancyGrid
+
+__all__ = [
+    "CeilingLight",
+    "Door",
+    "Exhibit",
+    "Furniture",
+    "InvisibleObstacle",
+    "MapSpec",
+    "Schedule",
+    "Site",
+    "SiteError",
+    "Tour",
+    "load_site",
+]
+
+Point = tuple[float, float]
+Pose = tuple[float, float, float]
+Polygon = Annotated[list[Point], Field(min_length=3)]
+
+
+class SiteError(InputError):
+    """A site file that is missing, malformed or inconsistent; names the file and the field."""
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class MapSpec(_Model):
+    """The static map: a ROS map_server YAML (``grid``) and/or wall polygons (``walls``).
+
+    With walls only, the grid is rasterised at ``resolution`` over the walls' bounding box plus
+    ``margin``; with both, the walls are drawn into the loaded grid.
+    """
+
+    grid: str | None = None
+    walls: list[Polygon] = []
+    resolution: float = Field(default=0.05, gt=0)
+    margin: float = Field(default=1.0, ge=0)
+
+    @model_validator(mode="after")
+    def _needs_something(self) -> MapSpec:
+        if self.grid is None and not self.walls:
+            raise ValueError("a map needs a grid file, wall polygons, or both")
+        return self
+
+
+class Exhibit(_Model):
+    """A thing to show: where it stands, where the robot stops to present it, what it says."""
+
+    name: str = Field(min_length=1)
+    position: Point
+    viewing_pose: Pose
+    text: str = ""
+    dwell: float = Field(default=10.0, ge=0, description="seconds the robot stays to present it")
+
+
+class Tour(_Model):
+    """An ordered list of exhibit names."""
+
+    name: str = Field(min_length=1)
+    exhibits: list[str] = Field(min_length=1)
+    description: str = ""
+
+
+class Schedule(_Model):
+    """When a door or a piece of furniture changes.
+
+    ``period``: seconds between changes; ``random``: draw the change times from an exponential
+    distribution of that mean instead of a fixed period (seeded by the simulator).
+    """
+
+    period: float = Field(default=60.0, gt=0)
+    random: bool = False
+    start_open: bool = True
+
+
+class Door(_Model):
+    """A door leaf of ``leaf_length`` turning about ``hinge``.
+
+    ``closed_direction`` is the direction (rad, world) of the leaf when closed and
+    ``opening_angle`` the signed angle it turns through to be fully open.
+    """
+
+    name: str = Field(min_length=1)
+    hinge: Point
+    leaf_length: float = Field(gt=0)
+    closed_direction: float
+    opening_angle: float = math.pi / 2
+    thickness: float = Field(default=0.05, gt=0)
+    schedule: Schedule = Schedule()
+
+    def leaf(self, open_fraction: float) -> tuple[Point, Point]:
+        """The leaf's two end points at ``open_fraction`` in [0, 1]."""
+        a = self.closed_direction + open_fraction * self.opening_angle
+        x0, y0 = self.hinge
+        return (x0, y0), (x0 + self.leaf_length * math.cos(a), y0 + self.leaf_length * math.sin(a))
+
+
+class Furniture(_Model):
+    """A movable object: ``outline`` in its own frame, and the poses it is moved between."""
+
+    name: str = Field(min_length=1)
+    outline: Polygon
+    poses: list[Pose] = Field(min_length=1)
+    schedule: Schedule = Schedule(period=120.0)
+
+    def polygon(self, pose: Pose) -> list[Point]:
+        """The outline placed at ``pose`` (world)."""
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        return [(pose[0] + c * x - s * y, pose[1] + s * x + c * y) for x, y in self.outline]
+
+
+class InvisibleObstacle(_Model):
+    """An obstacle the laser does not see (glass case, low table): world outline and height range."""
+
+    name: str = Field(min_length=1)
+    outline: Polygon
+    height: tuple[float, float] = (0.0, 0.3)
+
+    @field_validator("height")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float]) -> tuple[float, float]:
+        if v[0] > v[1]:
+            raise ValueError("height must be (low, high) with low <= high")
+        return v
+
+
+class CeilingLight(_Model):
+    """A ceiling light at ``position`` (x, y, z) in metres."""
+
+    position: tuple[float, float, float]
+
+
+class Site(_Model):
+    """A whole exhibition site; ``base_dir`` is the folder its relative paths start from."""
+
+    name: str = Field(min_length=1)
+    description: str = ""
+    map: MapSpec
+    exhibits: list[Exhibit] = []
+    tours: list[Tour] = []
+    doors: list[Door] = []
+    furniture: list[Furniture] = []
+    invisible_obstacles: list[InvisibleObstacle] = []
+    ceiling_lights: list[CeilingLight] = []
+    base_dir: Path = Field(default=Path("."), exclude=True)
+
+    model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Site:
+        _unique("exhibits", [e.name for e in self.exhibits])
+        _unique("tours", [t.name for t in self.tours])
+        _unique("doors", [d.name for d in self.doors])
+        _unique("furniture", [f.name for f in self.furniture])
+        known = {e.name for e in self.exhibits}
+        for i, tour in enumerate(self.tours):
+            for j, name in enumerate(tour.exhibits):
+                if name not in known:
+                    raise _FieldError(f"tours.{i}.exhibits.{j}", f"unknown exhibit {name!r}")
+        return self
+
+    def exhibit(self, name: str) -> Exhibit:
+        for e in self.exhibits:
+            if e.name == name:
+                return e
+        raise SiteError(f"no exhibit named {name!r} in site {self.name!r}", field="exhibits")
+
+    def tour(self, name: str) -> Tour:
+        for t in self.tours:
+            if t.name == name:
+                return t
+        names = ", ".join(t.name for t in self.tours) or "none"
+        raise SiteError(f"no tour named {name!r} in site {self.name!r} (tours: {names})", field="tours")
+
+    @cached_property
+    def grid(self) -> OccupancyGrid:
+        """The static occupancy grid: the map file with the walls drawn in (cached)."""
+        return _static_grid(self)
+
+    def invisible_mask(self, grid: OccupancyGrid | None = None) -> np.ndarray:
+        """Cells of ``grid`` (default: the static grid) covered by invisible obstacles."""
+        g = grid or self.grid
+        return rasterize_polygons(g, [o.outline for o in self.invisible_obstacles])
+
+
+class _FieldError(ValueError):
+    def __init__(self, field: str, message: str) -> None:
+        super().__init__(message)
+        self.field = field
+
+
+def _unique(section: str, names: list[str]) -> None:
+    seen: set[str] = set()
+    for i, n in enumerate(names):
+        if n in seen:
+            raise _FieldError(f"{section}.{i}.name", f"duplicate name {n!r}")
+        seen.add(n)
+
+
+def load_site(path: str | Path) -> Site:
+    """Read and validate a site file; errors name the file and the field."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "site.yaml"
+    try:
+        text = p.read_text()
+    except OSError as exc:
+        raise SiteError(f"cannot read the site file: {exc.strerror or exc}", path=p) from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = None if mark is None else mark.line + 1
+        raise SiteError(f"not valid YAML: {getattr(exc, 'problem', exc)}", path=p, line=line) from exc
+    if not isinstance(data, dict):
+        raise SiteError("a site file must be a mapping with at least 'name' and 'map'", path=p)
+    return site_from_dict(data, base_dir=p.parent, path=p)
+
+
+def site_from_dict(data: dict[str, Any], *, base_dir: Path, path: Path | None = None) -> Site:
+    """Validate a site given as plain data (``path`` only for the error messages)."""
+    try:
+        return Site.model_validate({**data, "base_dir": base_dir})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        loc = ".".join(str(x) for x in err["loc"])
+        ctx_err = (err.get("ctx") or {}).get("error")
+        if isinstance(ctx_err, _FieldError):
+            loc = ctx_err.field
+        msg = err["msg"].removeprefix("Value error, ")
+        more = f" (and {len(exc.errors()) - 1} more)" if len(exc.errors()) > 1 else ""
+        raise SiteError(msg + more, path=path, field=loc or None) from exc
+
+
+def _static_grid(site: Site) -> OccupancyGrid:
+    spec = site.map
+    if spec.grid is not None:
+        from tourbot.io.mapserver import read_map
+
+        grid = read_map(site.base_dir / spec.grid)
+    else:
+        pts = np.array([p for poly in spec.walls for p in poly], dtype=np.float64)
+        lo = pts.min(axis=0) - spec.margin
+        hi = pts.max(axis=0) + spec.margin
+        cols = max(1, math.ceil((hi[0] - lo[0]) / spec.resolution))
+        rows = max(1, math.ceil((hi[1] - lo[1]) / spec.resolution))
+        grid = OccupancyGrid(
+            np.zeros((rows, cols), dtype=np.float32), spec.resolution, (float(lo[0]), float(lo[1]), 0.0)
+        )
+    if spec.walls:
+        mask = rasterize_polygons(grid, spec.walls, outline_only=True)
+        prob = grid.prob.copy()
+        prob[mask] = 1.0
+        grid = OccupancyGrid(prob, grid.resolution, grid.origin, grid.occupied_thresh, grid.free_thresh)
+    return grid
+
+
+def rasterize_polygons(
+    grid: OccupancyGrid, polygons: list[list[Point]], *, outline_only: bool = False
+) -> np.ndarray:
+    """Boolean mask of the cells of ``grid`` covered by ``polygons`` (world points).
+
+    ``outline_only`` draws only the edges, one cell thick (walls given as closed polylines).
+    """
+    import cv2
+
+    mask = np.zeros(grid.shape, dtype=np.uint8)
+    for poly in polygons:
+        rc = _world_to_fcells(grid, np.asarray(poly, dtype=np.float64))
+        pts = np.round(rc[:, ::-1] * 16).astype(np.int32).reshape(-1, 1, 2)  # (col, row), 4 fraction bits
+        if outline_only:
+            cv2.polylines(mask, [pts], isClosed=True, color=1, thickness=1, shift=4)
+        else:
+            cv2.fillPoly(mask, [pts], color=1, shift=4)
+            cv2.polylines(mask, [pts], isClosed=True, color=1, thickness=1, shift=4)
+    return mask.astype(bool)
+
+
+def _world_to_fcells(grid: OccupancyGrid, pts: np.ndarray) -> np.ndarray:
+    """Continuous (row, col) coordinates of world points, cell centres at half-integers minus 0.5."""
+    from tourbot.geometry import invert, transform_points
+
+    local = transform_points(invert(grid.origin), pts) / grid.resolution - 0.5
+    return np.stack([local[:, 1], local[:, 0]], axis=-1)

@@ -1,0 +1,683 @@
+"""The tele-presence server (Burgard et al., section 6): ``create_app`` builds it.
+
+* ``/`` the remote visitor page: tours and exhibits, exhibit information, status messages, the
+  live 2D floor plan and the 3D view, control slots;
+* ``/onboard`` the robot's own touch screen (reached from the robot itself, or by staff);
+* ``/admin`` staff authoring: exhibits, tours, placing them on the map, statistics, staff stop;
+* ``/ws/{robot}`` the live stream (binary, :mod:`tourbot.web.stream`) and the commands (JSON,
+  :mod:`tourbot.web.guard`), one connection per page.
+
+A session is a random token in an HttpOnly cookie; the server keeps only its hash. Only the slot
+holder's commands move a robot, checked here on the server, never in the page.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import hashlib
+import io
+import json
+import math
+import re
+import time
+from collections.abc import AsyncIterator, Mapping
+from contextlib import asynccontextmanager, suppress
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
+from pydantic import BaseModel, ConfigDict, Field
+from starlette.websockets import WebSocketState
+
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.web.db import Database, DatabaseError
+from tourbot.web.face import FaceConfig
+from tourbot.web.guard import (
+    Book,
+    CommandError,
+    GoTo,
+    GoToExhibit,
+    GuardConfig,
+    Leave,
+    Ping,
+    Say,
+    StartTour,
+    Stop,
+    TokenBucket,
+    origin_allowed,
+    parse_command,
+)
+from tourbot.web.hub import RobotHub
+from tourbot.web.link import RobotLink
+from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
+from tourbot.web.slots import SlotConfig
+from tourbot.web.speech import Speaker, SpeechConfig
+from tourbot.web.stream import StreamConfig, StreamEncoder
+
+__all__ = ["WebConfig", "create_app", "find_node_modules"]
+
+STATIC = Path(__file__).with_name("static")
+COOKIE = "tourbot_session"
+_SPEECH_NAME = re.compile(r"^[0-9a-f]{24}\.wav$")
+_IMPORTMAP = re.compile(r'<script type="importmap">(.*?)</script>', re.DOTALL)
+
+
+def find_node_modules(start: Path | None = None) -> Path | None:
+    """``node_modules`` of the checkout (holding three.js), searched upwards from ``start``."""
+    for base in (start or Path.cwd(), Path(__file__).resolve()):
+        for parent in [base, *base.parents]:
+            candidate = parent / "node_modules"
+            if (candidate / "three" / "build" / "three.module.js").is_file():
+                return candidate
+    return None
+
+
+@dataclass(frozen=True)
+class WebConfig:
+    """Everything the server can be told, with the paper's values where it gives them."""
+
+    site_name: str = "the museum"
+    slots: SlotConfig = field(default_factory=SlotConfig)
+    stream: StreamConfig = field(default_factory=StreamConfig)
+    guard: GuardConfig = field(default_factory=GuardConfig)
+    face: FaceConfig = field(default_factory=FaceConfig)
+    speech: SpeechConfig = field(default_factory=SpeechConfig)
+    speech_dir: Path = Path("tourbot-speech")
+    node_modules: Path | None = None
+    allowed_origins: tuple[str, ...] = ()
+    onboard_hosts: tuple[str, ...] = ("127.0.0.1", "::1", "localhost")
+    login_attempts_per_minute: int = 6
+    drive_robots: bool = True
+
+
+@dataclass
+class _Client:
+    session: int
+    kind: str
+    staff: bool
+
+
+class _Login(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    username: Annotated[str, Field(min_length=1, max_length=64)]
+    password: Annotated[str, Field(min_length=1, max_length=200)]
+
+
+class _Link(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    url: Annotated[str, Field(min_length=1, max_length=1000, pattern=r"^(https?://|/)")]
+    caption: Annotated[str, Field(max_length=400)] = ""
+
+
+class _ExhibitIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    slug: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[a-z0-9][a-z0-9_-]*$")]
+    name: Annotated[str, Field(min_length=1, max_length=200)]
+    text: Annotated[str, Field(max_length=20000)] = ""
+    summary: Annotated[str, Field(max_length=400)] = ""
+    x: Annotated[float, Field(ge=-1e4, le=1e4)]
+    y: Annotated[float, Field(ge=-1e4, le=1e4)]
+    theta: Annotated[float, Field(ge=-10, le=10)] = 0.0
+    pictures: Annotated[list[_Link], Field(max_length=20)] = []
+    links: Annotated[list[_Link], Field(max_length=20)] = []
+
+
+class _Place(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    x: Annotated[float, Field(ge=-1e4, le=1e4)]
+    y: Annotated[float, Field(ge=-1e4, le=1e4)]
+    theta: Annotated[float, Field(ge=-10, le=10)] | None = None
+
+
+class _TourIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    slug: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[a-z0-9][a-z0-9_-]*$")]
+    name: Annotated[str, Field(min_length=1, max_length=200)]
+    description: Annotated[str, Field(max_length=4000)] = ""
+    exhibits: Annotated[list[str], Field(max_length=100)]
+
+
+def _staff(request: Request) -> _Client:
+    """The logged-in staff member making ``request``; 401 otherwise (a FastAPI dependency)."""
+    client = request.app.state.lookup(request.cookies.get(COOKIE))
+    if client is None or not client.staff:
+        raise HTTPException(401, "staff login required")
+    return client
+
+
+Staff = Annotated[_Client, Depends(_staff)]
+
+
+def _policy(html: str) -> str:
+    """Content security policy: our own scripts only, plus the page's inline import map by hash."""
+    hashes = [
+        "'sha256-" + base64.b64encode(hashlib.sha256(m.encode()).digest()).decode() + "'"
+        for m in _IMPORTMAP.findall(html)
+    ]
+    return (
+        "default-src 'self'; img-src 'self' data: blob: https:; media-src 'self' blob:; "
+        f"connect-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self' {' '.join(hashes)}"
+    ).strip()
+
+
+def _map_png(grid: OccupancyGrid) -> bytes:
+    """The floor plan, north up: free white, occupied black, unknown grey."""
+    from PIL import Image
+
+    prob = grid.prob
+    shade = np.where(prob < 0, 205, 255 - np.clip(prob, 0, 1) * 255).astype(np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(shade[::-1]).save(buffer, format="PNG", optimize=True)
+    return buffer.getvalue()
+
+
+def _walls(grid: OccupancyGrid) -> list[list[int]]:
+    """Occupied cells merged into horizontal runs ``[col0, row, col1]`` (col1 exclusive)."""
+    runs: list[list[int]] = []
+    occupied = grid.occupied()
+    for row in range(occupied.shape[0]):
+        line = np.concatenate([[False], occupied[row], [False]]).astype(np.int8)
+        edges = np.flatnonzero(np.diff(line))
+        runs.extend([int(a), row, int(b)] for a, b in zip(edges[::2], edges[1::2], strict=True))
+    return runs
+
+
+def create_app(
+    robots: Mapping[str, RobotLink],
+    db: Database,
+    grid: OccupancyGrid | None = None,
+    config: WebConfig | None = None,
+) -> FastAPI:
+    """The server for ``robots`` (name -> link) with the site content of ``db`` on map ``grid``."""
+    cfg = config or WebConfig()
+    if not robots:
+        raise DatabaseError("the server needs at least one robot")
+    speaker = Speaker(cfg.speech_dir, cfg.speech)
+
+    def speak(text: str) -> str | None:
+        path = speaker.say(text)
+        return None if path is None else path.name
+
+    hubs = {
+        name: RobotHub(
+            name,
+            link,
+            db,
+            db.robot_id(name, cfg.site_name),
+            cfg.slots,
+            cfg.face,
+            cfg.stream.rate_hz,
+            speak,
+            cfg.drive_robots,
+        )
+        for name, link in robots.items()
+    }
+    map_png = _map_png(grid) if grid is not None else None
+    walls = _walls(grid) if grid is not None else []
+    buckets: dict[int, TokenBucket] = {}
+    login_buckets: dict[str, TokenBucket] = {}
+    sessions: dict[str, _Client] = {}
+
+    @asynccontextmanager
+    async def lifespan(_: FastAPI) -> AsyncIterator[None]:
+        for hub in hubs.values():
+            await hub.start()
+        yield
+        for hub in hubs.values():
+            await hub.close()
+
+    app = FastAPI(title="tourbot", lifespan=lifespan, docs_url=None, redoc_url=None, openapi_url=None)
+    app.state.hubs = hubs
+    app.state.db = db
+    app.state.config = cfg
+
+    # --- sessions ------------------------------------------------------------------------
+    def lookup(token: str | None) -> _Client | None:
+        if not token or len(token) > 100:
+            return None
+        if token in sessions:
+            return sessions[token]
+        found = db.session_for(token)
+        if found is None:
+            return None
+        client = _Client(found[0], found[1], found[2] is not None)
+        sessions[token] = client
+        return client
+
+    app.state.lookup = lookup
+
+    def ensure_session(request: Request, response: Response, kind: str = "web") -> _Client:
+        client = lookup(request.cookies.get(COOKIE))
+        if client is None:
+            token, sid = db.new_session(kind)
+            client = _Client(sid, kind, False)
+            sessions[token] = client
+            response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+        return client
+
+    def is_onboard(host: str | None, client: _Client | None) -> bool:
+        return host in cfg.onboard_hosts or (client is not None and client.staff)
+
+    def hub_for(name: str) -> RobotHub:
+        if name not in hubs:
+            raise HTTPException(404, f"no robot {name!r}")
+        return hubs[name]
+
+    # --- pages ---------------------------------------------------------------------------
+    def page(name: str, request: Request, kind: str = "web") -> HTMLResponse:
+        html = (STATIC / name).read_text()
+        response = HTMLResponse(html)
+        ensure_session(request, response, kind)
+        response.headers["Content-Security-Policy"] = _policy(html)
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers["Referrer-Policy"] = "same-origin"
+        return response
+
+    @app.get("/", response_class=HTMLResponse)
+    def visitor_page(request: Request) -> HTMLResponse:
+        return page("visitor.html", request)
+
+    @app.get("/onboard", response_class=HTMLResponse)
+    def onboard_page(request: Request) -> HTMLResponse:
+        client = lookup(request.cookies.get(COOKIE))
+        host = request.client.host if request.client else None
+        if not is_onboard(host, client):
+            raise HTTPException(403, "the on-board screen is served to the robot itself or to staff")
+        return page("onboard.html", request, "onboard")
+
+    @app.get("/admin", response_class=HTMLResponse)
+    def admin_page(request: Request) -> HTMLResponse:
+        return page("admin.html", request)
+
+    app.mount("/static", StaticFiles(directory=STATIC), name="static")
+    modules = cfg.node_modules or find_node_modules()
+    if modules is not None:
+        app.mount("/vendor/three", StaticFiles(directory=modules / "three"), name="three")
+
+    @app.get("/speech/{name}")
+    def speech_file(name: str) -> FileResponse:
+        if not _SPEECH_NAME.match(name) or not (cfg.speech_dir / name).is_file():
+            raise HTTPException(404, "no such speech file")
+        return FileResponse(cfg.speech_dir / name, media_type="audio/wav")
+
+    # --- site content --------------------------------------------------------------------
+    @app.get("/api/session")
+    def api_session(request: Request, response: Response) -> dict[str, Any]:
+        client = ensure_session(request, response)
+        return {"session": client.session, "staff": client.staff}
+
+    @app.get("/api/site")
+    def api_site() -> dict[str, Any]:
+        return {
+            "name": cfg.site_name,
+            "robots": list(hubs),
+            "exhibits": [e.as_dict() for e in db.exhibits()],
+            "tours": [t.as_dict() for t in db.tours()],
+            "slot_length": cfg.slots.slot_length,
+            "stream": {
+                "rate_hz": cfg.stream.rate_hz,
+                "position_quantum": cfg.stream.position_quantum,
+                "velocity_quantum": cfg.stream.velocity_quantum,
+                "turn_quantum": cfg.stream.turn_quantum,
+                "time_quantum": cfg.stream.time_quantum,
+            },
+            "map": None
+            if grid is None
+            else {
+                "resolution": grid.resolution,
+                "origin": list(grid.origin),
+                "rows": grid.shape[0],
+                "cols": grid.shape[1],
+            },
+            "three": modules is not None,
+        }
+
+    @app.get("/api/exhibits/{slug}")
+    def api_exhibit(slug: str) -> dict[str, object]:
+        try:
+            return db.exhibit(slug).as_dict()
+        except DatabaseError as exc:
+            raise HTTPException(404, str(exc)) from None
+
+    @app.get("/api/map.png")
+    def api_map_png() -> Response:
+        if map_png is None:
+            raise HTTPException(404, "this site has no map")
+        return Response(map_png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
+
+    @app.get("/api/walls")
+    def api_walls() -> dict[str, Any]:
+        return {"runs": walls}
+
+    # --- staff ---------------------------------------------------------------------------
+    @app.post("/api/login")
+    def api_login(request: Request, body: _Login) -> JSONResponse:
+        host = request.client.host if request.client else "?"
+        bucket = login_buckets.setdefault(host, TokenBucket(cfg.login_attempts_per_minute / 60.0, 3))
+        if not bucket.allow(time.monotonic()):
+            raise HTTPException(429, "too many login attempts; wait a minute")
+        user = db.check_staff(body.username, body.password)
+        if user is None:
+            raise HTTPException(401, "wrong user name or password")
+        token, sid = db.new_session("staff", user)
+        sessions[token] = _Client(sid, "staff", True)
+        response = JSONResponse({"ok": True, "user": body.username})
+        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+        return response
+
+    @app.post("/api/logout")
+    def api_logout(request: Request) -> JSONResponse:
+        token = request.cookies.get(COOKIE)
+        if token:
+            sessions.pop(token, None)
+            db.end_session(token)
+        response = JSONResponse({"ok": True})
+        response.delete_cookie(COOKIE, path="/")
+        return response
+
+    @app.post("/api/admin/exhibits")
+    def admin_save_exhibit(_: Staff, body: _ExhibitIn) -> dict[str, object]:
+        saved = db.save_exhibit(
+            body.slug,
+            body.name,
+            x=body.x,
+            y=body.y,
+            theta=body.theta,
+            text=body.text,
+            summary=body.summary,
+            pictures=[(p.url, p.caption) for p in body.pictures],
+            links=[(p.url, p.caption) for p in body.links],
+        )
+        return saved.as_dict()
+
+    @app.post("/api/admin/exhibits/{slug}/place")
+    def admin_place_exhibit(_: Staff, slug: str, body: _Place) -> dict[str, object]:
+        try:
+            return db.place_exhibit(slug, body.x, body.y, body.theta).as_dict()
+        except DatabaseError as exc:
+            raise HTTPException(404, str(exc)) from None
+
+    @app.delete("/api/admin/exhibits/{slug}")
+    def admin_delete_exhibit(_: Staff, slug: str) -> dict[str, bool]:
+        try:
+            db.delete_exhibit(slug)
+        except DatabaseError as exc:
+            raise HTTPException(404, str(exc)) from None
+        return {"ok": True}
+
+    @app.post("/api/admin/tours")
+    def admin_save_tour(_: Staff, body: _TourIn) -> dict[str, object]:
+        try:
+            return db.save_tour(body.slug, body.name, body.exhibits, body.description).as_dict()
+        except DatabaseError as exc:
+            raise HTTPException(422, str(exc)) from None
+
+    @app.delete("/api/admin/tours/{slug}")
+    def admin_delete_tour(_: Staff, slug: str) -> dict[str, bool]:
+        try:
+            db.delete_tour(slug)
+        except DatabaseError as exc:
+            raise HTTPException(404, str(exc)) from None
+        return {"ok": True}
+
+    @app.get("/api/admin/stats")
+    def admin_stats(_: Staff) -> dict[str, Any]:
+        bookings = db.bookings()
+        return {
+            "visits": db.visit_counts(),
+            "bookings": len(bookings),
+            "control_seconds": sum((b[3] or time.time()) - b[2] for b in bookings),
+        }
+
+    @app.post("/api/robots/{name}/staff-stop")
+    async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
+        hub = hub_for(name)
+        hub.arbiter.staff_stop()
+        hub.command(lambda link: link.stop())
+        await hub.announce("Stopped by staff.")
+        return {"ok": True}
+
+    @app.post("/api/robots/{name}/staff-release")
+    async def staff_release(_: Staff, name: str) -> dict[str, bool]:
+        hub = hub_for(name)
+        hub.arbiter.staff_release()
+        await hub.slot_changed()
+        return {"ok": True}
+
+    # --- live stream and commands ----------------------------------------------------------
+    @app.websocket("/ws/{name}")
+    async def live(ws: WebSocket, name: str) -> None:
+        if not origin_allowed(ws.headers.get("origin"), ws.headers.get("host"), cfg.allowed_origins):
+            await ws.close(code=1008, reason="origin not allowed")
+            return
+        client = await asyncio.to_thread(lookup, ws.cookies.get(COOKIE))
+        if client is None:
+            await ws.close(code=1008, reason="no session: load the page first")
+            return
+        if name not in hubs:
+            await ws.close(code=1008, reason=f"no robot {name!r}")
+            return
+        hub = hubs[name]
+        host = ws.client.host if ws.client else None
+        onboard = ws.query_params.get("screen") == "onboard"
+        if onboard and not is_onboard(host, client):
+            await ws.close(code=1008, reason="the on-board screen is for the robot itself")
+            return
+        await ws.accept()
+        await hub.connect(client.session)
+        phrasebook = _phrasebook(hub, cfg, db) if onboard else None
+        sender = asyncio.create_task(_send_loop(ws, hub, client, cfg, onboard))
+        try:
+            await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
+            await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook)
+        except WebSocketDisconnect:
+            pass
+        finally:
+            sender.cancel()
+            with suppress(asyncio.CancelledError, Exception):
+                await sender
+            await hub.disconnect(client.session)
+
+    return app
+
+
+def _phrasebook(hub: RobotHub, cfg: WebConfig, db: Database) -> PhraseBook:
+    return PhraseBook(
+        robot=hub.name.capitalize(),
+        site=cfg.site_name,
+        tours=[t.name for t in db.tours()],
+        exhibits={e.slug: e.name for e in db.exhibits()},
+    )
+
+
+def _nav_status(hub: RobotHub) -> dict[str, Any]:
+    view = hub.view
+    if view is None:
+        return {"state": "idle"}
+    nav = view.nav
+    return {
+        "state": nav.state,
+        "exhibit": nav.exhibit,
+        "tour": nav.tour,
+        "progress": list(nav.tour_progress),
+        "message": nav.message,
+        "goal": None if nav.goal is None else [round(nav.goal[0], 2), round(nav.goal[1], 2)],
+    }
+
+
+def _path_points(hub: RobotHub) -> list[list[float]]:
+    view = hub.view
+    if view is None or not view.nav.path:
+        return []
+    path = view.nav.path
+    step = max(1, math.ceil(len(path) / 60))
+    points = [*path[::step], path[-1]]
+    return [[round(x, 2), round(y, 2)] for x, y in points]
+
+
+async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConfig, onboard: bool) -> None:
+    """Stream to one client: each round takes the hub's latest state, so nothing piles up."""
+    encoder = StreamEncoder(cfg.stream)
+    seen = -1
+    last_status: dict[str, Any] | None = None
+    last_path: tuple[Any, float] = (None, 0.0)
+    said = len(hub.announcements)
+    while ws.application_state == WebSocketState.CONNECTED:
+        seen = await hub.wait_change(seen)
+        scene = hub.scene
+        if scene is None:
+            continue
+        message = encoder.encode(scene)
+        if message is not None:
+            await ws.send_bytes(message)
+        now = time.time()
+        slot = hub.arbiter.view(client.session, now).as_dict()
+        status: dict[str, Any] = {"type": "status", "slot": slot, "nav": _nav_status(hub)}
+        if onboard:
+            status["face"] = hub.face()
+        comparable = {**status, "slot": {k: v for k, v in slot.items() if k != "time_left"}}
+        if comparable != last_status:
+            await ws.send_text(json.dumps(status, separators=(",", ":")))
+            last_status = comparable
+        goal = status["nav"].get("goal")
+        if goal != last_path[0] or (goal is not None and now - last_path[1] > 5.0):
+            points = _path_points(hub)
+            await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
+            last_path = (goal, now)
+        for item in hub.announcements:
+            if item.seq > said:
+                audio = None if item.audio is None else f"/speech/{item.audio}"
+                await ws.send_text(json.dumps({"type": "say", "text": item.text, "audio": audio}))
+                said = item.seq
+
+
+async def _reply(ws: WebSocket, kind: str, **fields: Any) -> None:
+    await ws.send_text(json.dumps({"type": kind, **fields}))
+
+
+async def _receive_loop(
+    ws: WebSocket,
+    hub: RobotHub,
+    client: _Client,
+    cfg: WebConfig,
+    db: Database,
+    buckets: dict[int, TokenBucket],
+    phrasebook: PhraseBook | None,
+) -> None:
+    bucket = buckets.setdefault(client.session, TokenBucket(cfg.guard.commands_per_second, cfg.guard.burst))
+    refused = 0
+    while True:
+        message = await ws.receive()
+        if message["type"] == "websocket.disconnect":
+            raise WebSocketDisconnect(message.get("code", 1000))
+        raw = message.get("text") if message.get("text") is not None else message.get("bytes")
+        now = time.time()
+        if not bucket.allow(time.monotonic()):
+            refused += 1
+            await _reply(ws, "error", message="too many messages: slow down")
+            if refused > 50:  # a client that ignores the limit is cut off
+                await ws.close(code=1008, reason="rate limit")
+                return
+            continue
+        try:
+            command = parse_command(raw or b"", cfg.guard)
+            answer = await _execute(command, hub, client, db, now, phrasebook)
+        except (CommandError, DatabaseError) as exc:
+            await _reply(ws, "error", message=str(exc))
+            continue
+        if answer is not None:
+            await ws.send_text(json.dumps(answer))
+
+
+async def _execute(
+    command: Any, hub: RobotHub, client: _Client, db: Database, now: float, phrasebook: PhraseBook | None
+) -> dict[str, Any] | None:
+    """Carry out one command; :class:`CommandError` when this client may not."""
+    arbiter = hub.arbiter
+    arbiter.seen(client.session, now)
+    if isinstance(command, Ping):
+        return None
+    if isinstance(command, Book):
+        if phrasebook is not None:
+            raise CommandError("the on-board screen does not book slots: it always has precedence")
+        arbiter.book(client.session, now)
+        await hub.slot_changed()
+        return {"type": "ack", "command": "book"}
+    if isinstance(command, Leave):
+        arbiter.leave(client.session, now)
+        await hub.slot_changed()
+        return {"type": "ack", "command": "leave"}
+    if phrasebook is not None:
+        if arbiter.staff_stopped:
+            raise CommandError("the robot was stopped by staff")
+        arbiter.onboard_touch(now)
+        source = "onboard"
+    else:
+        if not arbiter.may_command(client.session, now):
+            raise CommandError(_why_not(hub, client.session, now))
+        source = "web"
+    if isinstance(command, Say):
+        if phrasebook is None:
+            raise CommandError("phrases are understood on the on-board screen only")
+        return await _understand(command.text, hub, client, db, now, phrasebook)
+    if isinstance(command, GoTo):
+        x, y, theta = command.x, command.y, command.theta
+        hub.command(lambda link: link.send_goal(x, y, theta))
+    elif isinstance(command, GoToExhibit):
+        exhibit = await asyncio.to_thread(db.exhibit, command.exhibit)
+        hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
+        await asyncio.to_thread(db.record_visit, exhibit.slug, hub.robot_id, source, now)
+    elif isinstance(command, StartTour):
+        tour = await asyncio.to_thread(db.tour, command.tour)
+        stops = [await asyncio.to_thread(db.exhibit, slug) for slug in tour.exhibits]
+        if not stops:
+            raise CommandError(f"tour {tour.slug!r} has no exhibits")
+        plan = [(e.slug, e.x, e.y, e.theta) for e in stops]
+        hub.command(lambda link: link.start_tour(tour.slug, plan))
+    elif isinstance(command, Stop):
+        hub.command(lambda link: link.stop())
+    await hub.notify()
+    return {"type": "ack", "command": command.type}
+
+
+def _why_not(hub: RobotHub, session: int, now: float) -> str:
+    arbiter = hub.arbiter
+    if arbiter.staff_stopped:
+        return "the robot was stopped by staff"
+    if arbiter.holder == session and arbiter.onboard_active(now):
+        return "visitors beside the robot are using its screen: please wait"
+    view = arbiter.view(session, now)
+    if view.position:
+        return f"you are number {view.position} in the queue"
+    return "book a slot to control the robot"
+
+
+async def _understand(
+    text: str, hub: RobotHub, client: _Client, db: Database, now: float, book: PhraseBook
+) -> dict[str, Any]:
+    view = hub.view
+    if view is not None:
+        book.switch(EXHIBIT if view.nav.state == "arrived" else TOUR if view.nav.tour else IDLE)
+    summary = ""
+    if view is not None and view.nav.exhibit:
+        with suppress(DatabaseError):
+            summary = (await asyncio.to_thread(db.exhibit, view.nav.exhibit)).summary
+    reply = book.understand(text, summary)
+    if reply is None:
+        item = await hub.announce("Sorry, I did not understand.")
+        return {"type": "heard", "intent": None, "text": item.text}
+    if reply.action == "exhibit" and reply.argument:
+        await _execute(GoToExhibit(type="exhibit", exhibit=reply.argument), hub, client, db, now, book)
+    elif reply.action == "tour":
+        tours = await asyncio.to_thread(db.tours)
+        if tours:
+            await _execute(StartTour(type="tour", tour=tours[0].slug), hub, client, db, now, book)
+    elif reply.action == "stop":
+        hub.command(lambda link: link.stop())
+    await hub.announce(reply.text)
+    return {"type": "heard", "intent": reply.intent, "text": reply.text}

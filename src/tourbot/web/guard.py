@@ -1,0 +1,144 @@
+"""The server's guards: what a client may send, how often, and from which page.
+
+Every message from a browser is untrusted: it is size-checked, parsed into one of the
+:data:`Command` models (unknown fields refused) and rate-limited per session with a token bucket.
+A bad message gets an error reply, never a crash; a WebSocket from a foreign origin is refused.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Annotated, Literal
+from urllib.parse import urlsplit
+
+from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
+
+from tourbot.errors import TourbotError
+
+__all__ = [
+    "Command",
+    "CommandError",
+    "GuardConfig",
+    "TokenBucket",
+    "origin_allowed",
+    "parse_command",
+]
+
+
+class CommandError(TourbotError):
+    """A client message that is refused: too large, malformed, or not allowed."""
+
+
+@dataclass(frozen=True)
+class GuardConfig:
+    """Limits on what clients send: message size, command rate (sustained and burst)."""
+
+    max_message_bytes: int = 2048
+    commands_per_second: float = 5.0
+    burst: int = 10
+
+
+@dataclass
+class TokenBucket:
+    """Rate limit: ``rate`` tokens per second, at most ``burst`` saved up."""
+
+    rate: float
+    burst: int
+    tokens: float = field(default=-1.0)
+    stamp: float = field(default=-math.inf)
+
+    def allow(self, now: float) -> bool:
+        if self.tokens < 0.0:
+            self.tokens, self.stamp = float(self.burst), now
+        self.tokens = min(float(self.burst), self.tokens + (now - self.stamp) * self.rate)
+        self.stamp = now
+        if self.tokens >= 1.0:
+            self.tokens -= 1.0
+            return True
+        return False
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+_Coord = Annotated[float, Field(ge=-1e4, le=1e4, allow_inf_nan=False)]
+_Slug = Annotated[str, Field(min_length=1, max_length=64)]
+
+
+class Book(_Strict):
+    type: Literal["book"]
+
+
+class Leave(_Strict):
+    type: Literal["leave"]
+
+
+class Ping(_Strict):
+    type: Literal["ping"]
+
+
+class Stop(_Strict):
+    type: Literal["stop"]
+
+
+class GoTo(_Strict):
+    type: Literal["goto"]
+    x: _Coord
+    y: _Coord
+    theta: Annotated[float, Field(ge=-10.0, le=10.0, allow_inf_nan=False)] | None = None
+
+
+class GoToExhibit(_Strict):
+    type: Literal["exhibit"]
+    exhibit: _Slug
+
+
+class StartTour(_Strict):
+    type: Literal["tour"]
+    tour: _Slug
+
+
+class Say(_Strict):
+    """A phrase typed on (or heard by) the on-board screen."""
+
+    type: Literal["say"]
+    text: Annotated[str, Field(max_length=200)]
+
+
+Command = Annotated[
+    Book | Leave | Ping | Stop | GoTo | GoToExhibit | StartTour | Say, Field(discriminator="type")
+]
+_COMMAND: TypeAdapter[Command] = TypeAdapter(Command)
+
+
+def parse_command(raw: str | bytes, config: GuardConfig) -> Command:
+    """The command in ``raw``; :class:`CommandError` saying what is wrong otherwise."""
+    if len(raw) > config.max_message_bytes:
+        raise CommandError(f"message of {len(raw)} bytes refused: at most {config.max_message_bytes}")
+    try:
+        data = json.loads(raw)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise CommandError(f"message is not JSON: {exc}") from None
+    try:
+        return _COMMAND.validate_python(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "message"
+        raise CommandError(f"bad command ({where}): {first['msg']}") from None
+
+
+def origin_allowed(origin: str | None, host: str | None, allowed: tuple[str, ...] = ()) -> bool:
+    """A WebSocket may come from the server's own pages (same host) or an allowed origin only.
+
+    Browsers always send ``Origin`` on WebSockets; a request without it is not from a page and
+    is refused as well.
+    """
+    if not origin:
+        return False
+    if origin in allowed:
+        return True
+    parts = urlsplit(origin)
+    return parts.scheme in ("http", "https") and host is not None and parts.netloc == host

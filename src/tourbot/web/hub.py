@@ -1,0 +1,245 @@
+"""One robot on the server: its link, its control slots, its latest state, its announcements.
+
+The hub keeps the robot's loop running (``link.step`` in a worker thread, paced to real time),
+samples the robot's view at the stream rate, arbitrates control (:mod:`tourbot.web.slots`) and
+records bookings and visits in the database. Clients never queue behind each other: each
+connection reads the hub's *latest* state when it is ready to send (see :mod:`tourbot.web.stream`).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from tourbot.web.db import Database, DatabaseError
+from tourbot.web.face import FaceConfig, face_for
+from tourbot.web.link import RobotLink, RobotView
+from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
+from tourbot.web.stream import Body, Scene
+
+__all__ = ["Announcement", "RobotHub", "scene_of"]
+
+log = logging.getLogger(__name__)
+
+
+def scene_of(view: RobotView, t: float) -> Scene:
+    """The streamed scene of a view at wall-clock ``t``; track ids map into the stream's 1..65535."""
+    robot = Body(
+        0,
+        view.x,
+        view.y,
+        view.v * math.cos(view.theta),
+        view.v * math.sin(view.theta),
+        view.theta,
+        view.omega,
+    )
+    people = {}
+    for p in view.people:
+        i = p.id % 65535 + 1
+        people[i] = Body(i, p.x, p.y, p.vx, p.vy)
+    return Scene(t, robot, tuple(people.values()))
+
+
+@dataclass(frozen=True)
+class Announcement:
+    """Something the robot says: the text, and the audio file's name when speech is available."""
+
+    seq: int
+    text: str
+    audio: str | None
+
+
+@dataclass
+class RobotHub:
+    name: str
+    link: RobotLink
+    db: Database
+    robot_id: int
+    slot_config: SlotConfig = field(default_factory=SlotConfig)
+    face_config: FaceConfig = field(default_factory=FaceConfig)
+    rate_hz: float = 5.0
+    speak: Callable[[str], str | None] | None = None
+    drive: bool = True
+
+    def __post_init__(self) -> None:
+        self.lock = threading.Lock()
+        self.arbiter: SlotArbiter[int] = SlotArbiter(self.slot_config)
+        self.view: RobotView | None = None
+        self.scene: Scene | None = None
+        self.version = 0
+        self.announcements: list[Announcement] = []
+        self.connections: dict[int, int] = {}
+        self._bookings: dict[int, int] = {}
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._task: asyncio.Task[None] | None = None
+        self._changed: asyncio.Condition | None = None
+        self._last_state: tuple[str, str | None] = ("idle", None)
+
+    # --- lifecycle --------------------------------------------------------------------------
+    async def start(self) -> None:
+        self._changed = asyncio.Condition()
+        self._slot_lock = asyncio.Lock()
+        self._pending: set[asyncio.Future[None]] = set()
+        if self.drive:
+            self._thread = threading.Thread(target=self._run_robot, name=f"robot-{self.name}", daemon=True)
+            self._thread.start()
+        await self.refresh()
+        self._task = asyncio.create_task(self._ticker())
+
+    async def close(self) -> None:
+        self._stop.set()
+        if self._task is not None:
+            self._task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await self._task
+        if self._thread is not None:
+            await asyncio.to_thread(self._thread.join, 5.0)
+        now = time.time()
+        for session, booking in list(self._bookings.items()):
+            self._end_booking(session, booking, now, "server stopped")
+
+    def _run_robot(self) -> None:
+        """The robot's own loop, paced to real time; an error stops the robot, not the server."""
+        period = float(getattr(self.link, "period", 0.1))
+        next_time = time.monotonic()
+        while not self._stop.is_set():
+            try:
+                with self.lock:
+                    self.link.step()
+            except Exception:
+                log.exception("robot %s: step failed; the robot loop stops", self.name)
+                return
+            next_time += period
+            delay = next_time - time.monotonic()
+            if delay < -1.0:  # far behind (slow machine): do not try to catch up in a burst
+                next_time = time.monotonic()
+            self._stop.wait(max(0.0, delay))
+
+    async def _ticker(self) -> None:
+        period = 1.0 / self.rate_hz
+        while not self._stop.is_set():
+            await asyncio.sleep(period)
+            try:
+                await self.refresh()
+            except Exception:
+                log.exception("robot %s: refresh failed", self.name)
+
+    # --- state ------------------------------------------------------------------------------
+    async def refresh(self) -> None:
+        """Sample the robot, update the slots, announce arrivals, wake the connections."""
+        with self.lock:
+            view = self.link.view()
+        now = time.time()
+        self.view = view
+        self.scene = scene_of(view, now)
+        await self._sync_slots(now)
+        state = (view.nav.state, view.nav.exhibit)
+        if state != self._last_state and state[0] == "arrived" and state[1] is not None:
+            await self._arrived(state[1])
+        self._last_state = state
+        await self.notify()
+
+    async def notify(self) -> None:
+        self.version += 1
+        if self._changed is not None:
+            async with self._changed:
+                self._changed.notify_all()
+
+    async def wait_change(self, seen: int, timeout: float = 5.0) -> int:
+        """Wait until the state is newer than ``seen`` (or ``timeout``); the current version."""
+        assert self._changed is not None
+        async with self._changed:
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._changed.wait_for(lambda: self.version != seen), timeout)
+        return self.version
+
+    async def _arrived(self, exhibit: str) -> None:
+        try:
+            data = await asyncio.to_thread(self.db.exhibit, exhibit)
+            text = data.summary or f"Here is {data.name}."
+        except DatabaseError:
+            text = "We have arrived."
+        await self.announce(text)
+
+    async def announce(self, text: str) -> Announcement:
+        audio = None
+        if self.speak is not None:
+            try:
+                audio = await asyncio.to_thread(self.speak, text)
+            except Exception as exc:  # speech is a nicety: the text still shows
+                log.warning("robot %s: speech failed: %s", self.name, exc)
+        item = Announcement(len(self.announcements) + 1, text, audio)
+        self.announcements.append(item)
+        del self.announcements[:-20]
+        await self.notify()
+        return item
+
+    def face(self) -> dict[str, object]:
+        view = self.view
+        if view is None:
+            return {"mood": "happy", "gaze": 0.0}
+        face = face_for((view.x, view.y, view.theta), view.nav.path, view.nav.blocked_time, self.face_config)
+        return {"mood": face.mood, "gaze": round(face.gaze / 0.1) * 0.1}
+
+    # --- slots and bookings -----------------------------------------------------------------
+    async def connect(self, session: int) -> None:
+        self.connections[session] = self.connections.get(session, 0) + 1
+
+    async def disconnect(self, session: int) -> None:
+        left = self.connections.get(session, 0) - 1
+        if left > 0:
+            self.connections[session] = left
+            return
+        self.connections.pop(session, None)
+        now = time.time()
+        self.arbiter.leave(session, now)
+        await self._sync_slots(now)
+        await self.notify()
+
+    async def slot_changed(self) -> None:
+        now = time.time()
+        await self._sync_slots(now)
+        await self.notify()
+
+    async def _sync_slots(self, now: float) -> None:
+        """Apply time to the slots and record the changes of holder, one caller at a time.
+
+        Shielded: a caller cancelled midway (a closing connection) must not lose the events it took.
+        """
+
+        async def sync() -> None:
+            async with self._slot_lock:
+                self.arbiter.update(now)
+                await self._handle(self.arbiter.take_events(), now)
+
+        task = asyncio.ensure_future(sync())
+        self._pending.add(task)
+        task.add_done_callback(self._pending.discard)
+        await asyncio.shield(task)
+
+    async def _handle(self, events: list[SlotEvent], now: float) -> None:
+        for event in events:
+            session = int(str(event.client))
+            if event.kind == "started":
+                self._bookings[session] = await asyncio.to_thread(
+                    self.db.booking_started, self.robot_id, session, now
+                )
+            elif event.kind == "ended" and session in self._bookings:
+                booking = self._bookings.pop(session)
+                await asyncio.to_thread(self.db.booking_ended, booking, now, event.reason)
+
+    def _end_booking(self, session: int, booking: int, now: float, reason: str) -> None:
+        self._bookings.pop(session, None)
+        self.db.booking_ended(booking, now, reason)
+
+    # --- commands (already authorised by the caller) ------------------------------------------
+    def command(self, action: Callable[[RobotLink], None]) -> None:
+        with self.lock:
+            action(self.link)

@@ -1,0 +1,81 @@
+"""What the web server needs from a robot: the :class:`RobotLink` protocol.
+
+The server never reaches into the robot's estimators: it reads a plain :class:`RobotView` (pose
+estimate, people tracks, navigation status) and sends goals, tours and stops. The simulator
+runtime and the real robot plug in through :mod:`tourbot.web.runtime_link`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+__all__ = ["NavStatus", "PersonView", "RobotLink", "RobotView"]
+
+
+@dataclass(frozen=True)
+class PersonView:
+    """A tracked person: track id, position (m) and velocity (m/s) in the map frame."""
+
+    id: int
+    x: float
+    y: float
+    vx: float = 0.0
+    vy: float = 0.0
+
+
+@dataclass(frozen=True)
+class NavStatus:
+    """Navigation as the pages show it.
+
+    ``state`` is one of ``idle``, ``moving``, ``blocked``, ``arrived``, ``stopped``; ``exhibit``
+    the exhibit being approached or shown; ``blocked_time`` how long the way has been blocked (s),
+    which drives the on-board face; ``tour`` and ``tour_progress`` (stops done, stops in all).
+    """
+
+    state: str = "idle"
+    exhibit: str | None = None
+    goal: tuple[float, float] | None = None
+    path: tuple[tuple[float, float], ...] = ()
+    blocked_time: float = 0.0
+    tour: str | None = None
+    tour_progress: tuple[int, int] = (0, 0)
+    message: str = ""
+
+
+@dataclass(frozen=True)
+class RobotView:
+    """One instant of a robot as the web sees it: its estimated pose and velocity, the people."""
+
+    t: float
+    x: float
+    y: float
+    theta: float
+    v: float = 0.0
+    omega: float = 0.0
+    covariance: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    people: tuple[PersonView, ...] = ()
+    nav: NavStatus = field(default_factory=NavStatus)
+
+
+@runtime_checkable
+class RobotLink(Protocol):
+    """A robot (simulated or real) the server can watch and command.
+
+    ``step`` advances the robot's own loop by one cycle; the server calls it from a worker thread
+    at ``period`` seconds when the link is not driven elsewhere.
+    """
+
+    period: float
+
+    def step(self) -> None: ...
+
+    def view(self) -> RobotView: ...
+
+    def send_goal(
+        self, x: float, y: float, theta: float | None = None, exhibit: str | None = None
+    ) -> None: ...
+
+    def start_tour(self, name: str, exhibits: list[tuple[str, float, float, float]]) -> None: ...
+
+    def stop(self) -> None: ...

@@ -1,0 +1,333 @@
+"""The CARMEN reader and writer: the four real logs, synthetic quirks, bad input, round trips."""
+
+from __future__ import annotations
+
+import gzip
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.io import LogFormatError, iter_carmen, load_log, read_carmen, write_carmen
+from tourbot.io.carmen import DEFAULT_MAX_RANGE, guess_angle_increment
+from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan
+
+# scans, beams, duration (s), reference path length (m): ../shared/data/README.md
+REAL_LOGS = {
+    "fhw": (488, 180, 2007, 406),
+    "intel": (910, 180, 2651, 500),
+    "aces": (440, 180, 1318, 323),
+    "freiburg-079": (4791, 360, 1061, 422),
+}
+
+
+def _flaser(ranges: list[float], pose: tuple[float, float, float], ts: float) -> str:
+    r = " ".join(str(v) for v in ranges)
+    p = " ".join(str(v) for v in pose)
+    return f"FLASER {len(ranges)} {r} {p} {p} {ts} host {ts}"
+
+
+def _odom(pose: tuple[float, float, float], ts: float) -> str:
+    return f"ODOM {pose[0]} {pose[1]} {pose[2]} 0 0 0 {ts} host {ts}"
+
+
+def _write(tmp_path: Path, lines: list[str], name: str = "x.log") -> Path:
+    path = tmp_path / name
+    text = "\n".join(lines) + "\n"
+    if name.endswith(".gz"):
+        with gzip.open(path, "wt") as f:
+            f.write(text)
+    else:
+        path.write_text(text)
+    return path
+
+
+def _same_logs(a: RobotLog, b: RobotLog) -> None:
+    assert len(a.scans) == len(b.scans)
+    assert a.odometry == b.odometry
+    for s, t in zip(a.scans, b.scans, strict=True):
+        assert s.timestamp == t.timestamp
+        assert s.geometry == t.geometry
+        assert s.odom == t.odom
+        assert s.reference == t.reference
+        assert s.sensor == t.sensor
+        np.testing.assert_array_equal(s.ranges, t.ranges)
+
+
+@pytest.mark.parametrize("name", sorted(REAL_LOGS))
+def test_reads_the_real_logs(shared_data: Path, name: str) -> None:
+    scans, beams, duration, length = REAL_LOGS[name]
+    log = read_carmen(shared_data / "carmen" / f"{name}-corrected.log.gz")
+    assert len(log) == scans
+    assert {s.geometry.num_beams for s in log.scans} == {beams}
+    assert log.has_reference
+    assert not np.isnan(log.odom_poses).any()
+    assert log.times[-1] - log.times[0] == pytest.approx(duration, abs=1)
+    steps = np.diff(log.reference_poses[:, :2], axis=0)
+    assert np.hypot(steps[:, 0], steps[:, 1]).sum() == pytest.approx(length, rel=0.02)
+    # the raw odometry is the timestamped ODOM stream, not the corrected copies after each scan
+    assert all(o.timestamp > 0 for o in log.odometry)
+    assert len(log.odometry) > len(log)
+    # beams span 180 degrees from the right (-90 degrees)
+    g = log.scans[0].geometry
+    assert g.angle_min == pytest.approx(-math.pi / 2)
+    assert g.fov == pytest.approx(math.pi, abs=math.radians(1.01))
+
+
+def test_fhw_odometry_matches_readme_angular_error(fhw_log_path: Path) -> None:
+    """Mean per-scan odometry rotation error against the corrected poses: 1.7 deg (README)."""
+    from tourbot.geometry import relative, wrap_angle
+
+    log = read_carmen(fhw_log_path)
+    o, r = log.odom_poses, log.reference_poses
+    do, dr = relative(o[:-1], o[1:]), relative(r[:-1], r[1:])
+    err = np.degrees(np.abs(wrap_angle(do[:, 2] - dr[:, 2])).mean())
+    assert err == pytest.approx(1.7, abs=0.15)
+
+
+def test_max_range_inferred_or_from_param(shared_data: Path) -> None:
+    fhw = read_carmen(shared_data / "carmen" / "fhw-corrected.log.gz")
+    assert fhw.scans[0].geometry.max_range == pytest.approx(51.05)  # piled-up "no return" value
+    fr = read_carmen(shared_data / "carmen" / "freiburg-079-corrected.log.gz")
+    assert fr.scans[0].geometry.max_range == pytest.approx(80.99)  # PARAM robot_front_laser_max
+    assert fr.scans[0].geometry.offset == (-0.04, 0.0, 0.0)  # PARAM robot_frontlaser_offset
+
+
+def test_odometry_interpolated_at_scan_time_and_reference_from_line(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path,
+        [
+            "# comment",
+            _odom((0.0, 0.0, 3.0), 1.0),
+            _flaser([1.0, 2.0, 3.0], (5.0, 6.0, 0.5), 2.0),
+            _odom((5.0, 6.0, 0.5), 0.0),  # corrected copy: not odometry
+            "NEFF 12",
+            _odom((2.0, 4.0, -3.0), 3.0),
+        ],
+    )
+    log = read_carmen(path)
+    assert [o.timestamp for o in log.odometry] == [1.0, 3.0]
+    (scan,) = log.scans
+    assert scan.reference == (5.0, 6.0, 0.5)
+    assert scan.odom is not None
+    x, y, th = scan.odom
+    assert (x, y) == pytest.approx((1.0, 2.0))
+    # halfway from 3.0 to -3.0 the short way round (through pi), not through zero
+    assert abs(th) == pytest.approx(math.pi, abs=1e-9)
+    assert scan.geometry.angle_increment == pytest.approx(guess_angle_increment(3))
+    assert log.warnings == []
+
+
+def test_streaming_holds_a_scan_until_the_next_odometry(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path,
+        [_odom((0.0, 0.0, 0.0), 1.0), _flaser([1.0], (0, 0, 0), 1.5), _odom((1.0, 0.0, 0.0), 2.0)],
+    )
+    records = list(iter_carmen(path))
+    assert [type(r).__name__ for r in records] == ["Odometry", "Scan", "Odometry"]
+    scan = records[1]
+    assert isinstance(scan, Scan)
+    assert scan.odom == pytest.approx((0.5, 0.0, 0.0))
+
+
+def test_zero_timestamps_fall_back_to_record_order_with_one_warning(tmp_path: Path) -> None:
+    lines = []
+    for i in range(4):
+        lines.append(f"ODOM {i}.0 0 0 0 0 0 0 host 0")
+        lines.append(f"FLASER 2 1 1 {i}.5 0 0 {i}.5 0 0 0 host 0")
+    log = read_carmen(_write(tmp_path, lines))
+    assert len(log.warnings) == 1
+    assert "record order" in log.warnings[0]
+    # without a timestamped odometry stream the odometry written on the laser line is used
+    assert [s.odom for s in log.scans] == [(i + 0.5, 0.0, 0.0) for i in range(4)]
+    assert [s.reference for s in log.scans] == [None] * 4
+
+
+def test_backwards_timestamps_fall_back_to_record_order(tmp_path: Path) -> None:
+    path = _write(
+        tmp_path,
+        [
+            _odom((0.0, 0.0, 0.0), 5.0),
+            _odom((1.0, 0.0, 0.0), 4.0),  # backwards
+            _flaser([1.0], (9, 9, 0), 4.5),
+            _odom((2.0, 0.0, 0.0), 6.0),
+            _flaser([1.0], (9, 9, 0), 3.0),  # backwards
+        ],
+    )
+    log = read_carmen(path)
+    assert len(log.warnings) == 1
+    assert "go backwards" in log.warnings[0]
+    assert [s.odom for s in log.scans] == [(1.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
+
+
+def test_new_laser_records_carry_their_geometry(tmp_path: Path) -> None:
+    ranges = " ".join(["2.0"] * 181)
+    lines = [
+        _odom((0.0, 0.0, 0.0), 1.0),
+        f"RAWLASER1 0 -1.5708 3.14159 0.0174533 32.767 0.01 0 181 {ranges} 0 1.5 host 1.5",
+        f"ROBOTLASER1 0 -1.5708 3.14159 0.0174533 32.767 0.01 0 181 {ranges} 0 "
+        "1.1 2 0.3 1 2 0.3 0 0 0.5 0.3 0 1.6 host 1.6",
+        _odom((1.0, 0.0, 0.0), 2.0),
+    ]
+    path = _write(tmp_path, lines)
+    raw = read_carmen(path)
+    assert raw.scans[0].sensor == "RAWLASER1"
+    assert "ROBOTLASER1" in raw.warnings[0]
+    g = raw.scans[0].geometry
+    assert (g.num_beams, g.angle_min, g.max_range) == (181, -1.5708, 32.767)
+    assert raw.scans[0].odom == pytest.approx((0.5, 0.0, 0.0))
+    robot = read_carmen(path, laser="ROBOTLASER1")
+    scan = robot.scans[0]
+    assert scan.reference == (1.0, 2.0, 0.3)
+    assert scan.geometry.offset == pytest.approx((0.1 * math.cos(0.3), -0.1 * math.sin(0.3), 0.0))
+    with pytest.raises(LogFormatError, match="no RLASER scans"):
+        read_carmen(path, laser="RLASER")
+
+
+def test_plain_and_gzip_give_the_same_log(tmp_path: Path) -> None:
+    lines = [_odom((0.0, 0.0, 0.0), 1.0), _flaser([1.0, 2.0], (0, 0, 0), 1.5), _odom((1, 0, 0), 2.0)]
+    _same_logs(read_carmen(_write(tmp_path, lines)), read_carmen(_write(tmp_path, lines, "x.log.gz")))
+
+
+def test_default_max_range_without_param_or_pileup(tmp_path: Path) -> None:
+    log = read_carmen(_write(tmp_path, [_flaser([1.0, 2.0], (0, 0, 0), 1.0)]))
+    assert log.scans[0].geometry.max_range == DEFAULT_MAX_RANGE
+
+
+# ---- bad input -----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("line", "field", "message"),
+    [
+        ("FLASER 3 1.0 nan 2.0 0 0 0 0 0 0 1.0 h 1.0", "range[1]", "not a number"),
+        ("FLASER 3 1.0 1.0 -2.0 0 0 0 0 0 0 1.0 h 1.0", "range[2]", "negative"),
+        ("FLASER 3 1.0 abc 2.0 0 0 0 0 0 0 1.0 h 1.0", "range[1]", "not a number"),
+        ("FLASER 3 1.0 2.0 0 0 0", None, "too short"),
+        ("FLASER x 1.0", "num_readings", "whole number"),
+        ("ODOM 1 2 oops 0 0 0 1.0 h 1.0", "theta", "not a number"),
+        ("ODOM 1 2", None, "too short"),
+        ("3.5 4.5 6", None, "unrecognised record"),
+    ],
+)
+def test_malformed_record_names_file_line_and_field(
+    tmp_path: Path, line: str, field: str | None, message: str
+) -> None:
+    good = _flaser([1.0, 2.0, 3.0], (0, 0, 0), 0.5)
+    path = _write(tmp_path, ["# header", good, line, good.replace("0.5", "2.0")])
+    with pytest.raises(LogFormatError, match=message) as info:
+        read_carmen(path)
+    err = info.value
+    assert err.path == str(path)
+    assert err.line == 3
+    assert err.field == field
+    assert f"{path}:3" in str(err)
+    lenient = read_carmen(path, lenient=True)
+    assert len(lenient) == 2
+    assert any("skipped 1 malformed record" in w and "line 3" in w for w in lenient.warnings)
+
+
+def test_empty_file(tmp_path: Path) -> None:
+    path = tmp_path / "empty.log"
+    path.write_text("")
+    with pytest.raises(LogFormatError, match="empty file"):
+        read_carmen(path)
+    only_comments = _write(tmp_path, ["# nothing", "PARAM a b"], "c.log")
+    with pytest.raises(LogFormatError, match="no laser scans"):
+        read_carmen(only_comments)
+
+
+def test_binary_garbage(tmp_path: Path) -> None:
+    path = tmp_path / "garbage.log"
+    path.write_bytes(bytes(range(256)) * 8)
+    with pytest.raises(LogFormatError, match="binary data") as info:
+        read_carmen(path)
+    assert info.value.line == 1
+    with pytest.raises(LogFormatError, match=r"no laser scans.*malformed records skipped"):
+        read_carmen(path, lenient=True)
+
+
+def test_truncated_gzip(tmp_path: Path, fhw_log_path: Path) -> None:
+    data = fhw_log_path.read_bytes()
+    path = tmp_path / "cut.log.gz"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(LogFormatError, match="truncated") as info:
+        read_carmen(path)
+    assert info.value.line is not None
+    log = read_carmen(path, lenient=True)
+    assert 100 < len(log) < 488
+    assert any("truncated" in w for w in log.warnings)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(LogFormatError, match="no such file"):
+        load_log(tmp_path / "nope.log")
+
+
+# ---- writing --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["fhw", "intel"])
+def test_round_trip_of_a_real_log_is_identical(shared_data: Path, tmp_path: Path, name: str) -> None:
+    first = read_carmen(shared_data / "carmen" / f"{name}-corrected.log.gz")
+    out = tmp_path / "copy.log.gz"
+    write_carmen(first, out)
+    second = read_carmen(out)
+    _same_logs(first, second)
+    write_carmen(second, tmp_path / "again.log")
+    _same_logs(second, read_carmen(tmp_path / "again.log"))
+
+
+finite = st.floats(-1e3, 1e3, allow_nan=False)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    n=st.integers(1, 20),
+    steps=st.lists(
+        st.tuples(finite, finite, st.floats(-3.14, 3.14), st.floats(0.01, 5.0)), min_size=1, max_size=8
+    ),
+    with_reference=st.booleans(),
+    amin=st.floats(-3.0, 0.0),
+    inc=st.floats(1e-3, 0.1),
+    max_range=st.floats(1.0, 100.0),
+)
+def test_round_trip_property(
+    n: int,
+    steps: list[tuple[float, float, float, float]],
+    with_reference: bool,
+    amin: float,
+    inc: float,
+    max_range: float,
+) -> None:
+    import tempfile
+
+    rng = np.random.default_rng(n)
+    geometry = LaserGeometry(n, amin, inc, max_range, 0.0, (0.1, -0.2, 0.3))
+    t = 0.0
+    scans, odometry = [], []
+    for x, y, th, dt in steps:
+        t += dt
+        odometry.append(Odometry(t - dt / 2, (y, x, th), 0.5, -0.1))
+        ranges = rng.uniform(0, max_range, n)
+        ref = (x, y, th) if with_reference else None
+        scans.append(Scan(t, ranges, geometry, (x + 1, y, th), ref, "FLASER"))
+    log = RobotLog("mem", scans, odometry)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "r.log"
+        write_carmen(log, path)
+        back = read_carmen(path)
+    _same_logs(log, back)
+
+
+def test_writer_refuses_mixed_reference(tmp_path: Path) -> None:
+    g = LaserGeometry(1, 0.0, 0.1, 10.0)
+    log = RobotLog(
+        "mem",
+        [Scan(1.0, np.ones(1), g, (0, 0, 0), (0, 0, 0)), Scan(2.0, np.ones(1), g, (0, 0, 0), None)],
+    )
+    with pytest.raises(LogFormatError, match="only some scans"):
+        write_carmen(log, tmp_path / "m.log")

@@ -1,0 +1,165 @@
+"""The ROS bag reader: the leg_tracker bags, a ROS 2 bag built here, and bad bags."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from tourbot.io import BagError, load_log
+from tourbot.io.rosbag import bag_topics, read_bag, read_pose_arrays
+
+
+def _bag(shared_data: Path, name: str) -> Path:
+    return shared_data / "leg_tracker" / f"{name}.bag"
+
+
+def test_reads_the_demo_bag(shared_data: Path) -> None:
+    log = load_log(_bag(shared_data, "demo_stationary_simple_environment"))
+    assert len(log) == 1265
+    g = log.scans[0].geometry
+    assert g.num_beams == 512
+    assert g.fov == pytest.approx(math.pi, abs=0.01)
+    # REP 117: "no return" (inf) becomes range_max, so every range is finite
+    assert np.isfinite(log.ranges).all()
+    assert (log.ranges == np.float64(np.float32(g.max_range))).any()
+    assert np.all(np.diff(log.times) > 0)
+    assert log.times[-1] - log.times[0] == pytest.approx(126.4, abs=1.0)  # 10 Hz
+    assert log.scans[0].sensor == "/scan"
+    assert log.scans[0].odom is None  # no odometry in this bag
+
+
+def test_picks_a_topic_and_says_which_others_exist(shared_data: Path) -> None:
+    path = _bag(shared_data, "negative_2")
+    log = read_bag(path, scan_topic="/left_scan")
+    assert len(log) == 435
+    assert {s.sensor for s in log.scans} == {"/left_scan"}
+    assert log.scans[0].geometry.num_beams == 768
+    assert log.scans[0].geometry.fov == pytest.approx(math.radians(270), abs=0.01)
+    default = read_bag(path)
+    assert any("also holds LaserScan topics" in w for w in default.warnings)
+    with pytest.raises(BagError, match="no LaserScan topic '/front_scan'"):
+        read_bag(path, scan_topic="/front_scan")
+
+
+def test_leg_cluster_annotations_pair_with_scans(shared_data: Path) -> None:
+    path = _bag(shared_data, "positive_1_extracted")
+    log = read_bag(path)
+    arrays = read_pose_arrays(path, "/leg_cluster_positions")
+    assert len(log) == len(arrays) == 197
+    np.testing.assert_array_equal([t for t, _ in arrays], log.times)
+    assert all(xy.ndim == 2 and xy.shape[1] == 2 for _, xy in arrays)
+    # legs are a few metres from the laser
+    dists = np.concatenate([np.hypot(xy[:, 0], xy[:, 1]) for _, xy in arrays])
+    assert 0.2 < np.median(dists) < 5.0
+
+
+def test_bag_without_laser_topics(tmp_path: Path) -> None:
+    path = tmp_path / "odom_only"
+    _write_ros2(path, scans=0, odoms=3)
+    assert set(bag_topics(path)) == {"/odom"}
+    with pytest.raises(BagError, match="no sensor_msgs/LaserScan topic"):
+        read_bag(path)
+
+
+def test_not_a_bag(tmp_path: Path) -> None:
+    path = tmp_path / "fake.bag"
+    path.write_bytes(b"#ROSBAG V2.0\n" + bytes(range(256)) * 4)
+    with pytest.raises(BagError, match="not a readable ROS bag"):
+        load_log(path)
+    text = tmp_path / "text.bag"
+    text.write_text("hello")
+    with pytest.raises(BagError, match="not a readable ROS bag"):
+        read_bag(text)
+
+
+def _write_ros2(path: Path, *, scans: int, odoms: int, negative: bool = False) -> None:
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    t: Any = store.types
+    Time, Header = t["builtin_interfaces/msg/Time"], t["std_msgs/msg/Header"]
+    with Writer(path, version=8) as writer:
+        scan_conn = (
+            writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store) if scans else None
+        )
+        odom_conn = writer.add_connection("/odom", "nav_msgs/msg/Odometry", typestore=store)
+        events = [(0.1 * i, "odom", i) for i in range(odoms)] + [
+            (0.1 * i + 0.05, "scan", i) for i in range(scans)
+        ]
+        for time, kind, i in sorted(events):
+            stamp = Time(sec=int(time), nanosec=round((time % 1) * 1e9))
+            header = Header(stamp=stamp, frame_id="laser" if kind == "scan" else "odom")
+            if kind == "scan":
+                ranges = np.array([1.0, np.inf, np.nan, 2.0, -np.inf], dtype=np.float32)
+                if negative and i == 1:
+                    ranges[0] = -1.0
+                msg = t["sensor_msgs/msg/LaserScan"](
+                    header=header,
+                    angle_min=-1.0,
+                    angle_max=1.0,
+                    angle_increment=0.5,
+                    time_increment=0.0,
+                    scan_time=0.1,
+                    range_min=0.1,
+                    range_max=8.0,
+                    ranges=ranges,
+                    intensities=np.zeros(0, dtype=np.float32),
+                )
+                assert scan_conn is not None
+                writer.write(
+                    scan_conn, int(time * 1e9), store.serialize_cdr(msg, "sensor_msgs/msg/LaserScan")
+                )
+            else:
+                yaw = 0.1 * i
+                pose = t["geometry_msgs/msg/Pose"](
+                    position=t["geometry_msgs/msg/Point"](x=float(i), y=0.0, z=0.0),
+                    orientation=t["geometry_msgs/msg/Quaternion"](
+                        x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
+                    ),
+                )
+                cov = np.zeros(36)
+                twist = t["geometry_msgs/msg/Twist"](
+                    linear=t["geometry_msgs/msg/Vector3"](x=1.0, y=0.0, z=0.0),
+                    angular=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.2),
+                )
+                msg = t["nav_msgs/msg/Odometry"](
+                    header=header,
+                    child_frame_id="base_link",
+                    pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=cov),
+                    twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=cov),
+                )
+                writer.write(odom_conn, int(time * 1e9), store.serialize_cdr(msg, "nav_msgs/msg/Odometry"))
+
+
+def test_ros2_bag_with_odometry(tmp_path: Path) -> None:
+    path = tmp_path / "ros2"
+    _write_ros2(path, scans=4, odoms=6)
+    log = load_log(path)
+    assert len(log) == 4
+    assert len(log.odometry) == 6
+    np.testing.assert_allclose(log.ranges[0], [1.0, 8.0, 8.0, 2.0, 0.0])
+    g = log.scans[0].geometry
+    assert (g.num_beams, g.angle_min, g.angle_increment) == (5, -1.0, 0.5)
+    # the scan at 0.05 s + 0.1 i lies halfway between odometry readings i and i + 1
+    for i, scan in enumerate(log.scans):
+        assert scan.odom == pytest.approx((i + 0.5, 0.0, 0.1 * i + 0.05))
+    assert log.odometry[2].tv == 1.0
+    assert log.odometry[2].rv == pytest.approx(0.2)
+    # the storage file of a ROS 2 bag opens too
+    (db3,) = path.glob("*.db3")
+    assert len(load_log(db3)) == 4
+
+
+def test_negative_range_in_a_bag(tmp_path: Path) -> None:
+    path = tmp_path / "neg"
+    _write_ros2(path, scans=3, odoms=4, negative=True)
+    with pytest.raises(BagError, match=r"message \d+: range\[0\] is negative"):
+        read_bag(path)
+    log = read_bag(path, lenient=True)
+    assert len(log) == 2
+    assert any("skipped 1 malformed scan" in w for w in log.warnings)

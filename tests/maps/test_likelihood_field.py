@@ -1,0 +1,98 @@
+"""The likelihood field's table look-ups against a from-scratch numpy evaluation of Table 6.3."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.maps.grid import MapError, OccupancyGrid
+from tourbot.maps.likelihood_field import (
+    LikelihoodField,
+    LikelihoodFieldParams,
+    beam_log_likelihoods_reference,
+)
+from tourbot.records import LaserGeometry
+
+
+def small_grid(seed: int) -> OccupancyGrid:
+    rng = np.random.default_rng(seed)
+    prob = np.zeros((30, 40), dtype=np.float32)
+    for _ in range(6):
+        r, c = rng.integers(0, 30), rng.integers(0, 40)
+        prob[r : r + rng.integers(1, 4), c : c + rng.integers(1, 4)] = 1.0
+    prob[rng.integers(0, 30), :5] = -1.0
+    return OccupancyGrid(
+        prob, resolution=0.1, origin=(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-3, 3))
+    )
+
+
+GEOM = LaserGeometry(
+    num_beams=19,
+    angle_min=-math.pi / 2,
+    angle_increment=math.pi / 18,
+    max_range=5.0,
+    offset=(0.1, 0.02, 0.05),
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), sigma=st.floats(0.05, 0.5), max_dist=st.floats(0.1, 3.0))
+def test_matches_reference(seed: int, sigma: float, max_dist: float) -> None:
+    grid = small_grid(seed)
+    rng = np.random.default_rng(seed)
+    params = LikelihoodFieldParams(sigma_hit=sigma, max_dist=max_dist, max_range=GEOM.max_range)
+    field = LikelihoodField.from_grid(grid, params)
+    local = np.column_stack([rng.uniform(-0.5, 4.5, 6), rng.uniform(-0.5, 3.5, 6), rng.uniform(-4, 4, 6)])
+    poses = grid.grid_to_world(local)
+    ranges = rng.uniform(0.0, 6.0, GEOM.num_beams)
+    ranges[rng.integers(0, GEOM.num_beams)] = np.nan
+    got = field.beam_log_likelihoods(poses, ranges, GEOM)
+    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM)
+    np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(
+        field.log_likelihood(poses, ranges, GEOM), ref.sum(axis=1), rtol=1e-5, atol=1e-4
+    )
+
+
+def test_skips_no_return_and_masked_beams() -> None:
+    grid = small_grid(1)
+    field = LikelihoodField.from_grid(grid, max_range=GEOM.max_range)
+    poses = grid.grid_to_world(np.array([[2.0, 1.5, 0.3]]))
+    ranges = np.full(GEOM.num_beams, 1.0)
+    ranges[:3] = GEOM.max_range  # no return
+    mask = np.ones(GEOM.num_beams, dtype=bool)
+    mask[5] = False
+    per_beam = field.beam_log_likelihoods(poses, ranges, GEOM, beam_mask=mask)
+    assert np.all(per_beam[0, :3] == 0.0)
+    assert per_beam[0, 5] == 0.0
+    assert np.all(per_beam[0, 6:] < 0.0)
+    total = field.log_likelihood(poses, ranges, GEOM, beam_mask=mask)
+    assert total[0] == pytest.approx(float(per_beam.sum()), rel=1e-5)
+
+
+def test_true_pose_scores_best_in_a_room() -> None:
+    prob = np.zeros((60, 60), dtype=np.float32)
+    prob[5, 5:55] = prob[54, 5:55] = prob[5:55, 5] = prob[5:40, 54] = 1.0
+    grid = OccupancyGrid(prob, resolution=0.1)
+    geom = LaserGeometry(num_beams=181, angle_min=-math.pi, angle_increment=2 * math.pi / 181, max_range=20.0)
+    from tourbot.maps.raycast import DDACaster
+
+    truth = np.array([[2.2, 3.1, 0.4]])
+    ranges = DDACaster(grid, geom.max_range).cast(truth, geom.angles)[0]
+    field = LikelihoodField.from_grid(grid, max_range=geom.max_range)
+    others = truth + np.array([[0.0, 0.0, 0.0], [0.3, 0.0, 0.0], [0.0, -0.3, 0.0], [0.0, 0.0, 0.1]])
+    ll = field.log_likelihood(others, ranges, geom)
+    assert int(np.argmax(ll)) == 0
+
+
+def test_bad_input_is_reported() -> None:
+    grid = small_grid(0)
+    field = LikelihoodField.from_grid(grid)
+    with pytest.raises(MapError):
+        field.log_likelihood(np.zeros((2, 3)), np.zeros(5), GEOM)
+    with pytest.raises(MapError):
+        LikelihoodFieldParams(sigma_hit=0.0)

@@ -1,0 +1,74 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.navigation.planner import CostMap, NoPathError, PlannerConfig, cost_to_go, cost_to_go_reference
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    rows=st.integers(1, 12),
+    cols=st.integers(1, 12),
+    density=st.floats(0.0, 0.5),
+)
+def test_cost_to_go_matches_reference(seed: int, rows: int, cols: int, density: float) -> None:
+    rng = np.random.default_rng(seed)
+    cost = rng.uniform(1.0, 3.0, size=(rows, cols))
+    cost[rng.random((rows, cols)) < density] = np.inf
+    r, c = int(rng.integers(rows)), int(rng.integers(cols))
+    fast = cost_to_go(cost, r, c)
+    ref = cost_to_go_reference(cost, r, c)
+    assert np.array_equal(np.isinf(fast), np.isinf(ref))
+    finite = np.isfinite(ref)
+    np.testing.assert_allclose(fast[finite], ref[finite], rtol=1e-12)
+
+
+def _room_with_wall(gap: bool = True) -> OccupancyGrid:
+    """10 m x 6 m at 5 cm: outer walls, and a wall at x = 5 m with a 1.2 m door at y in [2.4, 3.6]."""
+    prob = np.zeros((120, 200), dtype=np.float32)
+    prob[0, :] = prob[-1, :] = 1.0
+    prob[:, 0] = prob[:, -1] = 1.0
+    prob[:, 100] = 1.0
+    if gap:
+        prob[48:72, 100] = 0.0
+    return OccupancyGrid(prob, 0.05)
+
+
+def test_path_goes_through_the_door_and_keeps_clear() -> None:
+    cm = CostMap(_room_with_wall(), PlannerConfig(robot_radius=0.3, margin=0.05))
+    path = cm.plan((1.0, 1.0), (9.0, 1.0))
+    assert np.allclose(path[0], (1.0, 1.0), atol=0.1)
+    assert np.allclose(path[-1], (9.0, 1.0))
+    crossing = path[np.argmin(np.abs(path[:, 0] - 5.0))]
+    assert 2.4 + 0.3 <= crossing[1] <= 3.6 - 0.3
+    for p in path[1:-1]:
+        assert cm.traversable(p)
+    steps = np.hypot(*np.diff(path, axis=0).T)
+    assert steps.max() < 0.2  # consecutive cells
+
+
+def test_no_path_when_the_door_is_shut_or_blocked() -> None:
+    with pytest.raises(NoPathError):
+        CostMap(_room_with_wall(gap=False)).plan((1.0, 1.0), (9.0, 1.0))
+    cm = CostMap(_room_with_wall())
+    # people standing in the doorway
+    crowd = np.array([[5.0, y] for y in np.arange(2.4, 3.61, 0.1)])
+    with pytest.raises(NoPathError):
+        cm.with_obstacles(crowd).plan((1.0, 1.0), (9.0, 1.0))
+    cm.plan((1.0, 1.0), (9.0, 1.0))  # the original is unchanged
+
+
+def test_invisible_obstacles_are_planned_around() -> None:
+    grid = _room_with_wall()
+    invisible = np.zeros(grid.shape, dtype=bool)
+    invisible[30:120, 40:60] = True  # a long glass case from y = 1.5 m to the wall, x in [2, 3]
+    cm = CostMap(grid, invisible=invisible)
+    path = cm.plan((1.0, 3.0), (4.0, 3.0))
+    assert path[:, 1].min() < 1.5 - 0.3
+    plain = CostMap(grid).plan((1.0, 3.0), (4.0, 3.0))
+    assert len(plain) < len(path)

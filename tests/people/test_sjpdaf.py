@@ -1,0 +1,84 @@
+from __future__ import annotations
+
+import numpy as np
+
+from tests.people.scenes import legs_of, scan_with_circles
+from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig, Track
+
+
+def _walk(
+    people: list[tuple[np.ndarray, np.ndarray]],
+    steps: int,
+    robot: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    static: list[tuple[float, float, float]] | None = None,
+    config: SJPDAFConfig | None = None,
+) -> list[list[Track]]:
+    """Run the tracker over people walking at constant velocity; tracks of every scan."""
+    tracker = PeopleTracker(config, rng=np.random.default_rng(3))
+    out = []
+    for k in range(steps):
+        t = 0.1 * k
+        circles = list(static or [])
+        for p0, v in people:
+            p = p0 + v * t
+            circles += legs_of(float(p[0]), float(p[1]), float(np.arctan2(v[1], v[0])), 6.0 * t)
+        out.append(tracker.update(scan_with_circles(t, robot, circles), np.asarray(robot)))
+    return out
+
+
+def test_one_walking_person_is_tracked_in_the_world_frame() -> None:
+    p0, v = np.array([1.0, 3.0]), np.array([1.0, 0.0])
+    robot = (0.5, -1.0, 0.7)  # tracks are in the world frame whatever the robot's pose
+    history = _walk([(p0, v)], 40, robot=robot)
+    confirmed = [[t for t in tracks if t.confirmed] for tracks in history]
+    assert all(len(c) == 1 for c in confirmed[5:])
+    assert len({c[0].id for c in confirmed[5:]}) == 1
+    last = confirmed[-1][0]
+    truth = p0 + v * 3.9
+    assert np.linalg.norm(np.array(last.position) - truth) < 0.1
+    assert np.linalg.norm(np.array(last.velocity) - v) < 0.3
+    assert last.covariance.shape == (4, 4)
+
+
+def test_two_people_keep_their_ids() -> None:
+    a = (np.array([-2.0, 2.0]), np.array([0.8, 0.0]))
+    b = (np.array([2.0, -2.0]), np.array([-0.8, 0.0]))
+    history = _walk([a, b], 50)
+    final = [t for t in history[-1] if t.confirmed]
+    assert len(final) == 2
+    ids_at_10 = {round(t.position[1]): t.id for t in history[10] if t.confirmed}
+    ids_at_end = {round(t.position[1]): t.id for t in final}
+    assert ids_at_10 == ids_at_end
+
+
+def test_occluded_person_keeps_its_track_and_spreads() -> None:
+    # B walks behind A (seen from the robot at the origin) and comes out again.
+    b = (np.array([3.5, 2.0]), np.array([0.0, -1.0]))
+    tracker = PeopleTracker(rng=np.random.default_rng(3))
+    b_ids = []
+    b_occluded = []
+    for k in range(45):
+        t = 0.1 * k
+        # A's legs stand still but it is started as moving by a short step at the beginning.
+        ax = 1.5 + (0.3 - 0.1 * k if k < 3 else 0.0)
+        circles = [(ax, -0.1, 0.15), (ax, 0.1, 0.15)]
+        pb = b[0] + b[1] * t
+        circles += legs_of(float(pb[0]), float(pb[1]), -np.pi / 2, 6.0 * t)
+        tracks = tracker.update(scan_with_circles(t, (0.0, 0.0, 0.0), circles), np.zeros(3))
+        near_b = [tr for tr in tracks if tr.confirmed and np.linalg.norm(np.array(tr.position) - pb) < 0.6]
+        b_ids.append(near_b[0].id if near_b else None)
+        b_occluded.append(near_b[0].occluded if near_b else None)
+    # B is behind A around t = 2.0 s (y = 0): its track lives on through it with one id.
+    assert True in b_occluded
+    seen = [i for i in b_ids[10:] if i is not None]
+    assert len(seen) >= 30
+    assert len(set(seen)) == 1
+
+
+def test_a_static_leg_like_post_starts_no_track() -> None:
+    history = _walk([], 30, static=[(2.0, 1.0, 0.06), (2.0, 1.2, 0.06), (-1.0, -3.0, 0.05)])
+    assert all(len(tracks) == 0 for tracks in history)
+
+
+def test_empty_scans_give_no_tracks() -> None:
+    assert all(len(tracks) == 0 for tracks in _walk([], 5))

@@ -1,0 +1,107 @@
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from tourbot.site import SiteError, load_site, rasterize_polygons, site_from_dict
+
+ROOM: dict[str, Any] = {
+    "name": "room",
+    "map": {"walls": [[[0, 0], [10, 0], [10, 6], [0, 6]]], "resolution": 0.1, "margin": 0.5},
+    "exhibits": [
+        {"name": "vase", "position": [2, 2], "viewing_pose": [3, 2, math.pi], "text": "A vase."},
+        {"name": "globe", "position": [8, 4], "viewing_pose": [7, 4, 0.0]},
+    ],
+    "tours": [{"name": "short", "exhibits": ["vase", "globe"]}],
+    "doors": [{"name": "d", "hinge": [5, 6], "leaf_length": 0.9, "closed_direction": 0.0}],
+    "furniture": [{"name": "bench", "outline": [[0, 0], [1, 0], [1, 0.4], [0, 0.4]], "poses": [[4, 1, 0]]}],
+    "invisible_obstacles": [{"name": "glass", "outline": [[6, 1], [7, 1], [7, 2], [6, 2]]}],
+    "ceiling_lights": [{"position": [5, 3, 3.5]}],
+}
+
+
+def _write(tmp_path: Path, data: Any) -> Path:
+    p = tmp_path / "site.yaml"
+    p.write_text(yaml.safe_dump(data))
+    return p
+
+
+def test_walls_only_site_loads_and_rasterises(tmp_path: Path) -> None:
+    site = load_site(_write(tmp_path, ROOM))
+    assert site.tour("short").exhibits == ["vase", "globe"]
+    assert site.exhibit("globe").viewing_pose == (7.0, 4.0, 0.0)
+    grid = site.grid
+    assert grid.resolution == 0.1
+    occ = grid.occupied()
+    # the wall at y = 0 is occupied, the room's middle is not
+    assert occ[grid.world_to_cell([5.0, 0.0])[0], grid.world_to_cell([5.0, 0.0])[1]]
+    r, c = grid.world_to_cell([5.0, 3.0])
+    assert not occ[r, c]
+    inv = site.invisible_mask()
+    r, c = grid.world_to_cell([6.5, 1.5])
+    assert inv[r, c]
+    assert inv.sum() == pytest.approx(100, rel=0.3)  # 1 m^2 at 10 cm cells
+
+
+def test_door_leaf_and_furniture_polygon() -> None:
+    site = site_from_dict(ROOM, base_dir=Path("."))
+    a, b = site.doors[0].leaf(1.0)
+    assert a == (5.0, 6.0)
+    assert b[0] == pytest.approx(5.0)
+    assert b[1] == pytest.approx(6.9)
+    poly = site.furniture[0].polygon((1.0, 1.0, math.pi / 2))
+    assert poly[1][0] == pytest.approx(1.0)
+    assert poly[1][1] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize(
+    ("change", "field", "message"),
+    [
+        (lambda d: d["exhibits"][1].pop("viewing_pose"), "exhibits.1.viewing_pose", "required"),
+        (lambda d: d["tours"][0]["exhibits"].append("nope"), "tours.0.exhibits.2", "unknown exhibit"),
+        (lambda d: d["exhibits"][1].update(name="vase"), "exhibits.1.name", "duplicate"),
+        (lambda d: d["doors"][0].update(leaf_length=-1), "doors.0.leaf_length", "greater than 0"),
+        (lambda d: d.update(colour="red"), "colour", "Extra inputs"),
+        (lambda d: d["map"].pop("walls"), "map", "grid file, wall polygons"),
+        (lambda d: d["invisible_obstacles"][0].update(height=[1, 0]), "invisible_obstacles.0.height", "low"),
+    ],
+)
+def test_errors_name_the_field(tmp_path: Path, change: Any, field: str, message: str) -> None:
+    import copy
+
+    data = copy.deepcopy(ROOM)
+    change(data)
+    path = _write(tmp_path, data)
+    with pytest.raises(SiteError) as info:
+        load_site(path)
+    assert info.value.field == field
+    assert message in str(info.value)
+    assert str(path) in str(info.value)
+
+
+def test_bad_yaml_and_missing_file(tmp_path: Path) -> None:
+    p = tmp_path / "site.yaml"
+    p.write_text("name: x\nmap: [1, 2\n")
+    with pytest.raises(SiteError) as info:
+        load_site(p)
+    assert info.value.line is not None
+    with pytest.raises(SiteError, match="cannot read"):
+        load_site(tmp_path / "absent.yaml")
+
+
+def test_unknown_tour_lists_the_tours() -> None:
+    site = site_from_dict(ROOM, base_dir=Path("."))
+    with pytest.raises(SiteError, match="short"):
+        site.tour("long")
+
+
+def test_rasterize_fills_polygons() -> None:
+    site = site_from_dict(ROOM, base_dir=Path("."))
+    mask = rasterize_polygons(site.grid, [[(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)]])
+    assert mask.sum() == pytest.approx(400, rel=0.15)
+    assert mask.dtype == np.bool_

@@ -1,0 +1,152 @@
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.web.stream import Body, Scene, StreamConfig, StreamDecoder, StreamEncoder, StreamError
+
+coord = st.floats(-300.0, 300.0, allow_nan=False)
+speed = st.floats(-2.4, 2.4, allow_nan=False)
+angle = st.floats(-math.pi, math.pi, allow_nan=False)
+
+
+def _angle_diff(a: float, b: float) -> float:
+    return abs(math.remainder(a - b, 2 * math.pi))
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    robot=st.tuples(coord, coord, speed, speed, angle),
+    people=st.dictionaries(st.integers(1, 65535), st.tuples(coord, coord, speed, speed), max_size=20),
+)
+def test_keyframe_is_within_half_a_quantum(
+    robot: tuple[float, float, float, float, float], people: dict[int, tuple[float, float, float, float]]
+) -> None:
+    config = StreamConfig()
+    scene = Scene(
+        1000.0,
+        Body(0, robot[0], robot[1], robot[2], robot[3], robot[4]),
+        tuple(Body(i, *p) for i, p in people.items()),
+    )
+    message = StreamEncoder(config).encode(scene)
+    assert message is not None
+    assert len(message) == 1 + 8 + 3 + 11 + 8 * len(people) + 1
+    decoder = StreamDecoder(config)
+    decoder.feed(message)
+    got = decoder.scene()
+    half = config.position_quantum / 2 + 1e-9
+    assert abs(got.robot.x - robot[0]) <= half
+    assert abs(got.robot.y - robot[1]) <= half
+    assert abs(got.robot.vx - robot[2]) <= config.velocity_quantum / 2 + 1e-9
+    assert _angle_diff(got.robot.theta, robot[4]) <= math.pi / 65536 + 1e-9
+    assert {p.id for p in got.people} == set(people)
+    for p in got.people:
+        assert abs(p.x - people[p.id][0]) <= half
+        assert abs(p.y - people[p.id][1]) <= half
+        assert abs(p.vy - people[p.id][3]) <= config.velocity_quantum / 2 + 1e-9
+
+
+def _walk(t: float, i: int) -> Body:
+    """A person on a circle: velocity changes all the time, so dead reckoning must be corrected."""
+    r, w = 2.0 + i, 0.4 / (1 + i)
+    return Body(
+        i, r * math.cos(w * t), r * math.sin(w * t), -r * w * math.sin(w * t), r * w * math.cos(w * t)
+    )
+
+
+@settings(max_examples=30, deadline=None)
+@given(skips=st.lists(st.booleans(), min_size=10, max_size=80), leave_at=st.integers(0, 80))
+def test_deltas_keep_every_body_within_tolerance(skips: list[bool], leave_at: int) -> None:
+    """Whatever states a slow client misses, what it shows stays within the tolerance."""
+    config = StreamConfig()
+    encoder, decoder = StreamEncoder(config), StreamDecoder(config)
+    t0 = 5000.0
+    for k, skip in enumerate(skips):
+        t = t0 + k / config.rate_hz
+        people = tuple(_walk(t, i) for i in range(1, 8) if not (i == 3 and k >= leave_at))
+        robot = Body(0, 0.5 * (t - t0), 1.0, 0.5, 0.0, math.remainder(0.3 * (t - t0), 2 * math.pi), 0.3)
+        scene = Scene(t, robot, people)
+        if skip and k > 0:
+            continue  # this client was too slow for this state: it never sees it
+        message = encoder.encode(scene)
+        if message is not None:
+            decoder.feed(message)
+        shown = decoder.scene(t)
+        tol = config.position_tolerance + 2 * config.position_quantum
+        assert {p.id for p in shown.people} == {p.id for p in people}
+        truth = {p.id: p for p in people}
+        for p in shown.people:
+            assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= tol
+        assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
+        assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
+
+
+def test_still_scene_sends_nothing_until_refresh() -> None:
+    config = StreamConfig(refresh_period=2.0)
+    encoder = StreamEncoder(config)
+    scene = Scene(10.0, Body(0, 1.0, 2.0), (Body(4, 3.0, 3.0),))
+    assert encoder.encode(scene) is not None
+    assert encoder.encode(Scene(10.2, scene.robot, scene.people)) is None
+    refresh = encoder.encode(Scene(12.0, scene.robot, scene.people))
+    assert refresh is not None
+    assert refresh[0] == 2
+    assert len(refresh) == 4 + 11 + 8 + 1
+
+
+def test_constant_velocity_walkers_cost_only_refreshes() -> None:
+    """7 people walking straight at 1 m/s: after the keyframe, only the periodic refresh."""
+    config = StreamConfig()
+    encoder = StreamEncoder(config)
+    total = 0
+    for k in range(5 * 60):
+        t = k / config.rate_hz
+        people = tuple(Body(i, 0.5 * t, i * 1.0, 0.5, 0.0) for i in range(1, 8))
+        message = encoder.encode(Scene(t, Body(0, 0.0, 0.0), people))
+        total += len(message or b"")
+    bits_per_second = 8 * total / 60.0
+    assert bits_per_second < 500
+
+
+def test_reset_gives_a_keyframe_and_the_decoder_follows_it() -> None:
+    encoder, decoder = StreamEncoder(), StreamDecoder()
+    decoder.feed(encoder.encode(Scene(1.0, Body(0, 1.0, 1.0))) or b"")
+    encoder.reset()
+    key = encoder.encode(Scene(2.0, Body(0, 4.0, 1.0), (Body(9, 0.0, 0.0),)))
+    assert key is not None
+    assert key[0] == 1
+    decoder.feed(key)
+    assert decoder.scene().robot.x == pytest.approx(4.0)
+    assert [p.id for p in decoder.scene().people] == [9]
+
+
+def test_time_survives_the_counter_wrap() -> None:
+    config = StreamConfig(refresh_period=1.0)
+    encoder, decoder = StreamEncoder(config), StreamDecoder(config)
+    for k in range(0, 800, 1):  # 800 s at 1 Hz: the 16-bit 10 ms counter wraps after 655 s
+        message = encoder.encode(Scene(100.0 + k, Body(0, 0.0, 0.0)))
+        if message is not None:
+            decoder.feed(message)
+    assert decoder.t == pytest.approx(100.0 + 799, abs=0.01)
+
+
+@pytest.mark.parametrize("bad", [b"", b"\x02\x00\x00\x00", b"\x07\x00\x00\x00\x00", b"\x01\x00\x00"])
+def test_malformed_messages_raise_and_change_nothing(bad: bytes) -> None:
+    decoder = StreamDecoder()
+    with pytest.raises(StreamError):
+        decoder.feed(bad)
+    assert decoder.epoch is None
+
+
+def test_trailing_bytes_are_rejected() -> None:
+    message = StreamEncoder().encode(Scene(1.0, Body(0, 1.0, 1.0)))
+    assert message is not None
+    with pytest.raises(StreamError, match="trailing"):
+        StreamDecoder().feed(message + b"\x00")
+
+
+def test_person_id_zero_is_refused() -> None:
+    with pytest.raises(StreamError, match="person id"):
+        StreamEncoder().encode(Scene(1.0, Body(0, 0.0, 0.0), (Body(0, 1.0, 1.0),)))
