@@ -438,7 +438,7 @@ def create_app(
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
         hub.arbiter.staff_stop()
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
         await hub.announce("Stopped by staff.")
         return {"ok": True}
 
@@ -627,10 +627,10 @@ async def _execute(
         return await _understand(command.text, hub, client, db, now, phrasebook)
     if isinstance(command, GoTo):
         x, y, theta = command.x, command.y, command.theta
-        hub.command(lambda link: link.send_goal(x, y, theta))
+        await hub.command(lambda link: link.send_goal(x, y, theta))
     elif isinstance(command, GoToExhibit):
         exhibit = await asyncio.to_thread(db.exhibit, command.exhibit)
-        hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
+        await hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
         await asyncio.to_thread(db.record_visit, exhibit.slug, hub.robot_id, source, now)
     elif isinstance(command, StartTour):
         tour = await asyncio.to_thread(db.tour, command.tour)
@@ -638,9 +638,9 @@ async def _execute(
         if not stops:
             raise CommandError(f"tour {tour.slug!r} has no exhibits")
         plan = [(e.slug, e.x, e.y, e.theta) for e in stops]
-        hub.command(lambda link: link.start_tour(tour.slug, plan))
+        await hub.command(lambda link: link.start_tour(tour.slug, plan))
     elif isinstance(command, Stop):
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.notify()
     return {"type": "ack", "command": command.type}
 
@@ -678,6 +678,6 @@ async def _understand(
         if tours:
             await _execute(StartTour(type="tour", tour=tours[0].slug), hub, client, db, now, book)
     elif reply.action == "stop":
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.announce(reply.text)
     return {"type": "heard", "intent": reply.intent, "text": reply.text}
