@@ -7,20 +7,30 @@ leg's and how much nearer it is than its neighbours. Two legs close to each othe
 into one person feature, the ``z_j(t)`` of the SJPDAF (a person produces one feature per scan, as
 the JPDAF's joint events assume).
 
-Everything here is vectorised numpy over the beams (no Python loop per beam).
+The segmentation is a numba kernel over the beams with a vectorised numpy reference beside it.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import transform_points
 from tourbot.records import Scan
 
-__all__ = ["LegConfig", "LegFeatures", "PersonFeatures", "detect_legs", "group_legs"]
+__all__ = [
+    "LegConfig",
+    "LegFeatures",
+    "PersonFeatures",
+    "detect_legs",
+    "group_legs",
+    "leg_segments",
+    "leg_segments_reference",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -32,8 +42,10 @@ class LegConfig:
     A leg is about 12 cm wide (``leg_width``); segments from ``min_width`` to ``max_width`` are
     candidates (up to two legs seen as one blob). Consecutive points further apart than
     ``cluster_distance`` start a new segment (13 cm, the ``leg_tracker`` project's clustering
-    distance). A segment must be at least ``min_contrast`` nearer than the beams beside it to be a
-    local minimum (Burgard et al., Sec. 4: "legs ... appear as local minima in the scans").
+    distance). A segment must be at least ``min_contrast`` nearer than the beams beside it on one side
+    at least to be a local minimum (Burgard et al., Sec. 4: "legs ... appear as local minima in the
+    scans"), and the range must jump by as much on both sides (the other side may be an occluder in
+    front, such as the person's other leg).
     ``max_range`` ignores features too far away to be resolved as legs.
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
@@ -44,7 +56,7 @@ class LegConfig:
     width_std: float = 0.07
     min_width: float = 0.02
     max_width: float = 0.35
-    min_points: int = 3
+    min_points: int = 2
     cluster_distance: float = 0.13
     min_contrast: float = 0.10
     contrast_scale: float = 0.05
@@ -94,17 +106,26 @@ def _valid_ranges(scan: Scan, max_range: float) -> NDArray[np.bool_]:
 def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     """Leg candidates of ``scan`` (Burgard et al. Fig. 5, middle): segments that are local minima.
 
-    Returns features in the laser frame with ``probability >= config.min_probability``.
+    Returns features in the laser frame with ``probability >= config.min_probability``; the numba
+    kernel :func:`leg_segments` does the work.
     """
     cfg = config or LegConfig()
     r = np.asarray(scan.ranges, dtype=np.float64)
-    angles = scan.geometry.angles
     valid = _valid_ranges(scan, np.inf)
+    pts, width, prob = leg_segments(r, scan.geometry.angles, valid, cfg)
+    if pts.shape[0]:
+        pts = pts + cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
+    return LegFeatures(pts, width, prob)
+
+
+def leg_segments_reference(
+    r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Vectorised numpy reference of :func:`leg_segments`: centroids ``(S, 2)``, widths, P(leg)."""
     near = valid & (r < cfg.max_range)
     B = r.shape[0]
-    empty = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     if B < 2 or not near.any():
-        return empty
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     rr = np.where(valid, r, np.inf)
     xy = np.stack([np.cos(angles) * np.where(valid, r, 0.0), np.sin(angles) * np.where(valid, r, 0.0)], -1)
     step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
@@ -124,24 +145,125 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     width = np.linalg.norm(xy[ends] - xy[starts], axis=1)
     keep &= (width >= cfg.min_width) & (width <= cfg.max_width)
     mean_r = sr / np.maximum(count, 1.0)
-    # Contrast: how much nearer the segment is than the beams just outside it (no return = far).
-    left = np.where(starts > 0, rr[np.maximum(starts - 1, 0)], np.inf)
-    right = np.where(ends < B - 1, rr[np.minimum(ends + 1, B - 1)], np.inf)
-    contrast = np.minimum(left, right) - mean_r
-    # At the edges of the field of view only one side is known: use it.
-    contrast = np.where(starts == 0, right - mean_r, contrast)
-    contrast = np.where(ends == B - 1, left - mean_r, contrast)
+    # Contrast: the range jumps to the beams just outside the segment (no return or the edge of
+    # the field of view = far). Something must lie behind on one side at least, and both sides
+    # must jump (nearer there is an occluder, e.g. the other leg; no jump is a continuous surface).
+    left = np.where(starts > 0, rr[np.maximum(starts - 1, 0)], np.inf) - mean_r
+    right = np.where(ends < B - 1, rr[np.minimum(ends + 1, B - 1)], np.inf) - mean_r
+    behind = np.maximum(left, right)
+    jump = np.minimum(np.abs(left), np.abs(right))
     with np.errstate(over="ignore", invalid="ignore"):
-        p_contrast = 1.0 / (1.0 + np.exp(-(contrast - cfg.min_contrast) / cfg.contrast_scale))
-    p_contrast = np.nan_to_num(p_contrast, nan=1.0)
+        p_behind = 1.0 / (1.0 + np.exp(-(behind - cfg.min_contrast) / cfg.contrast_scale))
+        p_jump = 1.0 / (1.0 + np.exp(-(jump - cfg.min_contrast) / cfg.contrast_scale))
+    p_contrast = np.nan_to_num(p_behind, nan=1.0) * np.nan_to_num(p_jump, nan=1.0)
     excess = np.maximum(width - cfg.leg_width, 0.0)  # narrower than a leg: a leg seen edge-on
     p_width = np.exp(-0.5 * (excess / cfg.width_std) ** 2)
     prob = p_width * p_contrast
     keep &= prob >= cfg.min_probability
     idx = np.flatnonzero(keep)
     pts = np.stack([sx[idx] / count[idx], sy[idx] / count[idx]], -1)
-    pts += cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
-    return LegFeatures(pts, width[idx], prob[idx])
+    return pts, width[idx], prob[idx]
+
+
+@numba.njit(cache=True)
+def _sigmoid(x: float, centre: float, scale: float) -> float:
+    if x == np.inf:
+        return 1.0
+    z = -(x - centre) / scale
+    return 0.0 if z > 700.0 else 1.0 / (1.0 + math.exp(z))
+
+
+@numba.njit(cache=True)
+def _leg_segments_kernel(
+    r: FloatArray,
+    angles: FloatArray,
+    valid: NDArray[np.bool_],
+    max_range: float,
+    cluster_distance: float,
+    min_points: int,
+    min_width: float,
+    max_width: float,
+    leg_width: float,
+    width_std: float,
+    min_contrast: float,
+    contrast_scale: float,
+    min_probability: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    B = r.shape[0]
+    pts = np.empty((B, 2))
+    width = np.empty(B)
+    prob = np.empty(B)
+    n = 0
+    i = 0
+    while i < B:
+        # One segment: [i, j], all valid, consecutive points within cluster_distance.
+        j = i
+        if valid[i]:
+            while j + 1 < B and valid[j + 1]:
+                dx = math.cos(angles[j + 1]) * r[j + 1] - math.cos(angles[j]) * r[j]
+                dy = math.sin(angles[j + 1]) * r[j + 1] - math.sin(angles[j]) * r[j]
+                if math.sqrt(dx * dx + dy * dy) > cluster_distance:
+                    break
+                j += 1
+        if valid[i] and j - i + 1 >= min_points:
+            sx = 0.0
+            sy = 0.0
+            sr = 0.0
+            all_near = True
+            for k in range(i, j + 1):
+                sx += math.cos(angles[k]) * r[k]
+                sy += math.sin(angles[k]) * r[k]
+                sr += r[k]
+                if r[k] >= max_range:
+                    all_near = False
+            cnt = j - i + 1
+            wx = math.cos(angles[j]) * r[j] - math.cos(angles[i]) * r[i]
+            wy = math.sin(angles[j]) * r[j] - math.sin(angles[i]) * r[i]
+            w = math.sqrt(wx * wx + wy * wy)
+            if all_near and min_width <= w <= max_width:
+                mean_r = sr / cnt
+                left = (np.inf if i == 0 or not valid[i - 1] else r[i - 1]) - mean_r
+                right = (np.inf if j == B - 1 or not valid[j + 1] else r[j + 1]) - mean_r
+                p_contrast = _sigmoid(max(left, right), min_contrast, contrast_scale) * _sigmoid(
+                    min(abs(left), abs(right)), min_contrast, contrast_scale
+                )
+                excess = max(w - leg_width, 0.0)
+                p = math.exp(-0.5 * (excess / width_std) ** 2) * p_contrast
+                if p >= min_probability:
+                    pts[n, 0] = sx / cnt
+                    pts[n, 1] = sy / cnt
+                    width[n] = w
+                    prob[n] = p
+                    n += 1
+        i = j + 1
+    return pts[:n].copy(), width[:n].copy(), prob[:n].copy()
+
+
+def leg_segments(
+    r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Segments of a scan that look like legs: centroids ``(S, 2)`` (laser frame), widths, P(leg).
+
+    A segment is a run of valid beams whose consecutive points are within ``cluster_distance``;
+    it is a leg candidate when it has ``min_points``, lies within ``max_range``, is
+    ``min_width``-``max_width`` wide, and P(leg) = P(width) * P(local minimum) reaches
+    ``min_probability`` (numba kernel of :func:`leg_segments_reference`).
+    """
+    return _leg_segments_kernel(
+        np.ascontiguousarray(r, dtype=np.float64),
+        np.ascontiguousarray(angles, dtype=np.float64),
+        np.ascontiguousarray(valid, dtype=np.bool_),
+        cfg.max_range,
+        cfg.cluster_distance,
+        cfg.min_points,
+        cfg.min_width,
+        cfg.max_width,
+        cfg.leg_width,
+        cfg.width_std,
+        cfg.min_contrast,
+        cfg.contrast_scale,
+        cfg.min_probability,
+    )
 
 
 def group_legs(legs: LegFeatures, config: LegConfig | None = None) -> PersonFeatures:
