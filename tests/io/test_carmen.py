@@ -370,3 +370,14 @@ def test_angles_are_wrapped(tmp_path: Path) -> None:
     scan = log.scans[0]
     assert scan.reference is not None
     assert scan.reference[2] == pytest.approx(2 * math.pi - 3.5)
+
+
+def test_a_scan_from_the_far_future_does_not_hold_the_stream(tmp_path: Path) -> None:
+    lines = [_odom((0.0, 0.0, 0.0), 1.0), _flaser([1.0], (0, 0, 0), 1e9)]
+    lines += [_odom((float(i), 0.0, 0.0), 1.0 + i) for i in range(1, 50)]
+    lines += [_flaser([1.0], (0, 0, 0), 30.5), _odom((99.0, 0.0, 0.0), 60.0)]
+    log = read_carmen(_write(tmp_path, lines))
+    assert len(log.warnings) == 1
+    assert "go backwards" in log.warnings[0]
+    # record order: each scan takes the latest reading before it in the file
+    assert [s.odom for s in log.scans] == [(0.0, 0.0, 0.0), (49.0, 0.0, 0.0)]

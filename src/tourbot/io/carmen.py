@@ -123,6 +123,7 @@ class _RawScan:
     line_odom: Pose | None  # the odometry pose written on the line, if any
     odom: Pose | None = None
     resolved: bool = False
+    previous: Odometry | None = None  # the latest odometry reading read before this scan
 
 
 class _MalformedError(Exception):
@@ -570,6 +571,7 @@ class CarmenReader:
                     lineno, f"of {item.sensor} scans {what} ({last_scan!r} then {item.timestamp!r})"
                 )
             self._last_scan_time[item.sensor] = item.timestamp
+            item.previous = self._history[-1] if self._history else None
             item.resolved = not self._needs_stream(item)
         self._queue.append(item)
         yield from self._flush(final=False)
@@ -586,12 +588,14 @@ class CarmenReader:
         """Attach the odometry at the scan's time; False while the reading after it is unread."""
         history = self._history
         if self._record_order:
-            # the latest reading before the scan in the file: the readings queued after the scan
-            # are not in ``history`` order-wise before it, so look at what preceded it.
-            before = self._reading_before(scan)
-            if before is None and not final and not history:
-                return False
-            scan.odom = before.pose if before is not None else (history[0].pose if history else None)
+            # the latest reading before the scan in the file, else the first one after it
+            before = scan.previous
+            if before is None and not history:
+                if not final:
+                    return False
+                scan.odom = None
+            else:
+                scan.odom = before.pose if before is not None else history[0].pose
             scan.resolved = True
             return True
         if not history or history[-1].timestamp < scan.timestamp:
@@ -603,18 +607,6 @@ class CarmenReader:
         scan.odom = _interpolate(history, scan.timestamp)
         scan.resolved = True
         return True
-
-    def _reading_before(self, scan: _RawScan) -> Odometry | None:
-        """The latest odometry reading read before ``scan`` (the queue holds what came after)."""
-        after = 0
-        seen_scan = False
-        for item in self._queue:
-            if item is scan:
-                seen_scan = True
-            elif seen_scan and isinstance(item, Odometry):
-                after += 1
-        index = len(self._history) - 1 - after
-        return self._history[index] if index >= 0 else None
 
     def _drain(self) -> Iterator[Record]:
         yield from self._flush(final=True)
