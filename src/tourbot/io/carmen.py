@@ -272,24 +272,22 @@ class CarmenReader:
     # -- lines ---------------------------------------------------------------------------------
 
     def _lines(self) -> Iterator[tuple[int, list[str]]]:
+        """Non-empty, non-comment lines as tokens, with their line numbers.
+
+        Each line is handed on only once the next one has been read, so that the last, cut-off
+        line of a truncated gzip file is reported as a truncation rather than as a short record.
+        """
         lineno = 0
+        held: bytes | None = None
         try:
             with _open_binary(self.path) as stream:
                 for raw in stream:
+                    if held is not None:
+                        tokens = self._tokens(held, lineno)
+                        if tokens:
+                            yield lineno, tokens
                     lineno += 1
-                    if raw.strip():
-                        self._content_lines += 1
-                    try:
-                        if b"\x00" in raw:
-                            raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
-                        text = raw.decode("utf-8")
-                    except UnicodeDecodeError:
-                        self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
-                        continue
-                    tokens = text.split()
-                    if not tokens or tokens[0].startswith("#"):
-                        continue
-                    yield lineno, tokens
+                    held = raw
         except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
             reason = (
                 "the gzip stream is truncated (the file was cut short)"
@@ -297,8 +295,30 @@ class CarmenReader:
                 else f"the gzip stream is corrupt ({exc})"
             )
             if not self.lenient:
-                raise LogFormatError(reason, path=self.path, line=lineno + 1) from None
-            self.warnings.append(f"{self.path}:{lineno + 1}: {reason}; kept the {lineno} lines before it")
+                raise LogFormatError(reason, path=self.path, line=max(lineno, 1)) from None
+            kept = max(lineno - 1, 0)
+            self.warnings.append(f"{self.path}:{max(lineno, 1)}: {reason}; kept the {kept} lines before it")
+            return
+        if held is not None:
+            tokens = self._tokens(held, lineno)
+            if tokens:
+                yield lineno, tokens
+
+    def _tokens(self, raw: bytes, lineno: int) -> list[str]:
+        if raw.strip():
+            self._content_lines += 1
+        if b"\x00" in raw:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        tokens = text.split()
+        if not tokens or tokens[0].startswith("#"):
+            return []
+        return tokens
 
     def _find_odometry_stream(self) -> bool:
         """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
