@@ -381,3 +381,20 @@ def test_a_scan_from_the_far_future_does_not_hold_the_stream(tmp_path: Path) -> 
     assert "go backwards" in log.warnings[0]
     # record order: each scan takes the latest reading before it in the file
     assert [s.odom for s in log.scans] == [(0.0, 0.0, 0.0), (49.0, 0.0, 0.0)]
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.51, 0.77, 0.9])
+def test_truncation_anywhere_is_reported_as_truncation(tmp_path: Path, fraction: float) -> None:
+    rng = np.random.default_rng(1)
+    lines = []
+    for i in range(300):
+        lines.append(_odom((0.01 * i, 0.0, 0.0), 1.0 + i))
+        lines.append(_flaser(rng.uniform(0.5, 9.0, 90).round(3).tolist(), (0.01 * i, 0.0, 0.0), 1.5 + i))
+    whole = _write(tmp_path, lines, "whole.log.gz").read_bytes()
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(whole[: int(len(whole) * fraction)])
+    with pytest.raises(LogFormatError, match="truncated"):
+        read_carmen(cut)
+    kept = read_carmen(cut, lenient=True)
+    assert 0 < len(kept) < 300
+    assert not any("malformed" in w for w in kept.warnings)
