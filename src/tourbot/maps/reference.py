@@ -1,9 +1,9 @@
 """The reference map of a corrected log: a log-odds occupancy grid built from the reference poses.
 
 Occupancy grid mapping with known poses (Moravec and Elfes 1985, the grid maps of Burgard et al.
-Sec. 2.1; Thrun, Burgard and Fox, *Probabilistic Robotics*, Table 9.1): every cell keeps the log
-odds ``l = n_hit * l_occ + n_miss * l_free`` of the beams that ended in it (hits) and passed
-through it (misses), and its probability is ``1 - 1 / (1 + exp(l))`` (Eq. 9.7 with a 0.5 prior).
+Sec. 2.1; Thrun, Burgard and Fox, *Probabilistic Robotics*, Ch. 9, Table 9.1): every cell keeps
+the log odds ``l = n_hit * l_occ + n_miss * l_free`` of the beams that ended in it (hits) and
+passed through it (misses), and its probability is ``1 - 1 / (1 + exp(l))`` (a 0.5 prior).
 Clearing free space along every beam removes what moved: the visitors' legs that polluted the
 FHW log are hit a few times and passed through many more times.
 
