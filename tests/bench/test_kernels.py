@@ -6,11 +6,13 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from tourbot.cli.main import main
 
 
-def test_bench_kernels_runs_and_casters_agree(shared_data: Path, tmp_path: Path) -> None:
+@pytest.mark.usefixtures("shared_data")
+def test_bench_kernels_runs_and_casters_agree(tmp_path: Path) -> None:
     out = tmp_path / "kernels.json"
     main(
         [
