@@ -58,7 +58,7 @@ from tourbot.localization.beam_filters import (
     novelty_filter,
 )
 from tourbot.localization.estimate import LocalizationEstimate
-from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.localization.motion_model import OdometryMotionModel, _wrap
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
@@ -69,6 +69,8 @@ __all__ = [
     "LocalizationError",
     "MCLConfig",
     "MonteCarloLocalization",
+    "best_cluster_estimate",
+    "best_cluster_estimate_reference",
     "cluster_bins",
     "cluster_bins_reference",
     "kld_bounds",
@@ -355,10 +357,7 @@ class MonteCarloLocalization:
     def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
-        cw = np.bincount(labels, weights=self.weights)
-        best = int(np.argmax(cw))
-        sel = labels == best
-        return (*_weighted_mean_cov(self.samples[sel], self.weights[sel]), float(cw[best]))
+        return best_cluster_estimate(self.samples, self.weights, labels)
 
     def _resample(
         self,
@@ -446,6 +445,84 @@ def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:
     ix -= ix.min()
     iy -= iy.min()
     return (ix * (int(iy.max()) + 1) + iy) * n_th + it
+
+
+def best_cluster_estimate(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """The heaviest cluster's weighted mean pose (circular mean of headings), covariance and weight.
+
+    A numba kernel; :func:`best_cluster_estimate_reference` is its plain-numpy reference.
+    """
+    n_labels = int(labels.max()) + 1 if labels.size else 0
+    pose = np.zeros(3)
+    cov = np.zeros((3, 3))
+    w = _best_cluster_kernel(
+        np.ascontiguousarray(samples, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(labels, dtype=np.int64),
+        n_labels,
+        pose,
+        cov,
+    )
+    return pose, cov, w
+
+
+@numba.njit(cache=True)
+def _best_cluster_kernel(
+    samples: FloatArray,
+    weights: FloatArray,
+    labels: IntArray,
+    n_labels: int,
+    pose: FloatArray,
+    cov: FloatArray,
+) -> float:
+    cw = np.zeros(n_labels)
+    for i in range(labels.shape[0]):
+        cw[labels[i]] += weights[i]
+    best = 0
+    for k in range(n_labels):
+        if cw[k] > cw[best]:
+            best = k
+    total = cw[best]
+    mx = 0.0
+    my = 0.0
+    sn = 0.0
+    cs = 0.0
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            mx += w * samples[i, 0]
+            my += w * samples[i, 1]
+            sn += w * math.sin(samples[i, 2])
+            cs += w * math.cos(samples[i, 2])
+    mth = math.atan2(sn, cs)
+    pose[0] = mx
+    pose[1] = my
+    pose[2] = mth
+    cov[:, :] = 0.0
+    d = np.empty(3)
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            d[0] = samples[i, 0] - mx
+            d[1] = samples[i, 1] - my
+            d[2] = _wrap(samples[i, 2] - mth)
+            for a in range(3):
+                for b in range(3):
+                    cov[a, b] += w * d[a] * d[b]
+    return total
+
+
+def best_cluster_estimate_reference(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """Plain-numpy reference of :func:`best_cluster_estimate`."""
+    cw = np.bincount(labels, weights=weights)
+    best = int(np.argmax(cw))
+    sel = labels == best
+    pose, cov = _weighted_mean_cov(samples[sel], weights[sel])
+    return pose, cov, float(cw[best])
 
 
 def _weighted_mean_cov(samples: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
