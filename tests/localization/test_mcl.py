@@ -79,7 +79,7 @@ def test_clustering_matches_reference(p: np.ndarray) -> None:
 def test_cluster_estimate_matches_reference(p: np.ndarray, seed: int) -> None:
     p = p.copy()
     p[:, 2] = wrap_angle(p[:, 2] * 1.6)
-    w = np.random.default_rng(seed).random(p.shape[0]) + 0.01
+    w = np.asarray(np.random.default_rng(seed).random(p.shape[0])) + 0.01
     labels = cluster_bins(p, 0.5, math.radians(30))
     pose, cov, weight = best_cluster_estimate(p, w, labels)
     rpose, rcov, rweight = best_cluster_estimate_reference(p, w, labels)
