@@ -13,19 +13,22 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
 3. *perception* (Eq. 2): the weights are multiplied by the likelihood-field likelihood of the
    selected beams (:class:`tourbot.maps.likelihood_field.LikelihoodField`), tempered by
    ``likelihood_exponent`` because neighbouring beams are not independent;
-4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3): short-
-   and long-term averages of the per-beam measurement likelihood; when the short-term one falls
-   below ``recovery_ratio`` times the long-term one, a fraction
-   ``1 - w_fast / (recovery_ratio * w_slow)`` of the samples is replaced at the next resampling by
-   poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000): candidate poses,
-   half around the last estimate (most failures are local: a push, wheel slip, a kidnap by a
-   metre) and half over the whole free space, are scored against the scan and drawn by score.
-   The dead band ``recovery_ratio`` keeps the scan-to-scan ups and downs of the likelihood in a
-   crowd from resetting a filter that is tracking well. Because the
-   likelihood is measured on the *filtered* beams only, a crowd that hides the walls does not
-   trigger resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer
-   than expected are kept (Fox et al.: the novelty filter "forces the incorporation of very
-   unlikely sensor measurements (especially too long readings)") and do;
+4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with
+   sensor resetting (Lenser & Veloso 2000). The fit of a scan is how well the *best* sample
+   explains the integrated beams (the per-beam geometric mean of their likelihood): while tracking,
+   some sample always explains them, whatever the spread of the prediction; after a kidnap none
+   does. A short- and a long-term average of the fit are kept (``alpha_fast``, ``alpha_slow``);
+   when the short-term one falls below ``recovery_ratio`` times the long-term one, a fraction
+   ``1 - w_fast / (recovery_ratio * w_slow)`` (at most ``max_injection``) of the samples is
+   replaced by poses drawn from the current scan: candidate poses, half around the last estimate
+   (most failures are local: a push, wheel slip, a kidnap by a metre) and half over the whole free
+   space, scored against the scan and drawn by score. The dead band ``recovery_ratio`` and the
+   rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is no evidence
+   keep the ups and downs of a crowded museum from resetting a filter that tracks well. Because
+   the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
+   resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
+   expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
+   sensor measurements (especially too long readings)") and do;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -118,10 +121,13 @@ class MCLConfig:
         ``alpha_slow`` / ``alpha_fast``: the averaging rates of augmented MCL (Probabilistic
         Robotics Table 8.3, Nav2 AMCL ``recovery_alpha_slow`` 0.001 / ``recovery_alpha_fast`` 0.1);
         per update, and AMCL updates every 0.25 m whereas a scan of the museum logs comes every
-        ~0.8 m, so ours are faster. ``recovery_ratio``: injection starts when the short-term
-        average falls below this fraction of the long-term one (1 in Probabilistic Robotics; 0.5
-        here, measured on the museum logs where the per-scan likelihood varies by 2x while
-        tracking). ``max_injection``: at most this fraction of the samples is replaced per update.
+        ~0.8 m, so ours are faster (``alpha_fast`` 1: the fit of the current scan itself).
+        ``recovery_ratio``: injection starts when the short-term average falls below this fraction
+        of the long-term one (1 in Probabilistic Robotics; 0.5 here: on the FHW log the best
+        sample's fit stays within 0.55-1 of its average while tracking and drops to about 0.1 at a
+        kidnap). ``recovery_min_used``: scans with fewer integrated beams than this fraction of
+        their returns leave the averages alone. ``max_injection``: at most this fraction of the
+        samples is replaced per update.
         ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
         around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
         over the free space, scored against the scan with every ``injection_beam_step``-th beam.
