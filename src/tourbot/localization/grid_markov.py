@@ -15,14 +15,23 @@ after each step the poses below ``prune_ratio`` times the largest belief are dro
 mixture cannot be held explicitly, so it is evaluated by a sweep: each update scores
 ``sweep_poses`` poses of a fixed pseudo-random tour of the whole grid with their share
 ``eps / |L|`` of prior, and those that explain the scan well enough join the held set. That is how
-a kidnapped robot recovers (Table 1, "Recovery").
+a kidnapped robot recovers (Table 1, "Recovery"). Swept poses are screened on a few beams first
+and only the most promising get the full product of Eq. 2; a uniform belief (global localization)
+is screened the same way down to ``max_active`` poses.
+
+The filters judge each beam against the belief *with* its uniform part (sampled from the sweep): a
+beam that only poses elsewhere explain (a person in front of the robot, seen by a pose next to a
+wall) moves mass to the uniform part, raises the entropy and fails the entropy filter; without
+this, a filtered-in reading would let the sweep pull the belief away from the truth.
 
 The expected range of every beam is a table look-up: the project's ray caster fills, once per map,
 the range from every free cell centre at every ``table_angle_step`` (1 degree by default, the
 laser's beam spacing), so a beam of a pose in heading layer ``k`` reads
 ``table[cell, (k * angle_step + laser_yaw + beam_angle) / table_angle_step]``. The beam model's
 ``p(s_b | l)`` and ``p_n(s_b | l)`` (Eq. 5) are tabulated per scan over range bins. The hot loops
-are the numba kernels of :mod:`tourbot.localization.grid_kernels`.
+are the numba kernels of :mod:`tourbot.localization.grid_kernels`. The table is built on the
+first update (seconds to a minute for a museum; :meth:`GridMarkovLocalization.prepare` builds it
+ahead, with progress, and :meth:`~GridMarkovLocalization.use_table` shares it between localizers).
 """
 
 from __future__ import annotations
