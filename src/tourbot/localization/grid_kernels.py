@@ -110,7 +110,7 @@ def _scan_log_likelihood_kernel(
     table: BinArray,
     beam_cols: IntArray,
     beams: IntArray,
-    ll: FloatArray,
+    ll: NDArray[np.float32],
     out: FloatArray,
 ) -> None:
     for i in range(pose_idx.shape[0]):
@@ -139,11 +139,13 @@ def scan_log_likelihood(
     """``log p(s | l) = sum_{b used} ll[b, bin(l, b)]`` for every pose, ``(N,)`` (numba kernel).
 
     The log of the product of independent beam likelihoods that Eq. 2 multiplies the belief with.
+    The look-up table is read in float32 (sums are float64).
     """
     out = np.empty(pose_idx.shape[0], dtype=np.float64)
     beams = np.flatnonzero(used).astype(np.int64)
+    ll32 = np.ascontiguousarray(ll, dtype=np.float32)  # half the cache footprint of the look-ups
     _scan_log_likelihood_kernel(
-        pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols, beams, ll, out
+        pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols, beams, ll32, out
     )
     return out
 
@@ -175,6 +177,7 @@ def scan_log_likelihood_reference(
 def _filter_statistics_kernel(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: FloatArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -182,21 +185,22 @@ def _filter_statistics_kernel(
     table: BinArray,
     beam_cols: IntArray,
     beams: IntArray,
-    ll: FloatArray,
-    ll_max: FloatArray,
-    lik: FloatArray,
-    ps: FloatArray,
+    tab: NDArray[np.float32],
     z: FloatArray,
     s: FloatArray,
     pn: FloatArray,
 ) -> float:
+    # tab[b, bin] = (p, p log p, p_n, 0) with p = p(s_b | l) relative to the beam's best bin: one
+    # cache line per look-up.
     h0 = 0.0
     for i in range(pose_idx.shape[0]):
         wi = w[i]
-        if wi <= 0.0:
+        mi = mult[i]
+        if wi <= 0.0 or mi <= 0.0:
             continue
+        mw = mi * wi
         logw = math.log(wi)
-        h0 -= wi * logw
+        h0 -= mw * logw
         p = pose_idx[i]
         k = p // n_free
         f = p - k * n_free
@@ -204,17 +208,17 @@ def _filter_statistics_kernel(
         for j in range(beams.shape[0]):
             b = beams[j]
             d = table[g, beam_cols[k, b]]
-            q = wi * lik[b, d]
-            if q > 0.0:
-                z[b] += q
-                s[b] += q * (logw + ll[b, d] - ll_max[b])
-            pn[b] += wi * ps[b, d]
+            lik = tab[b, d, 0]
+            z[b] += mw * lik
+            s[b] += mw * (lik * logw + tab[b, d, 1])
+            pn[b] += mw * tab[b, d, 2]
     return h0
 
 
 def filter_statistics(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: FloatArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -227,7 +231,9 @@ def filter_statistics(
 ) -> tuple[FloatArray, FloatArray]:
     """Entropy change ``Delta H(l | s_b)`` (Eq. 3-4) and ``p_n(s_b)`` (Eq. 6) for beams ``beams``.
 
-    ``w`` is the belief ``Bel(l)`` of the held poses (normalized here). Returns two ``(B,)`` arrays
+    ``w`` is the belief ``Bel(l)`` of each listed pose and ``mult`` how many poses of that belief
+    it stands for (1 for a held pose; more for a sample of the uniform mixture), so the belief is
+    ``sum mult * w`` (normalized here). Returns two ``(B,)`` arrays
     (NaN for beams not listed). One pass: with ``q_l = Bel(l) p(s_b | l)`` and ``Z = sum q_l``,
     the entropy after integrating beam ``b`` alone is ``H(l | s_b) = log Z - (1/Z) sum q_l log q_l``
     (the scale of ``p(s_b | l)`` cancels, so it is taken relative to the beam's best bin). Beams
@@ -235,15 +241,20 @@ def filter_statistics(
     :func:`tourbot.localization.beam_filters.entropy_change`.
     """
     n_beams = ll.shape[0]
-    wn = np.ascontiguousarray(w, dtype=np.float64) / float(np.sum(w))
-    ll_max = np.max(ll, axis=1)
-    lik = np.exp(ll - ll_max[:, None])  # p(s_b | l) relative to the beam's best bin, tabulated
+    m = np.ascontiguousarray(mult, dtype=np.float64)
+    wn = np.ascontiguousarray(w, dtype=np.float64) / float(np.sum(m * w))
+    lq = ll - np.max(ll, axis=1)[:, None]
+    lik = np.exp(lq)
+    tab = np.zeros((n_beams, ll.shape[1], 4), dtype=np.float32)
+    tab[:, :, 0] = lik
+    tab[:, :, 1] = np.where(lik > 0.0, lik * lq, 0.0)
+    tab[:, :, 2] = ps
     z = np.zeros(n_beams)
     s = np.zeros(n_beams)
     pn = np.zeros(n_beams)
     h0 = _filter_statistics_kernel(
-        pose_idx, wn, n_free, free_rc, free_index, laser_shift, table, beam_cols,
-        np.ascontiguousarray(beams, dtype=np.int64), ll, ll_max, lik, ps, z, s, pn,
+        pose_idx, wn, m, n_free, free_rc, free_index, laser_shift, table, beam_cols,
+        np.ascontiguousarray(beams, dtype=np.int64), tab, z, s, pn,
     )  # fmt: skip
     dh = np.full(n_beams, np.nan)
     pnov = np.full(n_beams, np.nan)
@@ -257,6 +268,7 @@ def filter_statistics(
 def filter_statistics_reference(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: IntArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -269,12 +281,16 @@ def filter_statistics_reference(
 ) -> tuple[FloatArray, FloatArray]:
     """Plain-numpy reference of :func:`filter_statistics`, through the project's beam filters.
 
-    Materializes ``p(s_b | l)`` and ``p_n(s_b | l)`` as ``(N, B)`` arrays and hands them to
+    Repeats each pose ``mult`` times (integer multiplicities here), materializes ``p(s_b | l)``
+    and ``p_n(s_b | l)`` as ``(N, B)`` arrays and hands them to
     :func:`tourbot.localization.beam_filters.entropy_change_reference` and
     :func:`~tourbot.localization.beam_filters.novelty_probability`.
     """
     from tourbot.localization.beam_filters import entropy_change_reference, novelty_probability
 
+    reps = np.asarray(mult, dtype=np.int64)
+    pose_idx = np.repeat(pose_idx, reps)
+    w = np.repeat(np.asarray(w, dtype=np.float64), reps)
     bins = _beam_bins_reference(pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols)
     b = np.asarray(beams, dtype=np.int64)
     lik = np.exp(ll[b[None, :], bins[:, b]] - np.max(ll[b], axis=1)[None, :])

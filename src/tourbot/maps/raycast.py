@@ -45,8 +45,10 @@ __all__ = [
     "RayCaster",
     "blocking_mask",
     "cast_circles_reference",
+    "cast_rays_kernel",
     "cast_rays_reference",
     "circle_ranges",
+    "padded_table",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -173,33 +175,73 @@ def cast_circles_reference(
 # --------------------------------------------------------------------------------------------
 # numba kernels
 # --------------------------------------------------------------------------------------------
+#
+# The kernels read a flat, row-major uint8 *padded* table: the grid's cells shifted by one inside
+# a ring of ``OUTSIDE`` cells. ``BLOCKED`` marks blocking cells; in free cells the value is how
+# many whole cells a ray may jump from there (0 for the plain DDA). A ray always stops on a
+# ``BLOCKED`` or ``OUTSIDE`` cell, so the inner loops need no bounds checks; positions in padded
+# cell units are positive, so ``int()`` is ``floor``.
+
+BLOCKED = 255
+OUTSIDE = 254
+MAX_JUMP = 253
+_FIX = 4294967296.0  # 2**32: 32.32 fixed point for the jumps
 
 
 @numba.njit(cache=True, inline="always")
-def _clip(x0: float, y0: float, dx: float, dy: float, cols: int, rows: int) -> tuple[float, float]:
-    """Parameter interval where the ray is inside the box ``[0, cols] x [0, rows]``."""
-    t0 = -np.inf
+def _start(
+    x0: float, y0: float, dx: float, dy: float, cols: int, rows: int, outside_blocks: bool
+) -> tuple[float, int]:
+    """Where the ray starts walking in the grid, ``(t0, status)``, unpadded cell units.
+
+    ``status`` 0: walk from ``t0``; 1: range 0 (origin outside and outside blocks); 2: no hit.
+    """
+    if 0.0 <= x0 < cols and 0.0 <= y0 < rows:
+        return 0.0, 0
+    if outside_blocks:
+        return 0.0, 1
+    # outside is empty: clip the ray to the box [0, cols] x [0, rows] (slab method)
+    t0 = 0.0
     t1 = np.inf
     if dx != 0.0:
         a = (0.0 - x0) / dx
         b = (cols - x0) / dx
         t0 = max(t0, min(a, b))
         t1 = min(t1, max(a, b))
-    elif x0 < 0.0 or x0 >= cols:
-        return 1.0, -1.0
+    elif not 0.0 <= x0 < cols:
+        return 0.0, 2
     if dy != 0.0:
         a = (0.0 - y0) / dy
         b = (rows - y0) / dy
         t0 = max(t0, min(a, b))
         t1 = min(t1, max(a, b))
-    elif y0 < 0.0 or y0 >= rows:
-        return 1.0, -1.0
-    return t0, t1
+    elif not 0.0 <= y0 < rows:
+        return 0.0, 2
+    if t0 >= t1:
+        return 0.0, 2
+    return t0, 0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
+def _axis(d: float) -> tuple[int, float, float]:
+    """DDA constants along one axis: step sign, whether the next line is above, 1/d.
+
+    A ray parallel to the axis gets a huge finite 1/d rather than inf, so that the branch-free
+    step never computes ``inf * 0``.
+    """
+    if d > 0.0:
+        return 1, 1.0, 1.0 / d
+    if d < 0.0:
+        return -1, 0.0, 1.0 / d
+    return 0, 1.0, 1e300
+
+
+@numba.njit(cache=True, inline="always")
 def _cast_one(
-    table: NDArray[np.float32],
+    table: NDArray[np.uint8],
+    width: int,
+    rows: int,
+    cols: int,
     x0: float,
     y0: float,
     dx: float,
@@ -208,59 +250,71 @@ def _cast_one(
     outside_blocks: bool,
     jump: bool,
 ) -> float:
-    """Range in cells of one ray; ``table < 0`` blocks, ``table >= 1`` is a safe jump (if ``jump``)."""
-    rows, cols = table.shape
-    inside = 0.0 <= x0 < cols and 0.0 <= y0 < rows
-    if outside_blocks and not inside:
+    """Range in cells of one ray from ``(x0, y0)`` (unpadded cell units) along unit ``(dx, dy)``.
+
+    Amanatides & Woo DDA steps; with ``jump``, runs of safe jumps wherever the table allows them.
+    """
+    t, status = _start(x0, y0, dx, dy, cols, rows, outside_blocks)
+    if status == 1:
         return 0.0
-    t_in, t_out = _clip(x0, y0, dx, dy, cols, rows)
-    if t_in > t_out:
-        return 0.0 if outside_blocks else max_cells
-    t = max(t_in, 0.0)
-    t_end = min(t_out, max_cells)
-    if t >= t_end:  # the ray misses the grid, or meets it beyond max_range
+    if status == 2 or t >= max_cells:
         return max_cells
-    cx = min(max(math.floor(x0 + t * dx), 0), cols - 1)
-    cy = min(max(math.floor(y0 + t * dy), 0), rows - 1)
-    sx = 1 if dx > 0.0 else -1
-    sy = 1 if dy > 0.0 else -1
-    bx = 1.0 if dx > 0.0 else 0.0
-    by = 1.0 if dy > 0.0 else 0.0
-    ix = 1.0 / dx if dx != 0.0 else 0.0
-    iy = 1.0 / dy if dy != 0.0 else 0.0
+    px0 = x0 + 1.0  # padded coordinates
+    py0 = y0 + 1.0
+    cx = np.int64(min(max(int(px0 + t * dx), 1), cols))
+    cy = np.int64(min(max(int(py0 + t * dy), 1), rows))
+    sx, bx, ix = _axis(dx)
+    sy, by, iy = _axis(dy)
+    tdx = abs(ix)
+    tdy = abs(iy)
+    tmx = (cx + bx - px0) * ix  # t of the next vertical / horizontal grid line
+    tmy = (cy + by - py0) * iy
+    fdx = np.int64(dx * _FIX)
+    fdy = np.int64(dy * _FIX)
+    v = np.int64(table[cy * width + cx])
     while True:
-        v = table[cy, cx]
-        if v < 0.0:
-            return t
-        if jump and v >= 1.0:
-            t += v
-            if t >= t_end:
-                break
-            cx = math.floor(x0 + t * dx)
-            cy = math.floor(y0 + t * dy)
-            if cx < 0 or cx >= cols or cy < 0 or cy >= rows:
-                break
+        if v >= OUTSIDE:
+            if v == BLOCKED or outside_blocks:
+                return t
+            return max_cells
+        if jump and v > 0:
+            # a run of jumps in fixed point: only integer maths between two table reads
+            fx = np.int64((px0 + t * dx) * _FIX)
+            fy = np.int64((py0 + t * dy) * _FIX)
+            run = np.int64(0)
+            room = np.int64(max_cells - t) + 1
+            while 0 < v < OUTSIDE and run < room:
+                run += v
+                fx += v * fdx
+                fy += v * fdy
+                cx = fx >> 32
+                cy = fy >> 32
+                v = np.int64(table[cy * width + cx])
+            t += run
+            if t >= max_cells:
+                return max_cells
+            tmx = (cx + bx - px0) * ix
+            tmy = (cy + by - py0) * iy
             continue
-        tx = (cx + bx - x0) * ix if dx != 0.0 else np.inf
-        ty = (cy + by - y0) * iy if dy != 0.0 else np.inf
-        if tx < ty:
-            t = tx
-            cx += sx
-        else:
-            t = ty
-            cy += sy
-        if t >= t_end:
-            break
-        if cx < 0 or cx >= cols or cy < 0 or cy >= rows:
-            break
-    if t_out < max_cells and outside_blocks:
-        return t_out
-    return max_cells
+        # one DDA step, branch-free: the nearer grid line is crossed
+        mi = np.int64(tmx < tmy)
+        mf = float(mi)
+        t = min(tmx, tmy)
+        tmx += tdx * mf
+        tmy += tdy * (1.0 - mf)
+        cx += sx * mi
+        cy += sy * (1 - mi)
+        if t >= max_cells:
+            return max_cells
+        v = np.int64(table[cy * width + cx])
 
 
 @numba.njit(cache=True)
 def cast_rays_kernel(
-    table: NDArray[np.float32],
+    table: NDArray[np.uint8],
+    width: int,
+    rows: int,
+    cols: int,
     ox: FloatArray,
     oy: FloatArray,
     oth: FloatArray,
@@ -273,9 +327,11 @@ def cast_rays_kernel(
 ) -> None:
     """Fill ``out[i, b]`` with ``scale *`` the range in cells of beam ``b`` from pose ``i``.
 
-    ``table[row, col]`` is ``< 0`` in blocking cells; with ``jump``, a value ``>= 1`` is how many
-    cells a ray may advance from that cell without reaching a blocking cell (see
-    :class:`DistanceCaster`). Without ``jump`` this is the plain Amanatides & Woo DDA.
+    ``table`` is the flat padded table (see :func:`padded_table`, row length ``width = cols +
+    2``) of a ``rows x cols`` grid; origins ``(ox, oy)`` in unpadded cell units, headings
+    ``oth``. Without ``jump`` this is the plain Amanatides & Woo DDA (Amanatides & Woo 1987,
+    "A fast voxel traversal algorithm for ray tracing"); with it, the distance-transform
+    accelerated DDA of :class:`DistanceCaster`. Not parallel: one core, by design.
     """
     n = ox.shape[0]
     nb = angles.shape[0]
@@ -287,7 +343,17 @@ def cast_rays_kernel(
         for b in range(nb):
             dx = ct * ca[b] - st * sa[b]
             dy = st * ca[b] + ct * sa[b]
-            out[i, b] = scale * _cast_one(table, ox[i], oy[i], dx, dy, max_cells, outside_blocks, jump)
+            r = _cast_one(table, width, rows, cols, ox[i], oy[i], dx, dy, max_cells, outside_blocks, jump)
+            out[i, b] = scale * r
+
+
+def padded_table(blocked: NDArray[np.bool_], jumps: NDArray[np.uint8] | None = None) -> NDArray[np.uint8]:
+    """The kernels' flat table: ``jumps`` (default 0) with ``BLOCKED`` cells, in an ``OUTSIDE`` ring."""
+    rows, cols = blocked.shape
+    table = np.full((rows + 2, cols + 2), OUTSIDE, dtype=np.uint8)
+    body = np.zeros(blocked.shape, dtype=np.uint8) if jumps is None else jumps.astype(np.uint8)
+    table[1:-1, 1:-1] = np.where(blocked, np.uint8(BLOCKED), body)
+    return table.ravel()
 
 
 @numba.njit(cache=True)
@@ -342,7 +408,7 @@ def circle_ranges(
 class RayCaster:
     """Common front of the casters: world poses and beam angles in, float32 metres out."""
 
-    table: Float32Array
+    table: NDArray[np.uint8]
     jump: bool = False
 
     def __init__(self, grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> None:
@@ -365,8 +431,12 @@ class RayCaster:
         a = _angles(angles)
         out = np.empty((ox.shape[0], a.shape[0]), dtype=np.float32)
         if out.size:
+            rows, cols = self.grid.shape
             cast_rays_kernel(
                 self.table,
+                cols + 2,
+                rows,
+                cols,
                 ox,
                 oy,
                 oth,
@@ -424,7 +494,7 @@ class DDACaster(RayCaster):
 
     def __init__(self, grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> None:
         super().__init__(grid, max_range, unknown_blocks)
-        self.table = np.where(self.blocked, np.float32(-1.0), np.float32(0.0)).astype(np.float32)
+        self.table = padded_table(self.blocked)
 
 
 class DistanceCaster(RayCaster):
@@ -432,9 +502,11 @@ class DistanceCaster(RayCaster):
 
     If the centre of a cell is ``D`` cells from the centre of the nearest blocking cell, every
     point of the cell is farther than ``D - sqrt(2)`` from every point of every blocking cell (two
-    half-diagonals), so a ray may jump that far at once (ray marching, as range_libc's "RM", Walsh
-    & Karaman 2018). Near obstacles (jump < 1 cell) it takes exact DDA steps, so its ranges are the
-    DDA's ones, not a within-epsilon approximation.
+    half-diagonals), so a ray may jump that far at once (ray marching on a distance transform, as
+    range_libc's "RM", Walsh & Karaman 2018). The table keeps ``floor(D - sqrt(2))`` (at most 253)
+    as one byte per cell. Near obstacles (no whole-cell jump) the ray takes exact DDA steps, so
+    the ranges are the DDA's ones, not a within-epsilon approximation. The ring around the grid
+    counts as blocking for the jumps, so a jump never leaves the table.
     """
 
     jump = True
@@ -443,13 +515,8 @@ class DistanceCaster(RayCaster):
         from scipy import ndimage
 
         super().__init__(grid, max_range, unknown_blocks)
-        blocked = self.blocked
-        if unknown_blocks:  # the outside blocks too: a ring of blocking cells around the grid
-            blocked = np.pad(blocked, 1, constant_values=True)
-        dist = ndimage.distance_transform_edt(~blocked) if blocked.any() else np.full(blocked.shape, np.inf)
-        if unknown_blocks:
-            dist = dist[1:-1, 1:-1]
-        # 1e-3 keeps the bound strict after rounding to float32
-        safe = np.minimum(dist - _SQRT2 - 1e-3, self.max_cells + 1.0)
-        table = np.where(safe >= 1.0, safe, 0.0)
-        self.table = np.where(self.blocked, -1.0, table).astype(np.float32)
+        walls = np.pad(self.blocked, 1, constant_values=True)
+        dist = ndimage.distance_transform_edt(~walls)[1:-1, 1:-1]
+        # 1e-3: the bound stays strict whatever the rounding of the fixed-point positions
+        safe = np.floor(np.clip(dist - _SQRT2 - 1e-3, 0.0, MAX_JUMP)).astype(np.uint8)
+        self.table = padded_table(self.blocked, safe)

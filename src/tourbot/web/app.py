@@ -14,6 +14,8 @@ holder's commands move a robot, checked here on the server, never in the page.
 from __future__ import annotations
 
 import asyncio
+import base64
+import hashlib
 import io
 import json
 import math
@@ -62,6 +64,7 @@ __all__ = ["WebConfig", "create_app", "find_node_modules"]
 STATIC = Path(__file__).with_name("static")
 COOKIE = "tourbot_session"
 _SPEECH_NAME = re.compile(r"^[0-9a-f]{24}\.wav$")
+_IMPORTMAP = re.compile(r'<script type="importmap">(.*?)</script>', re.DOTALL)
 
 
 def find_node_modules(start: Path | None = None) -> Path | None:
@@ -137,6 +140,29 @@ class _TourIn(BaseModel):
     name: Annotated[str, Field(min_length=1, max_length=200)]
     description: Annotated[str, Field(max_length=4000)] = ""
     exhibits: Annotated[list[str], Field(max_length=100)]
+
+
+def _staff(request: Request) -> _Client:
+    """The logged-in staff member making ``request``; 401 otherwise (a FastAPI dependency)."""
+    client = request.app.state.lookup(request.cookies.get(COOKIE))
+    if client is None or not client.staff:
+        raise HTTPException(401, "staff login required")
+    return client
+
+
+Staff = Annotated[_Client, Depends(_staff)]
+
+
+def _policy(html: str) -> str:
+    """Content security policy: our own scripts only, plus the page's inline import map by hash."""
+    hashes = [
+        "'sha256-" + base64.b64encode(hashlib.sha256(m.encode()).digest()).decode() + "'"
+        for m in _IMPORTMAP.findall(html)
+    ]
+    return (
+        "default-src 'self'; img-src 'self' data: blob: https:; media-src 'self' blob:; "
+        f"connect-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self' {' '.join(hashes)}"
+    ).strip()
 
 
 def _map_png(grid: OccupancyGrid) -> bytes:
@@ -223,6 +249,8 @@ def create_app(
         sessions[token] = client
         return client
 
+    app.state.lookup = lookup
+
     def ensure_session(request: Request, response: Response, kind: str = "web") -> _Client:
         client = lookup(request.cookies.get(COOKIE))
         if client is None:
@@ -230,12 +258,6 @@ def create_app(
             client = _Client(sid, kind, False)
             sessions[token] = client
             response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
-        return client
-
-    def staff(request: Request) -> _Client:
-        client = lookup(request.cookies.get(COOKIE))
-        if client is None or not client.staff:
-            raise HTTPException(401, "staff login required")
         return client
 
     def is_onboard(host: str | None, client: _Client | None) -> bool:
@@ -248,12 +270,12 @@ def create_app(
 
     # --- pages ---------------------------------------------------------------------------
     def page(name: str, request: Request, kind: str = "web") -> HTMLResponse:
-        response = HTMLResponse((STATIC / name).read_text())
+        html = (STATIC / name).read_text()
+        response = HTMLResponse(html)
         ensure_session(request, response, kind)
-        response.headers["Content-Security-Policy"] = (
-            "default-src 'self'; img-src 'self' data: blob: https:; media-src 'self' blob:; "
-            "connect-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self'"
-        )
+        response.headers["Content-Security-Policy"] = _policy(html)
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers["Referrer-Policy"] = "same-origin"
         return response
 
     @app.get("/", response_class=HTMLResponse)
@@ -276,6 +298,10 @@ def create_app(
     modules = cfg.node_modules or find_node_modules()
     if modules is not None:
         app.mount("/vendor/three", StaticFiles(directory=modules / "three"), name="three")
+
+    @app.get("/favicon.ico")
+    def favicon() -> Response:
+        return Response(status_code=204)
 
     @app.get("/speech/{name}")
     def speech_file(name: str) -> FileResponse:
@@ -358,8 +384,6 @@ def create_app(
         response.delete_cookie(COOKIE, path="/")
         return response
 
-    Staff = Annotated[_Client, Depends(staff)]
-
     @app.post("/api/admin/exhibits")
     def admin_save_exhibit(_: Staff, body: _ExhibitIn) -> dict[str, object]:
         saved = db.save_exhibit(
@@ -418,7 +442,7 @@ def create_app(
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
         hub.arbiter.staff_stop()
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
         await hub.announce("Stopped by staff.")
         return {"ok": True}
 
@@ -490,14 +514,24 @@ def _nav_status(hub: RobotHub) -> dict[str, Any]:
     }
 
 
-def _path_points(hub: RobotHub) -> list[list[float]]:
+def _path_points(hub: RobotHub) -> list[tuple[float, float]]:
+    """The planned path, thinned to at most 40 points at 10 cm (the page trims what is travelled)."""
     view = hub.view
     if view is None or not view.nav.path:
         return []
     path = view.nav.path
-    step = max(1, math.ceil(len(path) / 60))
+    step = max(1, math.ceil(len(path) / 40))
     points = [*path[::step], path[-1]]
-    return [[round(x, 2), round(y, 2)] for x, y in points]
+    return [(round(x, 1), round(y, 1)) for x, y in points]
+
+
+def _path_moved(
+    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 0.5
+) -> bool:
+    """Whether a replanned path left the one the client has by more than ``tolerance`` (m)."""
+    if not old:
+        return bool(new)
+    return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
 
 
 async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConfig, onboard: bool) -> None:
@@ -505,7 +539,9 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
     encoder = StreamEncoder(cfg.stream)
     seen = -1
     last_status: dict[str, Any] | None = None
-    last_path: tuple[Any, float] = (None, 0.0)
+    sent_goal: Any = None
+    sent_path: list[tuple[float, float]] = []
+    path_checked = 0.0
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
         seen = await hub.wait_change(seen)
@@ -524,11 +560,14 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         if comparable != last_status:
             await ws.send_text(json.dumps(status, separators=(",", ":")))
             last_status = comparable
+        # The path goes out with a new goal, then only when a replan moved it (checked every 2 s).
         goal = status["nav"].get("goal")
-        if goal != last_path[0] or (goal is not None and now - last_path[1] > 5.0):
+        if goal != sent_goal or (goal is not None and now - path_checked > 2.0):
             points = _path_points(hub)
-            await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
-            last_path = (goal, now)
+            path_checked = now
+            if goal != sent_goal or _path_moved(points, sent_path):
+                await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
+                sent_goal, sent_path = goal, points
         for item in hub.announcements:
             if item.seq > said:
                 audio = None if item.audio is None else f"/speech/{item.audio}"
@@ -607,10 +646,10 @@ async def _execute(
         return await _understand(command.text, hub, client, db, now, phrasebook)
     if isinstance(command, GoTo):
         x, y, theta = command.x, command.y, command.theta
-        hub.command(lambda link: link.send_goal(x, y, theta))
+        await hub.command(lambda link: link.send_goal(x, y, theta))
     elif isinstance(command, GoToExhibit):
         exhibit = await asyncio.to_thread(db.exhibit, command.exhibit)
-        hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
+        await hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
         await asyncio.to_thread(db.record_visit, exhibit.slug, hub.robot_id, source, now)
     elif isinstance(command, StartTour):
         tour = await asyncio.to_thread(db.tour, command.tour)
@@ -618,9 +657,9 @@ async def _execute(
         if not stops:
             raise CommandError(f"tour {tour.slug!r} has no exhibits")
         plan = [(e.slug, e.x, e.y, e.theta) for e in stops]
-        hub.command(lambda link: link.start_tour(tour.slug, plan))
+        await hub.command(lambda link: link.start_tour(tour.slug, plan))
     elif isinstance(command, Stop):
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.notify()
     return {"type": "ack", "command": command.type}
 
@@ -658,6 +697,6 @@ async def _understand(
         if tours:
             await _execute(StartTour(type="tour", tour=tours[0].slug), hub, client, db, now, book)
     elif reply.action == "stop":
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.announce(reply.text)
     return {"type": "heard", "intent": reply.intent, "text": reply.text}
