@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tourbot.maps.grid import UNKNOWN, OccupancyGrid
+from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
 from tourbot.maps.raycast import (
     DDACaster,
     DistanceCaster,
@@ -158,3 +158,18 @@ def test_circle_straight_ahead() -> None:
     np.testing.assert_allclose(got, [[2.5, 50.0]], atol=1e-6)
     inside = caster.cast_with_circles(np.array([[4.1, 5.0, 0.0]]), [0.0], [[4.0, 5.0]], [0.5])
     assert inside[0, 0] == 0.0
+
+
+def test_bad_poses_and_angles_are_reported() -> None:
+    grid = OccupancyGrid(np.zeros((10, 10), dtype=np.float32), resolution=1.0)
+    caster = DistanceCaster(grid, 5.0)
+    with pytest.raises(MapError, match="finite"):
+        caster.cast(np.array([[1.0, np.nan, 0.0]]), [0.0])
+    with pytest.raises(MapError, match="finite"):
+        caster.cast(np.zeros((1, 3)), [np.inf])
+    with pytest.raises(MapError, match=r"\(N, 3\)"):
+        caster.cast(np.zeros(3), [0.0])
+    with pytest.raises(MapError, match="radii"):
+        caster.cast_with_circles(np.zeros((1, 3)), [0.0], [[1.0, 1.0]], [0.1, 0.2])
+    with pytest.raises(MapError):
+        DDACaster(grid, 0.0)

@@ -70,6 +70,10 @@ def _rays_in_cells(grid: OccupancyGrid, poses: ArrayLike) -> tuple[FloatArray, F
     p = np.asarray(poses, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         raise MapError(f"poses must be (N, 3), got shape {p.shape}")
+    if not np.isfinite(p).all():
+        raise MapError(
+            f"poses must be finite; rows {np.flatnonzero(~np.isfinite(p).all(axis=1))[:5]} are not"
+        )
     g = grid.world_to_grid(p)
     inv = 1.0 / grid.resolution
     return (
@@ -83,6 +87,8 @@ def _angles(angles: ArrayLike) -> FloatArray:
     a = np.ascontiguousarray(np.asarray(angles, dtype=np.float64))
     if a.ndim != 1:
         raise MapError(f"beam angles must be (B,), got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise MapError("beam angles must be finite")
     return a
 
 
