@@ -1,0 +1,277 @@
+"""Incremental grid mapping by scan matching (Burgard et al., Sec. 2.1, Eq. 1-2).
+
+At each scan the robot predicts its pose from odometry, aligns the scan to the map built so far
+(:mod:`tourbot.mapping.scan_matching`) and extends the map with the scan at the aligned pose. The
+map keeps hit and miss counts per cell (beams traced with :func:`tourbot.maps.reference.
+trace_beams`), from which the log-odds occupancy follows; for alignment, the occupied cells are
+blurred with Gaussians of a few widths (coarse to fine), recomputed only where a scan changed the
+map.
+
+People filtering (Sec. 5) enters through two per-beam inputs of :meth:`IncrementalMapper.add_scan`:
+``match_weights`` (Eq. 12: ``1 - P(hit a person)``) scale each beam during alignment, and
+``integrate`` says which beams are written into the map (beams ending on a person are left out).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.geometry import compose, relative, wrap_angle
+from tourbot.mapping.scan_matching import MatchParams, hill_climb
+from tourbot.maps.grid import UNKNOWN, OccupancyGrid
+from tourbot.maps.reference import ReferenceMapParams, trace_beams
+from tourbot.records import Scan
+
+__all__ = ["IncrementalMapper", "MapperParams", "MapperStep"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MapperParams:
+    """Parameters of incremental mapping.
+
+    ``smoothing`` are the standard deviations (m) of the pose errors integrated into the map for
+    alignment, coarse to fine (Sec. 2.1: "we integrate over small Gaussian errors in the robot
+    pose"). ``max_match_range`` caps the beams used for alignment; ``max_free_range`` how far free
+    space is cleared along "no return" beams. ``beam_step`` uses every k-th beam for alignment.
+    """
+
+    resolution: float = 0.05
+    smoothing: tuple[float, ...] = (0.25, 0.1, 0.05)
+    max_match_range: float = 25.0
+    max_free_range: float = 10.0
+    beam_step: int = 1
+    initial_size: float = 40.0
+    grow_margin: float = 15.0
+    match: MatchParams = field(default_factory=MatchParams)
+    cells: ReferenceMapParams = field(default_factory=ReferenceMapParams)
+
+
+@dataclass(frozen=True)
+class MapperStep:
+    """What one scan did: its aligned pose, the odometry prediction and the time it took."""
+
+    pose: tuple[float, float, float]
+    predicted: tuple[float, float, float]
+    score: float
+    seconds: float
+
+
+class IncrementalMapper:
+    """Builds a grid map and the robot's path from scans and odometry, one scan at a time."""
+
+    def __init__(self, params: MapperParams | None = None, start: FloatArray | None = None) -> None:
+        self.params = params or MapperParams()
+        self._start = None if start is None else np.asarray(start, dtype=np.float64)
+        self._pose: FloatArray | None = None
+        self._odom: FloatArray | None = None
+        res = self.params.resolution
+        n = math.ceil(self.params.initial_size / res)
+        self._hits = np.zeros((n, n), np.int32)
+        self._misses = np.zeros((n, n), np.int32)
+        self._fields = [np.zeros((n, n), np.float32) for _ in self.params.smoothing]
+        self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
+        self.poses: list[tuple[float, float, float]] = []
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def pose(self) -> FloatArray | None:
+        """The latest aligned pose, or None before the first scan."""
+        return None if self._pose is None else self._pose.copy()
+
+    def add_scan(
+        self,
+        scan: Scan,
+        *,
+        match_weights: FloatArray | None = None,
+        integrate: NDArray[np.bool_] | None = None,
+    ) -> MapperStep:
+        """Align ``scan`` to the map so far and add it; returns the step's result."""
+        t0 = time.perf_counter()
+        if scan.odom is None:
+            raise ValueError("incremental mapping needs the odometry pose of every scan")
+        odom = np.asarray(scan.odom, dtype=np.float64)
+        if self._pose is None:
+            start = self._start if self._start is not None else odom
+            self._pose = np.asarray(start, dtype=np.float64).copy()
+            self._odom = odom
+            self._centre_on(self._pose)
+            predicted = self._pose.copy()
+            best = self._pose.copy()
+            val = 0.0
+        else:
+            assert self._odom is not None
+            delta = relative(self._odom, odom)
+            predicted = compose(self._pose, delta)
+            best, val = self._align(scan, predicted, delta, match_weights)
+            self._pose = best
+            self._odom = odom
+        self._integrate(scan, best, integrate)
+        pose = (float(best[0]), float(best[1]), float(best[2]))
+        self.poses.append(pose)
+        return MapperStep(
+            pose=pose,
+            predicted=(float(predicted[0]), float(predicted[1]), float(predicted[2])),
+            score=val,
+            seconds=time.perf_counter() - t0,
+        )
+
+    def grid(self) -> OccupancyGrid:
+        """The map so far as an occupancy grid (cells no beam reached are unknown)."""
+        c = self.params.cells
+        logodds = self._hits * c.l_occ + self._misses * c.l_free
+        prob = (1.0 - 1.0 / (1.0 + np.exp(np.clip(logodds, -50.0, 50.0)))).astype(np.float32)
+        prob[(self._hits == 0) & (self._misses == 0)] = UNKNOWN
+        return OccupancyGrid(
+            prob=prob,
+            resolution=self.params.resolution,
+            origin=(self._x0, self._y0, 0.0),
+            occupied_thresh=c.occupied_thresh,
+            free_thresh=c.free_thresh,
+        )
+
+    # ------------------------------------------------------------------------------------------
+    def _centre_on(self, pose: FloatArray) -> None:
+        half = self._hits.shape[0] * self.params.resolution / 2.0
+        res = self.params.resolution
+        self._x0 = math.floor((pose[0] - half) / res) * res
+        self._y0 = math.floor((pose[1] - half) / res) * res
+
+    def _endpoints(self, scan: Scan, cap: float) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Beam endpoints in the robot frame, which beams returned, and the beams' headings."""
+        g = scan.geometry
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        hit = (ranges < g.max_range) & (ranges > g.min_range) & (ranges < cap)
+        ang = g.offset[2] + g.angles
+        ex = g.offset[0] + ranges * np.cos(ang)
+        ey = g.offset[1] + ranges * np.sin(ang)
+        return np.stack([ex, ey], axis=1), hit, ang
+
+    def _align(
+        self, scan: Scan, predicted: FloatArray, delta: FloatArray, match_weights: FloatArray | None
+    ) -> tuple[FloatArray, float]:
+        p = self.params
+        m = p.match
+        pts, hit, _ = self._endpoints(scan, p.max_match_range)
+        w = np.full(len(pts), m.beam_weight)
+        if match_weights is not None:
+            w = w * np.asarray(match_weights, dtype=np.float64)
+        sel = np.zeros(len(pts), bool)
+        sel[:: p.beam_step] = True
+        sel &= hit & (w > 0)
+        if sel.sum() < 10:
+            return predicted, 0.0
+        trans = float(np.hypot(delta[0], delta[1]))
+        rot = abs(float(wrap_angle(delta[2])))
+        sigma_xy = m.sigma_xy + m.k_xy * trans
+        sigma = np.array([sigma_xy, sigma_xy, m.sigma_theta + m.k_theta * rot + m.k_theta_xy * trans])
+        origin = np.array([self._x0, self._y0, 0.0])
+        prior = predicted - origin
+        best = prior.copy()
+        val = 0.0
+        for level, fieldk in enumerate(self._fields):
+            scale = 1.0 / (2**level)
+            best, val = hill_climb(fieldk, p.resolution, best, pts[sel], w[sel], prior, sigma, m, scale)
+        best = best + origin
+        best[2] = float(wrap_angle(best[2]))
+        return best, val
+
+    def _integrate(self, scan: Scan, pose: FloatArray, integrate: NDArray[np.bool_] | None) -> None:
+        p = self.params
+        g = scan.geometry
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        is_hit = (ranges < g.max_range) & (ranges > g.min_range)
+        keep = is_hit | (ranges >= g.max_range)
+        if integrate is not None:
+            keep &= np.asarray(integrate, dtype=bool)
+        if not keep.any():
+            return
+        laser = compose(pose, g.offset)
+        th = laser[2] + g.angles[keep]
+        length = np.where(is_hit[keep], ranges[keep], np.minimum(ranges[keep], p.max_free_range))
+        ex = laser[0] + length * np.cos(th)
+        ey = laser[1] + length * np.sin(th)
+        margin = 3.0 * max(p.smoothing) + 2 * p.resolution
+        xmin, xmax = min(ex.min(), laser[0]) - margin, max(ex.max(), laser[0]) + margin
+        ymin, ymax = min(ey.min(), laser[1]) - margin, max(ey.max(), laser[1]) + margin
+        self._ensure(xmin, ymin, xmax, ymax)
+        res = p.resolution
+        c0 = math.floor((xmin - self._x0) / res)
+        r0 = math.floor((ymin - self._y0) / res)
+        c1 = math.ceil((xmax - self._x0) / res)
+        r1 = math.ceil((ymax - self._y0) / res)
+        bx, by = self._x0 + c0 * res, self._y0 + r0 * res
+        inv = 1.0 / res
+        hits, misses = trace_beams(
+            np.full(th.shape, (laser[0] - bx) * inv),
+            np.full(th.shape, (laser[1] - by) * inv),
+            th,
+            length * inv,
+            is_hit[keep],
+            (r1 - r0, c1 - c0),
+            crossing=p.cells.hit == "crossing",
+        )
+        self._hits[r0:r1, c0:c1] += hits
+        self._misses[r0:r1, c0:c1] += misses
+        self._refresh(r0, c0, r1, c1)
+
+    def _refresh(self, r0: int, c0: int, r1: int, c1: int) -> None:
+        """Recompute the blurred fields where the counts in rows r0:r1, cols c0:c1 changed.
+
+        The blur of a change reaches ``pad`` cells beyond it, and computing those cells needs
+        ``pad`` more: blur the doubly padded window, write back the singly padded one.
+        """
+        p = self.params
+        rows, cols = self._hits.shape
+        for sigma, fieldk in zip(p.smoothing, self._fields, strict=True):
+            s = sigma / p.resolution
+            pad = math.ceil(3.0 * s) + 1
+            ea, eb = max(r0 - pad, 0), min(r1 + pad, rows)  # cells whose value changes
+            fa, fb = max(c0 - pad, 0), min(c1 + pad, cols)
+            ra, rb = max(ea - pad, 0), min(eb + pad, rows)  # cells they depend on
+            ca, cb = max(fa - pad, 0), min(fb + pad, cols)
+            hits = self._hits[ra:rb, ca:cb]
+            logodds = hits * p.cells.l_occ + self._misses[ra:rb, ca:cb] * p.cells.l_free
+            occ = ((hits > 0) & (logodds > 0)).astype(np.float32)
+            blurred = cv2.GaussianBlur(occ, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
+            blurred = np.minimum(blurred / _wall_peak(s), 1.0)
+            fieldk[ea:eb, fa:fb] = blurred[ea - ra : eb - ra, fa - ca : fb - ca]
+
+    def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
+        """Grow the grid so that the world box fits, with a margin."""
+        res = self.params.resolution
+        rows, cols = self._hits.shape
+        grow = math.ceil(self.params.grow_margin / res)
+        left = max(0, math.ceil((self._x0 - xmin) / res))
+        bottom = max(0, math.ceil((self._y0 - ymin) / res))
+        right = max(0, math.ceil((xmax - (self._x0 + cols * res)) / res))
+        top = max(0, math.ceil((ymax - (self._y0 + rows * res)) / res))
+        if not (left or bottom or right or top):
+            return
+        pad = (
+            (bottom + grow if bottom else 0, top + grow if top else 0),
+            (left + grow if left else 0, right + grow if right else 0),
+        )
+        self._hits = np.pad(self._hits, pad)
+        self._misses = np.pad(self._misses, pad)
+        self._fields = [np.pad(f, pad) for f in self._fields]
+        self._x0 -= pad[1][0] * res
+        self._y0 -= pad[0][0] * res
+
+
+@functools.cache
+def _wall_peak(s: float) -> float:
+    """The blurred value at the middle of a straight wall one cell thick (normalises walls to ~1)."""
+    n = int(4 * s) + 3
+    img = np.zeros((2 * n + 1, 2 * n + 1), np.float32)
+    img[:, n] = 1.0
+    out = cv2.GaussianBlur(img, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
+    return float(out[n, n])
