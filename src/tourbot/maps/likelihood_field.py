@@ -22,7 +22,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert
 from tourbot.maps.grid import MapError, OccupancyGrid
 from tourbot.records import LaserGeometry
 
@@ -31,6 +31,7 @@ __all__ = [
     "LikelihoodFieldParams",
     "beam_log_likelihoods_reference",
     "endpoint_log_likelihoods",
+    "sum_log_likelihoods",
     "used_beams",
 ]
 
@@ -79,57 +80,72 @@ def used_beams(
     return np.asarray(use, dtype=np.bool_)
 
 
+@numba.njit(cache=True, inline="always")
+def _laser_pose_in_cells(pose: FloatArray, frame: FloatArray, i: int) -> tuple[float, float, float, float]:
+    """Robot pose ``i`` -> laser position in grid cells and the laser's (cos, sin).
+
+    ``frame = (ox, oy, cos o, sin o, gx, gy, cos g, sin g, 1/res)``: the laser offset on the
+    robot and the inverse of the grid origin, as rotations and translations.
+    """
+    c = math.cos(pose[i, 2])
+    s = math.sin(pose[i, 2])
+    # laser in the world: pose (+) offset
+    wx = pose[i, 0] + c * frame[0] - s * frame[1]
+    wy = pose[i, 1] + s * frame[0] + c * frame[1]
+    lc = c * frame[2] - s * frame[3]
+    ls = s * frame[2] + c * frame[3]
+    # laser in the grid frame: inverse(origin) (+) laser, then in cells
+    gx = (frame[4] + frame[6] * wx - frame[7] * wy) * frame[8]
+    gy = (frame[5] + frame[7] * wx + frame[6] * wy) * frame[8]
+    return gx, gy, frame[6] * lc - frame[7] * ls, frame[7] * lc + frame[6] * ls
+
+
 @numba.njit(cache=True, fastmath=True)
 def endpoint_log_likelihoods(
     table: NDArray[np.float32],
     outside: float,
-    gx: FloatArray,
-    gy: FloatArray,
-    gth: FloatArray,
+    poses: FloatArray,
+    frame: FloatArray,
     lx: FloatArray,
     ly: FloatArray,
+    beams: NDArray[np.int64],
     out: NDArray[np.float32],
 ) -> None:
-    """``out[i, k]`` = table value under endpoint ``k`` of pose ``i`` (``outside`` off the grid).
+    """``out[i, beams[k]]`` = table value under endpoint ``k`` seen from robot pose ``i``.
 
-    ``(gx, gy, gth)`` are laser poses in the grid frame with positions in cells; ``(lx, ly)`` the
-    beam endpoints in the laser frame, in cells.
+    ``(lx, ly)`` are the beam endpoints in the laser frame, in cells; ``outside`` the value off
+    the grid; ``frame`` as in :func:`_laser_pose_in_cells`.
     """
     rows, cols = table.shape
-    for i in range(gx.shape[0]):
-        c = math.cos(gth[i])
-        s = math.sin(gth[i])
-        x = gx[i]
-        y = gy[i]
+    fr = float(rows)
+    fc = float(cols)
+    for i in range(poses.shape[0]):
+        x, y, c, s = _laser_pose_in_cells(poses, frame, i)
         for k in range(lx.shape[0]):
             ex = x + c * lx[k] - s * ly[k]
             ey = y + s * lx[k] + c * ly[k]
             v = outside
-            if ex >= 0.0 and ex < cols and ey >= 0.0 and ey < rows:
+            if ex >= 0.0 and ex < fc and ey >= 0.0 and ey < fr:
                 v = table[int(ey), int(ex)]
-            out[i, k] = v
+            out[i, beams[k]] = v
 
 
 @numba.njit(cache=True, fastmath=True)
-def _sum_log_likelihoods(
+def sum_log_likelihoods(
     table: NDArray[np.float32],
     outside: float,
-    gx: FloatArray,
-    gy: FloatArray,
-    gth: FloatArray,
+    poses: FloatArray,
+    frame: FloatArray,
     lx: FloatArray,
     ly: FloatArray,
     out: FloatArray,
 ) -> None:
-    """``out[i]`` = sum over endpoints of the table value (same inputs as the per-beam kernel)."""
+    """``out[i]`` = sum of the table values under the endpoints seen from robot pose ``i``."""
     rows, cols = table.shape
     fr = float(rows)
     fc = float(cols)
-    for i in range(gx.shape[0]):
-        c = math.cos(gth[i])
-        s = math.sin(gth[i])
-        x = gx[i]
-        y = gy[i]
+    for i in range(poses.shape[0]):
+        x, y, c, s = _laser_pose_in_cells(poses, frame, i)
         acc = 0.0
         for k in range(lx.shape[0]):
             ex = x + c * lx[k] - s * ly[k]
@@ -223,17 +239,26 @@ class LikelihoodField:
     def nbytes(self) -> int:
         return int(self.table.nbytes)
 
-    def _laser_in_cells(self, poses: ArrayLike, geometry: LaserGeometry) -> tuple[FloatArray, ...]:
-        p = np.asarray(poses, dtype=np.float64)
+    def _frame(self, poses: ArrayLike, geometry: LaserGeometry) -> tuple[FloatArray, FloatArray]:
+        p = np.ascontiguousarray(np.asarray(poses, dtype=np.float64))
         if p.ndim != 2 or p.shape[1] != 3:
             raise MapError(f"poses must be (N, 3), got shape {p.shape}")
-        g = self.grid.world_to_grid(compose(p, np.asarray(geometry.offset, dtype=np.float64)))
-        inv = 1.0 / self.grid.resolution
-        return (
-            np.ascontiguousarray(g[:, 0] * inv),
-            np.ascontiguousarray(g[:, 1] * inv),
-            np.ascontiguousarray(g[:, 2]),
+        ox, oy, oth = geometry.offset
+        inv = invert(self.grid.origin)
+        frame = np.array(
+            [
+                ox,
+                oy,
+                math.cos(oth),
+                math.sin(oth),
+                inv[0],
+                inv[1],
+                math.cos(inv[2]),
+                math.sin(inv[2]),
+                1.0 / self.grid.resolution,
+            ]
         )
+        return p, frame
 
     def _endpoints(
         self, ranges: ArrayLike, geometry: LaserGeometry, use: NDArray[np.bool_]
@@ -248,7 +273,11 @@ class LikelihoodField:
             raise MapError(f"ranges must be ({geometry.num_beams},) for this laser, got shape {n}")
 
     def beam_log_likelihoods(
-        self, poses: ArrayLike, ranges: ArrayLike, geometry: LaserGeometry, beam_mask: ArrayLike | None = None
+        self,
+        poses: ArrayLike,
+        ranges: ArrayLike,
+        geometry: LaserGeometry,
+        beam_mask: ArrayLike | None = None,
     ) -> NDArray[np.float32]:
         """``log p(z_k | x_i, m)`` per robot pose ``(N, 3)`` and beam, ``(N, B)`` float32.
 
@@ -256,25 +285,28 @@ class LikelihoodField:
         :meth:`log_likelihood`.
         """
         self._check(ranges, geometry)
-        gx, gy, gth = self._laser_in_cells(poses, geometry)
+        p, frame = self._frame(poses, geometry)
         use = used_beams(ranges, geometry, beam_mask)
         lx, ly = self._endpoints(ranges, geometry, use)
-        vals = np.empty((gx.shape[0], lx.shape[0]), dtype=np.float32)
-        if vals.size:
-            endpoint_log_likelihoods(self.table, self.outside, gx, gy, gth, lx, ly, vals)
-        out = np.zeros((gx.shape[0], geometry.num_beams), dtype=np.float32)
-        out[:, use] = vals
+        out = np.zeros((p.shape[0], geometry.num_beams), dtype=np.float32)
+        if out.size and lx.size:
+            beams = np.flatnonzero(use).astype(np.int64)
+            endpoint_log_likelihoods(self.table, self.outside, p, frame, lx, ly, beams, out)
         return out
 
     def log_likelihood(
-        self, poses: ArrayLike, ranges: ArrayLike, geometry: LaserGeometry, beam_mask: ArrayLike | None = None
+        self,
+        poses: ArrayLike,
+        ranges: ArrayLike,
+        geometry: LaserGeometry,
+        beam_mask: ArrayLike | None = None,
     ) -> FloatArray:
         """``log p(z | x_i, m)`` of the whole scan (sum over used beams) per robot pose, ``(N,)``."""
         self._check(ranges, geometry)
-        gx, gy, gth = self._laser_in_cells(poses, geometry)
+        p, frame = self._frame(poses, geometry)
         use = used_beams(ranges, geometry, beam_mask)
         lx, ly = self._endpoints(ranges, geometry, use)
-        out = np.zeros(gx.shape[0], dtype=np.float64)
+        out = np.zeros(p.shape[0], dtype=np.float64)
         if lx.shape[0] and out.size:
-            _sum_log_likelihoods(self.table, self.outside, gx, gy, gth, lx, ly, out)
+            sum_log_likelihoods(self.table, self.outside, p, frame, lx, ly, out)
         return out

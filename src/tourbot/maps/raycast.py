@@ -45,8 +45,10 @@ __all__ = [
     "RayCaster",
     "blocking_mask",
     "cast_circles_reference",
+    "cast_rays_kernel",
     "cast_rays_reference",
     "circle_ranges",
+    "padded_table",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -173,31 +175,51 @@ def cast_circles_reference(
 # --------------------------------------------------------------------------------------------
 # numba kernels
 # --------------------------------------------------------------------------------------------
+#
+# The kernels read a *padded* table: the grid's cells shifted by one, inside a ring of ``OUTSIDE``
+# cells. A ray always stops on a negative cell (``BLOCKED`` or the ring), so the inner loops need
+# no bounds checks; positions in padded cell units are positive, so ``int()`` is ``floor``.
+
+BLOCKED = -1.0
+OUTSIDE = -2.0
 
 
 @numba.njit(cache=True, inline="always")
-def _clip(x0: float, y0: float, dx: float, dy: float, cols: int, rows: int) -> tuple[float, float]:
-    """Parameter interval where the ray is inside the box ``[0, cols] x [0, rows]``."""
-    t0 = -np.inf
+def _start(
+    x0: float, y0: float, dx: float, dy: float, cols: int, rows: int, outside_blocks: bool
+) -> tuple[float, float]:
+    """Where the ray starts walking in the grid, ``(t0, status)``.
+
+    ``status`` 0: walk from ``t0``; 1: range ``t0`` (origin outside, outside blocks); 2: no hit.
+    Unpadded cell units.
+    """
+    if 0.0 <= x0 < cols and 0.0 <= y0 < rows:
+        return 0.0, 0.0
+    if outside_blocks:
+        return 0.0, 1.0
+    # outside is empty: clip the ray to the box [0, cols] x [0, rows] (slab method)
+    t0 = 0.0
     t1 = np.inf
     if dx != 0.0:
         a = (0.0 - x0) / dx
         b = (cols - x0) / dx
         t0 = max(t0, min(a, b))
         t1 = min(t1, max(a, b))
-    elif x0 < 0.0 or x0 >= cols:
-        return 1.0, -1.0
+    elif not 0.0 <= x0 < cols:
+        return 0.0, 2.0
     if dy != 0.0:
         a = (0.0 - y0) / dy
         b = (rows - y0) / dy
         t0 = max(t0, min(a, b))
         t1 = min(t1, max(a, b))
-    elif y0 < 0.0 or y0 >= rows:
-        return 1.0, -1.0
-    return t0, t1
+    elif not 0.0 <= y0 < rows:
+        return 0.0, 2.0
+    if t0 >= t1:
+        return 0.0, 2.0
+    return t0, 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def _cast_one(
     table: NDArray[np.float32],
     x0: float,
@@ -208,54 +230,61 @@ def _cast_one(
     outside_blocks: bool,
     jump: bool,
 ) -> float:
-    """Range in cells of one ray; ``table < 0`` blocks, ``table >= 1`` is a safe jump (if ``jump``)."""
-    rows, cols = table.shape
-    inside = 0.0 <= x0 < cols and 0.0 <= y0 < rows
-    if outside_blocks and not inside:
+    """Range in cells of one ray from ``(x0, y0)`` (unpadded cell units) along ``(dx, dy)``."""
+    rows = table.shape[0] - 2
+    cols = table.shape[1] - 2
+    t, status = _start(x0, y0, dx, dy, cols, rows, outside_blocks)
+    if status == 1.0:
         return 0.0
-    t_in, t_out = _clip(x0, y0, dx, dy, cols, rows)
-    if t_in > t_out:
-        return 0.0 if outside_blocks else max_cells
-    t = max(t_in, 0.0)
-    t_end = min(t_out, max_cells)
-    if t >= t_end:  # the ray misses the grid, or meets it beyond max_range
+    if status == 2.0 or t >= max_cells:
         return max_cells
-    cx = min(max(math.floor(x0 + t * dx), 0), cols - 1)
-    cy = min(max(math.floor(y0 + t * dy), 0), rows - 1)
-    sx = 1 if dx > 0.0 else -1
-    sy = 1 if dy > 0.0 else -1
-    bx = 1.0 if dx > 0.0 else 0.0
-    by = 1.0 if dy > 0.0 else 0.0
-    ix = 1.0 / dx if dx != 0.0 else 0.0
-    iy = 1.0 / dy if dy != 0.0 else 0.0
+    px0 = x0 + 1.0  # padded coordinates
+    py0 = y0 + 1.0
+    cx = min(max(int(px0 + t * dx), 1), cols)
+    cy = min(max(int(py0 + t * dy), 1), rows)
+    # DDA state (Amanatides & Woo): t of the next vertical / horizontal grid line
+    if dx > 0.0:
+        sx, bx, ix = 1, 1.0, 1.0 / dx
+    elif dx < 0.0:
+        sx, bx, ix = -1, 0.0, 1.0 / dx
+    else:
+        sx, bx, ix = 0, 1.0, np.inf
+    if dy > 0.0:
+        sy, by, iy = 1, 1.0, 1.0 / dy
+    elif dy < 0.0:
+        sy, by, iy = -1, 0.0, 1.0 / dy
+    else:
+        sy, by, iy = 0, 1.0, np.inf
+    tdx = abs(ix)
+    tdy = abs(iy)
+    tmx = (cx + bx - px0) * ix
+    tmy = (cy + by - py0) * iy
     while True:
         v = table[cy, cx]
         if v < 0.0:
-            return t
-        if jump and v >= 1.0:
+            break
+        if jump and v >= 1.0:  # safe jump: no blocking cell (nor the ring) within v cells
             t += v
-            if t >= t_end:
-                break
-            cx = math.floor(x0 + t * dx)
-            cy = math.floor(y0 + t * dy)
-            if cx < 0 or cx >= cols or cy < 0 or cy >= rows:
-                break
+            if t >= max_cells:
+                return max_cells
+            cx = int(px0 + t * dx)
+            cy = int(py0 + t * dy)
+            tmx = (cx + bx - px0) * ix
+            tmy = (cy + by - py0) * iy
             continue
-        tx = (cx + bx - x0) * ix if dx != 0.0 else np.inf
-        ty = (cy + by - y0) * iy if dy != 0.0 else np.inf
-        if tx < ty:
-            t = tx
+        if tmx < tmy:
+            t = tmx
+            tmx += tdx
             cx += sx
         else:
-            t = ty
+            t = tmy
+            tmy += tdy
             cy += sy
-        if t >= t_end:
-            break
-        if cx < 0 or cx >= cols or cy < 0 or cy >= rows:
-            break
-    if t_out < max_cells and outside_blocks:
-        return t_out
-    return max_cells
+        if t >= max_cells:
+            return max_cells
+    if v == OUTSIDE and not outside_blocks:
+        return max_cells
+    return t
 
 
 @numba.njit(cache=True)
@@ -273,9 +302,11 @@ def cast_rays_kernel(
 ) -> None:
     """Fill ``out[i, b]`` with ``scale *`` the range in cells of beam ``b`` from pose ``i``.
 
-    ``table[row, col]`` is ``< 0`` in blocking cells; with ``jump``, a value ``>= 1`` is how many
-    cells a ray may advance from that cell without reaching a blocking cell (see
-    :class:`DistanceCaster`). Without ``jump`` this is the plain Amanatides & Woo DDA.
+    ``table`` is padded (see :func:`padded_table`): ``BLOCKED`` (-1) in blocking cells,
+    ``OUTSIDE`` (-2) on the ring around the grid. With ``jump``, a value ``>= 1`` is how many
+    cells a ray may advance from that cell without reaching a negative cell (see
+    :class:`DistanceCaster`); without it, this is the plain Amanatides & Woo DDA. Origins
+    ``(ox, oy)`` are in unpadded cell units.
     """
     n = ox.shape[0]
     nb = angles.shape[0]
@@ -288,6 +319,15 @@ def cast_rays_kernel(
             dx = ct * ca[b] - st * sa[b]
             dy = st * ca[b] + ct * sa[b]
             out[i, b] = scale * _cast_one(table, ox[i], oy[i], dx, dy, max_cells, outside_blocks, jump)
+
+
+def padded_table(blocked: NDArray[np.bool_], inner: NDArray[np.float32] | None = None) -> Float32Array:
+    """The kernels' table: ``inner`` (default 0) with ``BLOCKED`` cells, inside an ``OUTSIDE`` ring."""
+    rows, cols = blocked.shape
+    table = np.full((rows + 2, cols + 2), OUTSIDE, dtype=np.float32)
+    body = np.zeros(blocked.shape, dtype=np.float32) if inner is None else inner.astype(np.float32)
+    table[1:-1, 1:-1] = np.where(blocked, np.float32(BLOCKED), body)
+    return table
 
 
 @numba.njit(cache=True)
@@ -424,7 +464,7 @@ class DDACaster(RayCaster):
 
     def __init__(self, grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> None:
         super().__init__(grid, max_range, unknown_blocks)
-        self.table = np.where(self.blocked, np.float32(-1.0), np.float32(0.0)).astype(np.float32)
+        self.table = padded_table(self.blocked)
 
 
 class DistanceCaster(RayCaster):
@@ -434,7 +474,8 @@ class DistanceCaster(RayCaster):
     point of the cell is farther than ``D - sqrt(2)`` from every point of every blocking cell (two
     half-diagonals), so a ray may jump that far at once (ray marching, as range_libc's "RM", Walsh
     & Karaman 2018). Near obstacles (jump < 1 cell) it takes exact DDA steps, so its ranges are the
-    DDA's ones, not a within-epsilon approximation.
+    DDA's ones, not a within-epsilon approximation. The ring around the grid counts as blocking
+    for the jumps, so a jump never leaves the table.
     """
 
     jump = True
@@ -443,13 +484,8 @@ class DistanceCaster(RayCaster):
         from scipy import ndimage
 
         super().__init__(grid, max_range, unknown_blocks)
-        blocked = self.blocked
-        if unknown_blocks:  # the outside blocks too: a ring of blocking cells around the grid
-            blocked = np.pad(blocked, 1, constant_values=True)
-        dist = ndimage.distance_transform_edt(~blocked) if blocked.any() else np.full(blocked.shape, np.inf)
-        if unknown_blocks:
-            dist = dist[1:-1, 1:-1]
+        walls = np.pad(self.blocked, 1, constant_values=True)
+        dist = ndimage.distance_transform_edt(~walls)[1:-1, 1:-1]
         # 1e-3 keeps the bound strict after rounding to float32
         safe = np.minimum(dist - _SQRT2 - 1e-3, self.max_cells + 1.0)
-        table = np.where(safe >= 1.0, safe, 0.0)
-        self.table = np.where(self.blocked, -1.0, table).astype(np.float32)
+        self.table = padded_table(self.blocked, np.where(safe >= 1.0, safe, 0.0).astype(np.float32))
