@@ -14,6 +14,7 @@ People filtering (Sec. 5) enters through two per-beam inputs of :meth:`Increment
 
 from __future__ import annotations
 
+import collections
 import functools
 import math
 import time
@@ -49,10 +50,12 @@ class MapperParams:
     max_match_range: float = 25.0
     max_free_range: float = 10.0
     beam_step: int = 1
+    unknown_level: float = 0.25
+    window: int | None = 150
     initial_size: float = 40.0
     grow_margin: float = 15.0
     match: MatchParams = field(default_factory=MatchParams)
-    cells: ReferenceMapParams = field(default_factory=ReferenceMapParams)
+    cells: ReferenceMapParams = field(default_factory=lambda: ReferenceMapParams(hit="endpoint"))
 
 
 @dataclass(frozen=True)
@@ -75,9 +78,12 @@ class IncrementalMapper:
         self._odom: FloatArray | None = None
         res = self.params.resolution
         n = math.ceil(self.params.initial_size / res)
-        self._hits = np.zeros((n, n), np.int32)
+        self._hits = np.zeros((n, n), np.int32)  # every scan: the map that is returned
         self._misses = np.zeros((n, n), np.int32)
-        self._fields = [np.zeros((n, n), np.float32) for _ in self.params.smoothing]
+        self._near_hits = np.zeros((n, n), np.int32)  # the last ``window`` scans: aligned against
+        self._near_misses = np.zeros((n, n), np.int32)
+        self._recent: collections.deque[_Footprint] = collections.deque()
+        self._fields = [np.full((n, n), self.params.unknown_level, np.float32) for _ in self.params.smoothing]
         self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
         self.poses: list[tuple[float, float, float]] = []
 
@@ -221,7 +227,23 @@ class IncrementalMapper:
         )
         self._hits[r0:r1, c0:c1] += hits
         self._misses[r0:r1, c0:c1] += misses
+        self._near_hits[r0:r1, c0:c1] += hits
+        self._near_misses[r0:r1, c0:c1] += misses
         self._refresh(r0, c0, r1, c1)
+        if p.window is not None:
+            self._recent.append(_Footprint.of(bx, by, hits, misses))
+            if len(self._recent) > p.window:
+                self._forget(self._recent.popleft())
+
+    def _forget(self, old: _Footprint) -> None:
+        """Take an old scan out of the map that scans are aligned against."""
+        res = self.params.resolution
+        r0 = round((old.y0 - self._y0) / res)
+        c0 = round((old.x0 - self._x0) / res)
+        rr, cc = r0 + old.rows, c0 + old.cols
+        np.subtract.at(self._near_hits, (rr, cc), old.hits)
+        np.subtract.at(self._near_misses, (rr, cc), old.misses)
+        self._refresh(r0, c0, r0 + old.shape[0], c0 + old.shape[1])
 
     def _refresh(self, r0: int, c0: int, r1: int, c1: int) -> None:
         """Recompute the blurred fields where the counts in rows r0:r1, cols c0:c1 changed.
@@ -238,11 +260,16 @@ class IncrementalMapper:
             fa, fb = max(c0 - pad, 0), min(c1 + pad, cols)
             ra, rb = max(ea - pad, 0), min(eb + pad, rows)  # cells they depend on
             ca, cb = max(fa - pad, 0), min(fb + pad, cols)
-            hits = self._hits[ra:rb, ca:cb]
-            logodds = hits * p.cells.l_occ + self._misses[ra:rb, ca:cb] * p.cells.l_free
+            hits = self._near_hits[ra:rb, ca:cb]
+            misses = self._near_misses[ra:rb, ca:cb]
+            logodds = hits * p.cells.l_occ + misses * p.cells.l_free
+            peak = _wall_peak(s)
             occ = ((hits > 0) & (logodds > 0)).astype(np.float32)
+            # unexplored space reads ``unknown_level`` (after normalisation): a beam ending there is
+            # neither confirmed nor contradicted, so alignment is not pulled towards mapped walls
+            occ[(hits == 0) & (misses == 0)] = p.unknown_level * peak
             blurred = cv2.GaussianBlur(occ, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
-            blurred = np.minimum(blurred / _wall_peak(s), 1.0)
+            blurred = np.minimum(blurred / peak, 1.0)
             fieldk[ea:eb, fa:fb] = blurred[ea - ra : eb - ra, fa - ca : fb - ca]
 
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
@@ -262,7 +289,9 @@ class IncrementalMapper:
         )
         self._hits = np.pad(self._hits, pad)
         self._misses = np.pad(self._misses, pad)
-        self._fields = [np.pad(f, pad) for f in self._fields]
+        self._near_hits = np.pad(self._near_hits, pad)
+        self._near_misses = np.pad(self._near_misses, pad)
+        self._fields = [np.pad(f, pad, constant_values=self.params.unknown_level) for f in self._fields]
         self._x0 -= pad[1][0] * res
         self._y0 -= pad[0][0] * res
 
@@ -275,3 +304,22 @@ def _wall_peak(s: float) -> float:
     img[:, n] = 1.0
     out = cv2.GaussianBlur(img, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
     return float(out[n, n])
+
+
+@dataclass(frozen=True)
+class _Footprint:
+    """What one scan added to the map: sparse hit and miss counts in a box anchored in the world."""
+
+    x0: float
+    y0: float
+    shape: tuple[int, int]
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    hits: NDArray[np.int32]
+    misses: NDArray[np.int32]
+
+    @staticmethod
+    def of(x0: float, y0: float, hits: NDArray[np.int32], misses: NDArray[np.int32]) -> _Footprint:
+        rows, cols = np.nonzero((hits != 0) | (misses != 0))
+        shape = (int(hits.shape[0]), int(hits.shape[1]))
+        return _Footprint(x0, y0, shape, rows, cols, hits[rows, cols], misses[rows, cols])

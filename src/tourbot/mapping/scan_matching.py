@@ -48,10 +48,10 @@ class MatchParams:
     ``steps`` are the initial hill-climbing steps (m, m, rad); ``halvings`` how often they halve.
     """
 
-    beam_weight: float = 0.3
+    beam_weight: float = 0.5
     eps: float = 0.02
     sigma_xy: float = 0.05
-    k_xy: float = 0.3
+    k_xy: float = 0.05
     sigma_theta: float = 0.02
     k_theta: float = 0.3
     k_theta_xy: float = 0.1
