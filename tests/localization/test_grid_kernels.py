@@ -30,7 +30,7 @@ class Case:
         return int(self.free_rc.shape[0])
 
     @property
-    def args(self) -> tuple:
+    def args(self) -> tuple[int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return (self.n_free, self.free_rc, self.free_index, self.laser_shift, self.table, self.beam_cols)
 
 
@@ -79,8 +79,9 @@ def test_scan_log_likelihood_matches_reference(c: Case) -> None:
 @given(cases())
 def test_filter_statistics_match_the_project_beam_filters(c: Case) -> None:
     beams = np.flatnonzero(c.used)
-    dh, pn = gk.filter_statistics(c.idx, c.w, *c.args, beams, c.ll, c.ps)
-    dh_ref, pn_ref = gk.filter_statistics_reference(c.idx, c.w, *c.args, beams, c.ll, c.ps)
+    mult = np.random.default_rng(len(c.idx)).integers(1, 4, len(c.idx))
+    dh, pn = gk.filter_statistics(c.idx, c.w, mult.astype(np.float64), *c.args, beams, c.ll, c.ps)
+    dh_ref, pn_ref = gk.filter_statistics_reference(c.idx, c.w, mult, *c.args, beams, c.ll, c.ps)
     np.testing.assert_allclose(dh[beams], dh_ref[beams], atol=1e-9)
     np.testing.assert_allclose(pn[beams], pn_ref[beams], atol=1e-12)
     assert np.all(np.isnan(dh[~c.used]))

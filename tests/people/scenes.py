@@ -1,9 +1,10 @@
-"""Small synthetic scans for the people tests: a ring wall and leg circles, ray-circle intersection."""
+"""Small synthetic scans for the people tests: leg circles inside a ring wall."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from tourbot.maps.raycast import circle_ranges
 from tourbot.records import LaserGeometry, Scan
 
 GEOMETRY = LaserGeometry(num_beams=720, angle_min=-np.pi, angle_increment=2 * np.pi / 720, max_range=30.0)
@@ -16,19 +17,22 @@ def scan_with_circles(
     wall: float = 10.0,
     geometry: LaserGeometry = GEOMETRY,
 ) -> Scan:
-    """A noise-free scan from ``pose`` of circles ``(x, y, radius)`` inside a ring wall around it."""
+    """A noise-free scan from ``pose`` of circles ``(x, y, radius)`` inside a ring wall around it
+    (the circles cast by the project's one ray caster, :func:`tourbot.maps.raycast.circle_ranges`)."""
     p = np.asarray(pose, dtype=np.float64)
-    ang = geometry.angles + p[2]
-    d = np.stack([np.cos(ang), np.sin(ang)], -1)
-    r = np.full(geometry.num_beams, wall)
-    for cx, cy, rad in circles:
-        oc = p[0:2] - np.array([cx, cy])
-        b = d @ oc
-        disc = b * b - (oc @ oc - rad * rad)
-        hit_t = -b - np.sqrt(np.maximum(disc, 0.0))
-        hit = (disc > 0.0) & (hit_t > 0.0) & (hit_t < r)
-        r = np.where(hit, hit_t, r)
-    return Scan(t, r, geometry)
+    out = np.full((1, geometry.num_beams), wall, dtype=np.float32)
+    c = np.asarray(circles, dtype=np.float64).reshape(-1, 3)
+    circle_ranges(
+        p[0:1].copy(),
+        p[1:2].copy(),
+        p[2:3].copy(),
+        geometry.angles,
+        np.ascontiguousarray(c[:, 0]),
+        np.ascontiguousarray(c[:, 1]),
+        np.ascontiguousarray(c[:, 2]),
+        out,
+    )
+    return Scan(t, out[0].astype(np.float64), geometry)
 
 
 def legs_of(x: float, y: float, heading: float, phase: float) -> list[tuple[float, float, float]]:

@@ -8,6 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.people.association import (
+    cluster_betas,
+    cluster_betas_reference,
     joint_betas,
     joint_betas_reference,
     pair_likelihoods,
@@ -108,3 +110,38 @@ def test_resampling_keeps_the_only_weighted_sample() -> None:
     w = np.zeros((1, 5))
     w[0, 3] = 1.0
     assert systematic_resample(w, np.array([0.7])).tolist() == [[3, 3, 3, 3, 3]]
+
+
+@st.composite
+def scenes(draw: st.DrawFn) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    k = draw(st.integers(1, 5))
+    m = draw(st.integers(1, 5))
+    gated = np.array(draw(st.lists(st.booleans(), min_size=k * m, max_size=k * m))).reshape(k, m)
+    pt, pf = np.nonzero(gated)
+    ratio = np.array(draw(st.lists(st.floats(0.01, 50.0), min_size=pt.size, max_size=pt.size)))
+    miss = np.array(draw(st.lists(st.floats(0.01, 1.0), min_size=k, max_size=k)))
+    return pt.astype(np.int64), pf.astype(np.int64), ratio, miss, m
+
+
+@settings(max_examples=80, deadline=None)
+@given(scenes())
+def test_clusters_factorise_the_joint_events(
+    scene: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int],
+) -> None:
+    # Enumerating each cluster on its own gives the betas of enumerating everything at once.
+    pt, pf, ratio, miss, m = scene
+    beta, beta0 = cluster_betas(pt, pf, ratio, miss, m, max_events=10**9)
+    ref_beta, ref_beta0 = cluster_betas_reference(pt, pf, ratio, miss, m)
+    np.testing.assert_allclose(beta, ref_beta, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(beta0, ref_beta0, rtol=1e-9, atol=1e-12)
+
+
+def test_pruning_bounds_the_events_and_keeps_the_strong_pairs() -> None:
+    # 6 people all gating 6 features: 13,327 joint events; pruned to the 2 best options each.
+    rng = np.random.default_rng(0)
+    pt, pf = (a.ravel() for a in np.meshgrid(np.arange(6), np.arange(6), indexing="ij"))
+    ratio = rng.uniform(0.1, 1.0, 36)
+    ratio[pt == pf] = 100.0  # person i is plainly feature i
+    beta, beta0 = cluster_betas(pt, pf, ratio, np.full(6, 0.1), 6, max_events=1000)
+    assert np.all(beta[pt == pf] > 0.95)
+    assert np.all(beta0 < 0.05)

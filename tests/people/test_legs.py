@@ -1,9 +1,18 @@
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from tests.people.scenes import legs_of, scan_with_circles
-from tourbot.people.legs import LegConfig, LegFeatures, detect_legs, group_legs
+from tourbot.people.legs import (
+    LegConfig,
+    LegFeatures,
+    detect_legs,
+    group_legs,
+    leg_segments,
+    leg_segments_reference,
+)
 
 
 def test_two_legs_become_one_person_feature() -> None:
@@ -42,3 +51,18 @@ def test_legs_of_different_people_are_not_paired() -> None:
     assert len(persons) == 2
     assert sorted((persons.members >= 0).sum(axis=1).tolist()) == [1, 2]
     np.testing.assert_allclose(persons.probability[0], 1.0 - 0.1 * 0.1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**16), beams=st.integers(2, 200), holes=st.floats(0.0, 0.5))
+def test_kernel_matches_reference(seed: int, beams: int, holes: float) -> None:
+    rng = np.random.default_rng(seed)
+    # Piecewise-constant ranges with small noise: segments of many widths, some leg-like.
+    r = np.repeat(rng.uniform(0.5, 10.0, beams // 3 + 1), 3)[:beams] + rng.normal(0.0, 0.01, beams)
+    valid = rng.uniform(size=beams) >= holes
+    angles = np.linspace(-np.pi / 2, np.pi / 2, beams)
+    cfg = LegConfig()
+    for a, b in zip(
+        leg_segments(r, angles, valid, cfg), leg_segments_reference(r, angles, valid, cfg), strict=True
+    ):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -42,6 +43,17 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
         yield _empty_postgres(_PG)
 
 
+@pytest.fixture(scope="session")
+def _migrated_sqlite(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from tourbot.web.db import open_database
+
+    path = tmp_path_factory.mktemp("template") / "site.db"
+    open_database(f"sqlite:///{path}").engine.dispose()
+    return path
+
+
 @pytest.fixture
-def sqlite_url(tmp_path: Path) -> str:
+def sqlite_url(tmp_path: Path, _migrated_sqlite: Path) -> str:
+    """An empty SQLite site database, already migrated (a copy: migrating takes a second)."""
+    shutil.copyfile(_migrated_sqlite, tmp_path / "site.db")
     return f"sqlite:///{tmp_path / 'site.db'}"

@@ -25,9 +25,11 @@ def test_slot_expires_after_ten_minutes_and_passes_on() -> None:
     arb: SlotArbiter[str] = SlotArbiter(SlotConfig(answer_timeout=1e9))
     arb.book("a", 0.0)
     arb.book("b", 1.0)
+    assert [e.client for e in arb.take_events()] == ["a"]
     assert arb.view("a", 100.0).time_left == 500.0
     assert arb.view("b", 100.0).time_left == 500.0
-    events = arb.update(600.0)
+    arb.update(600.0)
+    events = arb.take_events()
     assert [(e.kind, e.client, e.reason) for e in events] == [
         ("ended", "a", "expired"),
         ("started", "b", "next in queue"),
@@ -53,7 +55,8 @@ def test_silent_holder_and_silent_queued_clients_are_dropped() -> None:
     arb.book("c", 0.0)
     for t in (10.0, 20.0, 30.0):
         arb.seen("b", t)
-    events = arb.update(25.0)
+    arb.update(25.0)
+    events = arb.take_events()
     assert ("ended", "a", "silent") in [(e.kind, e.client, e.reason) for e in events]
     assert arb.holder == "b"
     assert "c" not in arb.queue

@@ -175,6 +175,7 @@ def scan_log_likelihood_reference(
 def _filter_statistics_kernel(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: FloatArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -193,10 +194,11 @@ def _filter_statistics_kernel(
     h0 = 0.0
     for i in range(pose_idx.shape[0]):
         wi = w[i]
-        if wi <= 0.0:
+        mi = mult[i]
+        if wi <= 0.0 or mi <= 0.0:
             continue
         logw = math.log(wi)
-        h0 -= wi * logw
+        h0 -= mi * wi * logw
         p = pose_idx[i]
         k = p // n_free
         f = p - k * n_free
@@ -206,15 +208,16 @@ def _filter_statistics_kernel(
             d = table[g, beam_cols[k, b]]
             q = wi * lik[b, d]
             if q > 0.0:
-                z[b] += q
-                s[b] += q * (logw + ll[b, d] - ll_max[b])
-            pn[b] += wi * ps[b, d]
+                z[b] += mi * q
+                s[b] += mi * q * (logw + ll[b, d] - ll_max[b])
+            pn[b] += mi * wi * ps[b, d]
     return h0
 
 
 def filter_statistics(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: FloatArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -227,7 +230,9 @@ def filter_statistics(
 ) -> tuple[FloatArray, FloatArray]:
     """Entropy change ``Delta H(l | s_b)`` (Eq. 3-4) and ``p_n(s_b)`` (Eq. 6) for beams ``beams``.
 
-    ``w`` is the belief ``Bel(l)`` of the held poses (normalized here). Returns two ``(B,)`` arrays
+    ``w`` is the belief ``Bel(l)`` of each listed pose and ``mult`` how many poses of that belief
+    it stands for (1 for a held pose; more for a sample of the uniform mixture), so the belief is
+    ``sum mult * w`` (normalized here). Returns two ``(B,)`` arrays
     (NaN for beams not listed). One pass: with ``q_l = Bel(l) p(s_b | l)`` and ``Z = sum q_l``,
     the entropy after integrating beam ``b`` alone is ``H(l | s_b) = log Z - (1/Z) sum q_l log q_l``
     (the scale of ``p(s_b | l)`` cancels, so it is taken relative to the beam's best bin). Beams
@@ -235,14 +240,15 @@ def filter_statistics(
     :func:`tourbot.localization.beam_filters.entropy_change`.
     """
     n_beams = ll.shape[0]
-    wn = np.ascontiguousarray(w, dtype=np.float64) / float(np.sum(w))
+    m = np.ascontiguousarray(mult, dtype=np.float64)
+    wn = np.ascontiguousarray(w, dtype=np.float64) / float(np.sum(m * w))
     ll_max = np.max(ll, axis=1)
     lik = np.exp(ll - ll_max[:, None])  # p(s_b | l) relative to the beam's best bin, tabulated
     z = np.zeros(n_beams)
     s = np.zeros(n_beams)
     pn = np.zeros(n_beams)
     h0 = _filter_statistics_kernel(
-        pose_idx, wn, n_free, free_rc, free_index, laser_shift, table, beam_cols,
+        pose_idx, wn, m, n_free, free_rc, free_index, laser_shift, table, beam_cols,
         np.ascontiguousarray(beams, dtype=np.int64), ll, ll_max, lik, ps, z, s, pn,
     )  # fmt: skip
     dh = np.full(n_beams, np.nan)
@@ -257,6 +263,7 @@ def filter_statistics(
 def filter_statistics_reference(
     pose_idx: IntArray,
     w: FloatArray,
+    mult: IntArray,
     n_free: int,
     free_rc: IntArray,
     free_index: IntArray,
@@ -269,12 +276,16 @@ def filter_statistics_reference(
 ) -> tuple[FloatArray, FloatArray]:
     """Plain-numpy reference of :func:`filter_statistics`, through the project's beam filters.
 
-    Materializes ``p(s_b | l)`` and ``p_n(s_b | l)`` as ``(N, B)`` arrays and hands them to
+    Repeats each pose ``mult`` times (integer multiplicities here), materializes ``p(s_b | l)``
+    and ``p_n(s_b | l)`` as ``(N, B)`` arrays and hands them to
     :func:`tourbot.localization.beam_filters.entropy_change_reference` and
     :func:`~tourbot.localization.beam_filters.novelty_probability`.
     """
     from tourbot.localization.beam_filters import entropy_change_reference, novelty_probability
 
+    reps = np.asarray(mult, dtype=np.int64)
+    pose_idx = np.repeat(pose_idx, reps)
+    w = np.repeat(np.asarray(w, dtype=np.float64), reps)
     bins = _beam_bins_reference(pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols)
     b = np.asarray(beams, dtype=np.int64)
     lik = np.exp(ll[b[None, :], bins[:, b]] - np.max(ll[b], axis=1)[None, :])

@@ -498,10 +498,27 @@ class GridMarkovLocalization:
         args = (lat.n_free, lat.free_rc, lat.free_index, layout.laser_shift, table.bins, layout.beam_cols)
         info: dict[str, float] = {}
 
-        # Eq. 3-6: judge every beam against the current belief.
+        # The uniform mixture: its share of the prior, and the poses of it scored this time, each
+        # standing for n_background / n_swept poses of the mixture.
+        eps = cfg.uniform_mixture if not self._uniform else 0.0
+        u = eps / lat.n_poses
+        sweep = self._sweep_candidates() if eps > 0 else np.zeros(0, dtype=np.int64)
+        prior_a = (1.0 - eps) * self._w + u
+        stands_for = (lat.n_poses - self._idx.size) / sweep.size if sweep.size else 0.0
+
+        # Eq. 3-6: judge every beam against the current belief, uniform mixture included (so a
+        # beam that only a pose elsewhere explains raises the entropy and fails the entropy filter).
         used = valid.copy()
         if cfg.beam_filter != BeamFilter.NONE and valid.any():
-            dh, pn = gk.filter_statistics(self._idx, self._w, *args, np.flatnonzero(valid), ll, ps)
+            dh, pn = gk.filter_statistics(
+                np.concatenate([self._idx, sweep]),
+                np.concatenate([prior_a, np.full(sweep.size, u)]),
+                np.concatenate([np.ones(self._idx.size), np.full(sweep.size, stands_for)]),
+                *args,
+                np.flatnonzero(valid),
+                ll,
+                ps,
+            )
             if cfg.beam_filter == BeamFilter.ENTROPY:
                 used &= dh >= -cfg.filters.entropy_tolerance
             else:
@@ -510,16 +527,11 @@ class GridMarkovLocalization:
         if not used.any():
             return used, info
 
-        # The uniform mixture: its share of the prior, and the poses of it scored this time.
-        eps = cfg.uniform_mixture if not self._uniform else 0.0
-        u = eps / lat.n_poses
-        sweep = self._sweep_candidates() if eps > 0 else np.zeros(0, dtype=np.int64)
-
         # Eq. 2 on the held poses and the swept ones.
         ll_a = gk.scan_log_likelihood(self._idx, *args, used, ll)
         ll_s = gk.scan_log_likelihood(sweep, *args, used, ll)
         top = max(ll_a.max(), ll_s.max() if ll_s.size else -np.inf)
-        post_a = ((1.0 - eps) * self._w + u) * np.exp(ll_a - top)
+        post_a = prior_a * np.exp(ll_a - top)
         post_s = u * np.exp(ll_s - top)
         z = post_a.sum() + post_s.sum()
         info["sweep_mass"] = float(post_s.sum() / z)
@@ -601,17 +613,20 @@ def layer_kernels(
     odom_now: ArrayLike,
     resolution: float,
     angular_resolution: float,
-    headings: FloatArray,
+    headings: ArrayLike,
     n_sigma: float = 3.0,
+    floor_std_cells: float = 0.5,
 ) -> tuple[FloatArray, IntArray]:
     """:meth:`OdometryMotionModel.kernel` for many heading layers at once, padded to one shape.
 
     Eq. 1's ``p(l | l', a)`` on the grid: for each heading (grid frame) the Gaussian of the
     odometry model (Probabilistic Robotics Table 5.6, propagated to ``(x, y, theta)``), centred on
-    the mean displacement, evaluated at cell centres over ``n_sigma`` standard deviations (spread
-    floored as the model's kernel does) and normalized. Same numbers as calling ``model.kernel``
-    per layer (a test checks it), without ``n_theta`` Python calls per update. Returns ``weights
-    (K, Kt, Kr, Kc)`` (zero beyond each layer's own window) and ``offsets (K, 3)``.
+    the mean displacement, evaluated at cell centres over ``n_sigma`` standard deviations and
+    normalized. The spread is floored at ``floor_std_cells`` (half a cell by default: with less, a
+    Gaussian sampled at cell centres rounds a sub-cell shift to the nearest cell and the belief
+    drifts by up to half a cell per step). With ``floor_std_cells=0.25`` these are the numbers of
+    ``model.kernel`` per layer (a test checks it), without ``n_theta`` Python calls per update.
+    Returns ``weights (K, Kt, Kr, Kc)`` (zero beyond each layer's own window) and ``offsets (K, 3)``.
     """
     rot1, trans, rot2 = decompose(odom_prev, odom_now)
     s = np.array(model.stds(rot1, trans, rot2))
@@ -629,7 +644,7 @@ def layer_kernels(
     order = [2, 1, 0]  # (x, y, theta) -> (theta, row = y, col = x), in cells
     scale = np.array([angular_resolution, resolution, resolution])
     cov = cov_xyt[:, order][:, :, order] / np.outer(scale, scale)[None]
-    cov = cov + np.diag(np.full(3, 0.25**2))[None]
+    cov = cov + np.diag(np.full(3, floor_std_cells**2))[None]
     mean = np.stack(
         [
             np.full(n, (rot1 + rot2) / angular_resolution),

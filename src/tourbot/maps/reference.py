@@ -76,6 +76,7 @@ class ReferenceMapParams:
 
 
 _EPS = 1e-12  # pieces of a beam shorter than this (through a cell corner) visit no cell
+_AXIS = 1e-12  # direction components smaller than this are zero
 
 
 @numba.njit(cache=True)
@@ -97,6 +98,14 @@ def _trace_one(
     Crossing parameters are computed directly from the grid line they cross (not accumulated), so
     they are the same floats as in :func:`trace_beams_reference`.
     """
+    if not is_hit and length <= 0.0:
+        return  # an empty beam crosses no cell
+    # a direction a hair off a grid axis is taken as along it (else which side of a grid line the
+    # beam runs on would be decided by rounding)
+    if abs(dx) < _AXIS:
+        dx = 0.0
+    if abs(dy) < _AXIS:
+        dy = 0.0
     cx = math.floor(ox)
     cy = math.floor(oy)
     step_x = 1 if dx > 0 else -1
@@ -110,13 +119,12 @@ def _trace_one(
         t_next = min(next_x, next_y)  # where it leaves the current cell
         if t_next - t_enter > _EPS:
             inside = 0 <= cx < cols and 0 <= cy < rows
-            if is_hit and t_next > length:
-                # the current cell holds the endpoint; with ``crossing`` it is the hit cell only if
-                # the beam entered it nearer to the endpoint than where it leaves it
-                if not crossing or length - t_enter <= t_next - length:
-                    if inside:
-                        hits[cy, cx] += 1
-                    return
+            # past the endpoint: the current cell holds it; with ``crossing`` it is the hit cell
+            # only if the beam entered it nearer to the endpoint than where it leaves it
+            if is_hit and t_next > length and (not crossing or length - t_enter <= t_next - length):
+                if inside:
+                    hits[cy, cx] += 1
+                return
             if inside:
                 misses[cy, cx] += 1
             if not is_hit and t_next >= length:
@@ -210,6 +218,8 @@ def trace_beams_reference(
     if m == 0:
         return hits, misses
     dx, dy = np.cos(th), np.sin(th)
+    dx[np.abs(dx) < _AXIS] = 0.0
+    dy[np.abs(dy) < _AXIS] = 0.0
     # look beyond the endpoint: the nearest crossing and the piece after it may lie past it
     reach = ln + 3.0
 
@@ -218,7 +228,7 @@ def trace_beams_reference(
         lo = np.floor(np.minimum(a0, a1))
         n = int(np.max(np.ceil(np.maximum(a0, a1)) - lo)) + 2
         k = lo[:, None] + np.arange(n)[None, :]
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             t = (k - a0[:, None]) / d[:, None]
         ok = np.isfinite(t) & (t > 0.0) & (t <= reach[:, None])
         return np.where(ok, t, np.inf)
@@ -258,7 +268,9 @@ def trace_beams_reference(
 # From a log to a map
 
 
-def beam_rays(log: RobotLog, *, use_reference: bool = True) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
+def beam_rays(
+    log: RobotLog, *, use_reference: bool = True
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
     """Every beam of ``log`` as world rays: origins x, y, headings, ranges, and "ended on a hit".
 
     Beams start at the laser (pose ``compose(robot pose, geometry.offset)``); readings at or above

@@ -1,6 +1,7 @@
 """People tracking: leg features, the sample-based JPDA filter (SJPDAF), the occlusion map and the
 static-object filter (Burgard et al., Sec. 4)."""
 
+from tourbot.people.estimator import PeopleEstimator
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel
 from tourbot.people.occlusion import OcclusionConfig, occlusion_map
@@ -11,6 +12,7 @@ __all__ = [
     "LegConfig",
     "LegFeatures",
     "OcclusionConfig",
+    "PeopleEstimator",
     "PeopleTracker",
     "PersonFeatures",
     "SJPDAFConfig",

@@ -28,6 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "cluster_betas",
+    "cluster_betas_reference",
     "joint_betas",
     "joint_betas_reference",
     "pair_likelihoods",
@@ -185,6 +187,124 @@ def joint_betas(ratio: FloatArray, miss: FloatArray) -> FloatArray:
     return _joint_betas_kernel(
         np.ascontiguousarray(ratio, dtype=np.float64), np.ascontiguousarray(miss, dtype=np.float64)
     )
+
+
+@numba.njit(cache=True)
+def _find(parent: IntArray, a: int) -> int:
+    while parent[a] != a:
+        parent[a] = parent[parent[a]]
+        a = parent[a]
+    return a
+
+
+@numba.njit(cache=True)
+def _cluster_betas_kernel(
+    pair_track: IntArray, pair_feature: IntArray, ratio: FloatArray, miss: FloatArray, M: int, max_events: int
+) -> tuple[FloatArray, FloatArray]:
+    K = miss.shape[0]
+    P = pair_track.shape[0]
+    parent = np.arange(K + M)
+    for p in range(P):
+        a = _find(parent, pair_track[p])
+        b = _find(parent, K + pair_feature[p])
+        if a != b:
+            parent[a] = b
+    root = np.empty(K + M, dtype=np.int64)
+    for v in range(K + M):
+        root[v] = _find(parent, v)
+    beta0 = np.ones(K)
+    pair_beta = np.zeros(P)
+    local = np.full(K + M, -1, dtype=np.int64)
+    done = np.zeros(K + M, dtype=np.bool_)
+    for t0 in range(K):
+        r = root[t0]
+        if done[r]:
+            continue
+        done[r] = True
+        # The persons and features of this cluster, numbered locally.
+        nt = 0
+        nf = 0
+        for v in range(K + M):
+            if root[v] == r:
+                if v < K:
+                    local[v] = nt
+                    nt += 1
+                else:
+                    local[v] = nf
+                    nf += 1
+        tracks = np.empty(nt, dtype=np.int64)
+        for v in range(K):
+            if root[v] == r:
+                tracks[local[v]] = v
+        sub = np.zeros((nt, nf))
+        for p in range(P):
+            if root[pair_track[p]] == r:
+                sub[local[pair_track[p]], local[K + pair_feature[p]]] = ratio[p]
+        # Prune the weakest options until the joint events are few enough.
+        keep = nf
+        while keep > 1:
+            events = 1.0
+            for i in range(nt):
+                c = 0
+                for j in range(nf):
+                    if sub[i, j] > 0.0:
+                        c += 1
+                events *= min(c, keep) + 1
+            if events <= max_events:
+                break
+            keep -= 1
+        if keep < nf:
+            for i in range(nt):
+                order = np.argsort(-sub[i])
+                for j in range(keep, nf):
+                    sub[i, order[j]] = 0.0
+        q = np.empty(nt)
+        for i in range(nt):
+            q[i] = miss[tracks[i]]
+        beta = _joint_betas_kernel(sub, q)
+        for i in range(nt):
+            beta0[tracks[i]] = beta[i, 0]
+        for p in range(P):
+            if root[pair_track[p]] == r:
+                pair_beta[p] = beta[local[pair_track[p]], local[K + pair_feature[p]] + 1]
+    return pair_beta, beta0
+
+
+def cluster_betas(
+    pair_track: IntArray,
+    pair_feature: IntArray,
+    ratio: FloatArray,
+    miss: FloatArray,
+    num_features: int,
+    max_events: int = 5000,
+) -> tuple[FloatArray, FloatArray]:
+    """Eq. 6-7 for all persons at once, cluster by cluster (numba).
+
+    Persons and features linked by gated pairs ``(pair_track, pair_feature)`` with ``ratio``
+    ``P_D p(z_j | x_i) / gamma`` form independent clusters; the joint events of different clusters
+    factorise, so each cluster is enumerated on its own, which keeps 20-50 people fast. A cluster
+    with more than ``max_events`` joint events loses its persons' weakest options first. Returns
+    the betas of the pairs ``(P,)`` and each person's ``beta_0`` ``(K,)`` (``miss`` ``(K,)`` is
+    the weight of a person going undetected).
+    """
+    return _cluster_betas_kernel(
+        np.ascontiguousarray(pair_track, dtype=np.int64),
+        np.ascontiguousarray(pair_feature, dtype=np.int64),
+        np.ascontiguousarray(ratio, dtype=np.float64),
+        np.ascontiguousarray(miss, dtype=np.float64),
+        int(num_features),
+        int(max_events),
+    )
+
+
+def cluster_betas_reference(
+    pair_track: IntArray, pair_feature: IntArray, ratio: FloatArray, miss: FloatArray, num_features: int
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`cluster_betas` without clusters or pruning: all joint events of all persons at once."""
+    dense = np.zeros((miss.shape[0], num_features))
+    dense[pair_track, pair_feature] = ratio
+    beta = joint_betas_reference(dense, miss)
+    return beta[pair_track, pair_feature + 1], beta[:, 0]
 
 
 # --- Eq. 9: sample weights ------------------------------------------------------------------------

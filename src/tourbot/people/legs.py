@@ -7,20 +7,30 @@ leg's and how much nearer it is than its neighbours. Two legs close to each othe
 into one person feature, the ``z_j(t)`` of the SJPDAF (a person produces one feature per scan, as
 the JPDAF's joint events assume).
 
-Everything here is vectorised numpy over the beams (no Python loop per beam).
+The segmentation is a numba kernel over the beams with a vectorised numpy reference beside it.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import transform_points
 from tourbot.records import Scan
 
-__all__ = ["LegConfig", "LegFeatures", "PersonFeatures", "detect_legs", "group_legs"]
+__all__ = [
+    "LegConfig",
+    "LegFeatures",
+    "PersonFeatures",
+    "detect_legs",
+    "group_legs",
+    "leg_segments",
+    "leg_segments_reference",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -44,7 +54,7 @@ class LegConfig:
     width_std: float = 0.07
     min_width: float = 0.02
     max_width: float = 0.35
-    min_points: int = 3
+    min_points: int = 2
     cluster_distance: float = 0.13
     min_contrast: float = 0.10
     contrast_scale: float = 0.05
@@ -94,17 +104,26 @@ def _valid_ranges(scan: Scan, max_range: float) -> NDArray[np.bool_]:
 def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     """Leg candidates of ``scan`` (Burgard et al. Fig. 5, middle): segments that are local minima.
 
-    Returns features in the laser frame with ``probability >= config.min_probability``.
+    Returns features in the laser frame with ``probability >= config.min_probability``; the numba
+    kernel :func:`leg_segments` does the work.
     """
     cfg = config or LegConfig()
     r = np.asarray(scan.ranges, dtype=np.float64)
-    angles = scan.geometry.angles
     valid = _valid_ranges(scan, np.inf)
+    pts, width, prob = leg_segments(r, scan.geometry.angles, valid, cfg)
+    if pts.shape[0]:
+        pts = pts + cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
+    return LegFeatures(pts, width, prob)
+
+
+def leg_segments_reference(
+    r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Vectorised numpy reference of :func:`leg_segments`: centroids ``(S, 2)``, widths, P(leg)."""
     near = valid & (r < cfg.max_range)
     B = r.shape[0]
-    empty = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
     if B < 2 or not near.any():
-        return empty
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     rr = np.where(valid, r, np.inf)
     xy = np.stack([np.cos(angles) * np.where(valid, r, 0.0), np.sin(angles) * np.where(valid, r, 0.0)], -1)
     step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
@@ -140,8 +159,108 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     keep &= prob >= cfg.min_probability
     idx = np.flatnonzero(keep)
     pts = np.stack([sx[idx] / count[idx], sy[idx] / count[idx]], -1)
-    pts += cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
-    return LegFeatures(pts, width[idx], prob[idx])
+    return pts, width[idx], prob[idx]
+
+
+@numba.njit(cache=True)
+def _leg_segments_kernel(
+    r: FloatArray,
+    angles: FloatArray,
+    valid: NDArray[np.bool_],
+    max_range: float,
+    cluster_distance: float,
+    min_points: int,
+    min_width: float,
+    max_width: float,
+    leg_width: float,
+    width_std: float,
+    min_contrast: float,
+    contrast_scale: float,
+    min_probability: float,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    B = r.shape[0]
+    pts = np.empty((B, 2))
+    width = np.empty(B)
+    prob = np.empty(B)
+    n = 0
+    i = 0
+    while i < B:
+        # One segment: [i, j], all valid, consecutive points within cluster_distance.
+        j = i
+        if valid[i]:
+            while j + 1 < B and valid[j + 1]:
+                dx = math.cos(angles[j + 1]) * r[j + 1] - math.cos(angles[j]) * r[j]
+                dy = math.sin(angles[j + 1]) * r[j + 1] - math.sin(angles[j]) * r[j]
+                if math.sqrt(dx * dx + dy * dy) > cluster_distance:
+                    break
+                j += 1
+        if valid[i] and j - i + 1 >= min_points:
+            sx = 0.0
+            sy = 0.0
+            sr = 0.0
+            all_near = True
+            for k in range(i, j + 1):
+                sx += math.cos(angles[k]) * r[k]
+                sy += math.sin(angles[k]) * r[k]
+                sr += r[k]
+                if r[k] >= max_range:
+                    all_near = False
+            cnt = j - i + 1
+            wx = math.cos(angles[j]) * r[j] - math.cos(angles[i]) * r[i]
+            wy = math.sin(angles[j]) * r[j] - math.sin(angles[i]) * r[i]
+            w = math.sqrt(wx * wx + wy * wy)
+            if all_near and min_width <= w <= max_width:
+                mean_r = sr / cnt
+                left = np.inf if i == 0 or not valid[i - 1] else r[i - 1]
+                right = np.inf if j == B - 1 or not valid[j + 1] else r[j + 1]
+                if i == 0:
+                    contrast = right - mean_r
+                elif j == B - 1:
+                    contrast = left - mean_r
+                else:
+                    contrast = min(left, right) - mean_r
+                if contrast == np.inf:
+                    p_contrast = 1.0
+                else:
+                    z = -(contrast - min_contrast) / contrast_scale
+                    p_contrast = 0.0 if z > 700.0 else 1.0 / (1.0 + math.exp(z))
+                excess = max(w - leg_width, 0.0)
+                p = math.exp(-0.5 * (excess / width_std) ** 2) * p_contrast
+                if p >= min_probability:
+                    pts[n, 0] = sx / cnt
+                    pts[n, 1] = sy / cnt
+                    width[n] = w
+                    prob[n] = p
+                    n += 1
+        i = j + 1
+    return pts[:n].copy(), width[:n].copy(), prob[:n].copy()
+
+
+def leg_segments(
+    r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Segments of a scan that look like legs: centroids ``(S, 2)`` (laser frame), widths, P(leg).
+
+    A segment is a run of valid beams whose consecutive points are within ``cluster_distance``;
+    it is a leg candidate when it has ``min_points``, lies within ``max_range``, is
+    ``min_width``-``max_width`` wide, and P(leg) = P(width) * P(local minimum) reaches
+    ``min_probability`` (numba kernel of :func:`leg_segments_reference`).
+    """
+    return _leg_segments_kernel(
+        np.ascontiguousarray(r, dtype=np.float64),
+        np.ascontiguousarray(angles, dtype=np.float64),
+        np.ascontiguousarray(valid, dtype=np.bool_),
+        cfg.max_range,
+        cfg.cluster_distance,
+        cfg.min_points,
+        cfg.min_width,
+        cfg.max_width,
+        cfg.leg_width,
+        cfg.width_std,
+        cfg.min_contrast,
+        cfg.contrast_scale,
+        cfg.min_probability,
+    )
 
 
 def group_legs(legs: LegFeatures, config: LegConfig | None = None) -> PersonFeatures:

@@ -18,12 +18,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from tourbot.geometry import compose
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.people.association import joint_betas, pair_likelihoods, sample_weights, systematic_resample
+from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
@@ -50,10 +48,12 @@ class SJPDAFConfig:
 
     Track rules: a feature no person explains (sum of its betas below ``birth_threshold``), with
     P(person) >= ``birth_probability`` and P(moving) >= ``birth_moving`` (above the 0.5 of
-    "unknown": a feature must be seen to move), starts a tentative track;
-    ``confirm_hits`` detections confirm it; a tentative track ends after ``tentative_misses`` misses
-    while visible, a confirmed one after ``max_misses``, or when its samples spread beyond
-    ``max_position_std`` (an occluded person lost for good), or leave ``max_range`` of the robot.
+    "unknown": a feature must be seen to move) starts a tentative track; with a map and
+    ``birth_off_map``, any person feature off the map starts one too (the map is the static world,
+    so a person standing still is not taken for furniture); ``confirm_hits`` detections confirm
+    it; a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
+    after ``max_misses``, or when its samples spread beyond ``max_position_std`` (an occluded
+    person lost for good), or leave ``max_range`` of the robot.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends.
     """
 
@@ -68,6 +68,7 @@ class SJPDAFConfig:
     birth_threshold: float = 0.5
     birth_probability: float = 0.3
     birth_moving: float = 0.6
+    birth_off_map: bool = True
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
     confirm_hits: int = 3
@@ -159,24 +160,23 @@ class PeopleTracker:
 
     def tracks(self) -> list[Track]:
         """The current tracks (tentative ones too: check ``confirmed``)."""
-        out = []
-        for k, st in enumerate(self._states):
-            s = self._samples[k]
-            mean = s.mean(axis=0)
-            cov = np.cov(s.T) if s.shape[0] > 1 else np.zeros((4, 4))
-            out.append(
-                Track(
-                    id=st.id,
-                    position=(float(mean[0]), float(mean[1])),
-                    velocity=(float(mean[2]), float(mean[3])),
-                    covariance=cov,
-                    confirmed=st.confirmed,
-                    occluded=st.occluded,
-                    hits=st.hits,
-                    age=st.age,
-                )
+        s = self._samples
+        mean = s.mean(axis=1)
+        centred = s - mean[:, None, :]
+        cov = np.einsum("kni,knj->kij", centred, centred) / max(s.shape[1] - 1, 1)
+        return [
+            Track(
+                id=st.id,
+                position=(float(mean[k, 0]), float(mean[k, 1])),
+                velocity=(float(mean[k, 2]), float(mean[k, 3])),
+                covariance=cov[k],
+                confirmed=st.confirmed,
+                occluded=st.occluded,
+                hits=st.hits,
+                age=st.age,
             )
-        return out
+            for k, st in enumerate(self._states)
+        ]
 
     def sample_sets(self) -> dict[int, FloatArray]:
         """Each track's samples ``(N, 4)`` by id (for people-filtered mapping, Eq. 10)."""
@@ -255,22 +255,8 @@ class PeopleTracker:
         live = mean_lik > 1e-12
         pt, pf, lik, mean_lik = pt[live], pf[live], lik[live], mean_lik[live]
         q = miss.mean(axis=1)  # weight of "person i not detected"
-        pair_beta = np.zeros(pt.shape[0])
         # Independent clusters of persons and features, each with its own joint events (Eq. 6-7).
-        graph = coo_matrix((np.ones(pt.shape[0]), (pt, K + pf)), shape=(K + M, K + M))
-        _, label = connected_components(graph, directed=False)
-        pair_label = label[pt]
-        order = np.argsort(pair_label, kind="stable")
-        bounds = np.flatnonzero(np.diff(pair_label[order])) + 1
-        for group in np.split(order, bounds) if order.size else []:
-            tracks, t_idx = np.unique(pt[group], return_inverse=True)
-            feats, f_idx = np.unique(pf[group], return_inverse=True)
-            ratio = np.zeros((tracks.size, feats.size))
-            ratio[t_idx, f_idx] = mean_lik[group] / cfg.clutter_density
-            ratio = _prune(ratio, cfg.max_events)
-            beta = joint_betas(ratio, q[tracks])
-            beta0[tracks] = beta[:, 0]
-            pair_beta[group] = beta[t_idx, f_idx + 1]
+        pair_beta, beta0 = cluster_betas(pt, pf, mean_lik / cfg.clutter_density, q, M, cfg.max_events)
         return _Association(pt, pf, lik, pair_beta, beta0, miss)
 
     def _correct(self, a: _Association) -> None:
@@ -321,7 +307,8 @@ class PeopleTracker:
         explained = np.zeros(M)
         np.add.at(explained, a.pair_feature, a.pair_beta)
         born = (explained < cfg.birth_threshold) & (features.probability >= cfg.birth_probability)
-        born &= moving >= cfg.birth_moving
+        if not (cfg.birth_off_map and self.static.has_map):
+            born &= moving >= cfg.birth_moving
         if K and M:
             near = np.linalg.norm(mean[keep][:, None] - features.points[None], axis=-1) < cfg.merge_distance
             born &= ~near.any(axis=0)
@@ -339,18 +326,3 @@ class PeopleTracker:
             for _ in range(new.size):
                 self._states.append(_TrackState(id=self._next_id, hits=1))
                 self._next_id += 1
-
-
-def _prune(ratio: FloatArray, max_events: int) -> FloatArray:
-    """Drop each person's weakest gated features until the cluster has at most ``max_events``
-    joint events (an upper bound: the product of each person's options)."""
-    options = (ratio > 0.0).sum(axis=1) + 1
-    if float(np.prod(options.astype(np.float64))) <= max_events:
-        return ratio
-    r = ratio.copy()
-    keep = int(options.max()) - 1
-    while keep > 1 and float(np.prod(np.minimum(options, keep + 1).astype(np.float64))) > max_events:
-        keep -= 1
-    rank = np.argsort(np.argsort(-r, axis=1, kind="stable"), axis=1)
-    r[rank >= keep] = 0.0
-    return r

@@ -33,12 +33,14 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True, slots=True)
 class StaticConfig:
-    """``lag``: compare with the scan this many scans back (1 = consecutive scans, the paper's);
+    """``lag``: compare with the previous scan (the paper's consecutive scans) and with the scan
+    ``lag`` scans back, keeping the stronger evidence of motion (5 at 10 Hz also catches people
+    walking slowly, whose legs move only a few centimetres between consecutive scans);
     ``tolerance``: how close (m) a previous return must be to call the cell occupied then;
     ``p_free`` / ``p_occupied``: the inverse sensor model's values; ``map_clearance``: features
     within this distance (m) of an occupied map cell are static."""
 
-    lag: int = 1
+    lag: int = 5
     tolerance: float = 0.08
     p_free: float = 0.1
     p_occupied: float = 0.9
@@ -73,7 +75,7 @@ def previous_occupancy(
 
 
 class StaticFilter:
-    """P(moving) of leg features from the difference of occupancy grids of scans ``lag`` apart.
+    """P(moving) of leg features from the difference of occupancy grids of recent scans.
 
     Feed every scan through :meth:`moving_probability` in order; the first scans (no history yet)
     get 0.5, "unknown".
@@ -88,6 +90,10 @@ class StaticFilter:
             cells = max(math.ceil(self.config.map_clearance / grid_map.resolution), 0)
             occ = grid_map.occupied()
             self._near_map = ndimage.binary_dilation(occ, iterations=cells) if cells > 0 else occ
+
+    @property
+    def has_map(self) -> bool:
+        return self._map is not None
 
     def on_map(self, world_points: FloatArray) -> NDArray[np.bool_]:
         """Whether points lie on or beside an occupied cell of the map (all False without a map)."""
@@ -104,19 +110,25 @@ class StaticFilter:
         """P(moving) of leg features at ``world_points`` ``(M, 2)`` seen in ``scan`` at ``robot_pose``.
 
         The difference map ``P_now - P_prev`` at each feature's cell, rescaled to [0, 1]
-        (``P_now = p_occupied``: the feature is a return of the current scan); 0 on the map.
+        (``P_now = p_occupied``: the feature is a return of the current scan), the largest over the
+        previous scan and the one ``lag`` back; 0.5 ("unknown") before any history; 0 on the map.
         """
         cfg = self.config
         pose = np.asarray(robot_pose, dtype=np.float64)
         out = np.full(world_points.shape[0], 0.5)
-        if len(self._history) == self._history.maxlen and world_points.shape[0]:
-            prev_scan, prev_pose = self._history[0]
-            local = points_in_sensor_frame(world_points, prev_pose, prev_scan)
-            g = prev_scan.geometry
-            p_prev = previous_occupancy(
-                local, np.asarray(prev_scan.ranges, float), g.angle_min, g.angle_increment, cfg
+        if self._history and world_points.shape[0]:
+            out[:] = 0.0
+            earlier = (
+                [self._history[-1]] if len(self._history) == 1 else [self._history[-1], self._history[0]]
             )
-            out = np.clip((cfg.p_occupied - p_prev) / (cfg.p_occupied - cfg.p_free), 0.0, 1.0)
+            for prev_scan, prev_pose in earlier:
+                local = points_in_sensor_frame(world_points, prev_pose, prev_scan)
+                g = prev_scan.geometry
+                p_prev = previous_occupancy(
+                    local, np.asarray(prev_scan.ranges, float), g.angle_min, g.angle_increment, cfg
+                )
+                diff = np.clip((cfg.p_occupied - p_prev) / (cfg.p_occupied - cfg.p_free), 0.0, 1.0)
+                out = np.maximum(out, diff)
         out[self.on_map(world_points)] = 0.0
         self._history.append((scan, pose.copy()))
         return out

@@ -1,8 +1,11 @@
 """Doors that open and close and furniture that is moved, on a schedule or at random.
 
 The true states of the site's doors and movable furniture (Schulz and Burgard 2001, Sec. 3: the
-object-based world model whose states the robot estimates). :meth:`DynamicObjects.grid` draws them
-into the static occupancy grid, which the laser casts against and collisions are checked on.
+object-based world model whose states the robot estimates). Furniture moves rarely and at once:
+:meth:`DynamicObjects.grid` draws it into the static occupancy grid (the laser's caster is rebuilt
+then). Door leaves swing continuously, so they are given to the ray caster as a chain of small
+circles along the leaf (:meth:`DynamicObjects.door_circles`), like people's legs: the one caster's
+grid-plus-circles cast, with no rebuild while a door moves.
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.runtime.snapshot import DoorState, FurnitureState
@@ -18,7 +22,6 @@ from tourbot.site.model import Door, Furniture, Schedule, Site, rasterize_polygo
 __all__ = ["DynamicObjects"]
 
 DOOR_SPEED = 0.6  # rad/s: a door pushed open at walking pace
-_QUANT = 24  # door positions drawn into the grid (steps from closed to open)
 
 
 class DynamicObjects:
@@ -37,6 +40,8 @@ class DynamicObjects:
         self._furniture_next = np.array([self._interval(f.schedule, rng) for f in self.furniture])
         self._drawn_key: tuple[int, ...] | None = None
         self._grid = static
+        self._circles_key: tuple[float, ...] | None = None
+        self._circles: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros((0, 2)), np.zeros(0))
 
     @staticmethod
     def _interval(schedule: Schedule, rng: np.random.Generator) -> float:
@@ -58,21 +63,38 @@ class DynamicObjects:
                 choices = [k for k in range(len(item.poses)) if k != self.furniture_index[j]]
                 self.furniture_index[j] = choices[int(rng.integers(len(choices)))]
                 self._furniture_next[j] = time + self._interval(item.schedule, rng)
-        return self._key() != self._drawn_key
+        return self._key() != self._drawn_key  # doors need no redraw: they are circles
 
     def _key(self) -> tuple[int, ...]:
-        doors = tuple(round(float(f) * _QUANT) for f in self.door_open)
-        return doors + tuple(int(k) for k in self.furniture_index)
+        return tuple(int(k) for k in self.furniture_index)
+
+    def door_circles(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Door leaves as chains of circles (centres ``(K, 2)``, radii ``(K,)``) of the leaf's
+        thickness, overlapping so no beam slips between them."""
+        key = tuple(float(f) for f in self.door_open)
+        if self._circles_key == key:
+            return self._circles
+        centres, radii = [], []
+        for door, f in zip(self.doors, self.door_open, strict=True):
+            (x0, y0), (x1, y1) = door.leaf(float(f))
+            r = door.thickness / 2
+            n = max(2, math.ceil(door.leaf_length / r) + 1)
+            t = np.linspace(0.0, 1.0, n)
+            centres.append(np.stack([x0 + t * (x1 - x0), y0 + t * (y1 - y0)], axis=-1))
+            radii.append(np.full(n, r))
+        self._circles_key = key
+        if not centres:
+            self._circles = (np.zeros((0, 2)), np.zeros(0))
+        else:
+            self._circles = (np.vstack(centres), np.concatenate(radii))
+        return self._circles
 
     def grid(self) -> OccupancyGrid:
-        """The static grid with the doors and furniture drawn in at their current states."""
+        """The static grid with the furniture drawn in at its current poses."""
         key = self._key()
         if key == self._drawn_key:
             return self._grid
         polys = []
-        for door, f in zip(self.doors, self.door_open, strict=True):
-            a, b = door.leaf(round(f * _QUANT) / _QUANT)
-            polys.append(_thick_segment(a, b, door.thickness))
         for item, k in zip(self.furniture, self.furniture_index, strict=True):
             polys.append(item.polygon(item.poses[int(k)]))
         prob = self.static.prob.copy()
@@ -95,10 +117,3 @@ class DynamicObjects:
             x, y, th = item.poses[int(k)]
             out.append(FurnitureState(item.name, x, y, th))
         return tuple(out)
-
-
-def _thick_segment(a: tuple[float, float], b: tuple[float, float], width: float) -> list[tuple[float, float]]:
-    dx, dy = b[0] - a[0], b[1] - a[1]
-    n = math.hypot(dx, dy) or 1.0
-    ox, oy = -dy / n * width / 2, dx / n * width / 2
-    return [(a[0] + ox, a[1] + oy), (b[0] + ox, b[1] + oy), (b[0] - ox, b[1] - oy), (a[0] - ox, a[1] - oy)]

@@ -18,8 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from tourbot.geometry import compose, relative
-
 __all__ = ["OdometryError", "OdometryErrorConfig"]
 
 
@@ -47,7 +45,7 @@ class OdometryError:
 
     def __init__(self, config: OdometryErrorConfig, start: tuple[float, float, float] = (0.0, 0.0, 0.0)):
         self.config = config
-        self.pose = np.asarray(start, dtype=np.float64)
+        self.pose = (float(start[0]), float(start[1]), float(start[2]))
 
     def step(
         self,
@@ -57,10 +55,14 @@ class OdometryError:
     ) -> tuple[float, float, float]:
         """Advance by the true motion between two poses; returns the new odometry pose."""
         c = self.config
-        d = relative(np.asarray(true_before), np.asarray(true_after))
-        trans = math.hypot(d[0], d[1])
-        rot1 = math.atan2(d[1], d[0]) if trans > 1e-6 else 0.0
-        rot2 = math.remainder(d[2] - rot1, 2.0 * math.pi)
+        x0, y0, th0 = true_before
+        cb, sb = math.cos(th0), math.sin(th0)
+        gx, gy = true_after[0] - x0, true_after[1] - y0
+        dx, dy = cb * gx + sb * gy, -sb * gx + cb * gy  # the motion in the frame of the start
+        dth = math.remainder(true_after[2] - th0, 2.0 * math.pi)
+        trans = math.hypot(dx, dy)
+        rot1 = math.atan2(dy, dx) if trans > 1e-6 else 0.0
+        rot2 = math.remainder(dth - rot1, 2.0 * math.pi)
         s_rot1 = c.alpha1 * abs(rot1) + c.alpha2 * trans
         s_trans = c.alpha3 * trans + c.alpha4 * (abs(rot1) + abs(rot2))
         s_rot2 = c.alpha1 * abs(rot2) + c.alpha2 * trans
@@ -68,12 +70,9 @@ class OdometryError:
         rot1_m = rot1 * c.rotation_scale + s_rot1 * n[0]
         trans_m = trans * c.translation_scale + s_trans * n[1]
         rot2_m = rot2 * c.rotation_scale + s_rot2 * n[2] + c.drift * trans
-        delta = np.array(
-            [
-                trans_m * math.cos(rot1_m),
-                trans_m * math.sin(rot1_m),
-                math.remainder(rot1_m + rot2_m, 2 * math.pi),
-            ]
-        )
-        self.pose = compose(self.pose, delta)
-        return (float(self.pose[0]), float(self.pose[1]), float(self.pose[2]))
+        x, y, th = self.pose
+        x += trans_m * math.cos(th + rot1_m)
+        y += trans_m * math.sin(th + rot1_m)
+        th = math.remainder(th + rot1_m + rot2_m, 2.0 * math.pi)
+        self.pose = (x, y, th)
+        return self.pose

@@ -93,8 +93,9 @@ class Simulator:
         self.objects = DynamicObjects(site, self.static, self._rng_objects, enabled=cfg.dynamic_objects)
         self._world = self.objects.grid()
         self.laser = SimLaser(cfg.laser, self._world)
-        self._invisible_dist = _clearance(site.invisible_mask(self.static), self.static.resolution)
-        self._world_dist = _clearance(self._world.occupied(), self.static.resolution)
+        self._occupied = self._world.occupied()
+        self._invisible = site.invisible_mask(self.static)
+        self._footprint = _disc_offsets(cfg.robot.radius, self.static.resolution)
         self.crowd: Crowd | None = None
         if cfg.crowd is not None and cfg.crowd.num_people > 0:
             crowd_cfg = cfg.crowd
@@ -103,6 +104,7 @@ class Simulator:
 
                 crowd_cfg = replace(crowd_cfg, points_of_interest=tuple(e.position for e in site.exhibits))
             self.crowd = Crowd(crowd_cfg, self.static, self._rng_crowd, robot_pose=start)
+        self._legs: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._time = 0.0
         self._steps = 0
         self._scan_every = max(1, round(1.0 / (cfg.laser_rate * cfg.dt)))
@@ -129,13 +131,14 @@ class Simulator:
         self._move_robot(dt)
         self._time += dt
         self._steps += 1
+        self._legs = None
         if self.crowd is not None:
             self.crowd.step(dt, self.robot.pose, self._rng_crowd)
         self._check_people()
         if self.objects.step(self._time, dt, self._rng_objects):
             self._world = self.objects.grid()
             self.laser.set_world(self._world)
-            self._world_dist = _clearance(self._world.occupied(), self.static.resolution)
+            self._occupied = self._world.occupied()
         odom_pose = self.odometry.step(before, self.robot.pose, self._rng_odom)
         out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
         if self._steps % self._scan_every == 0:
@@ -170,9 +173,18 @@ class Simulator:
     # -- views ------------------------------------------------------------------------------------
 
     def legs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """What the laser sees besides the grid: people's legs, then the door leaves, as circles."""
+        doors, door_r = self.objects.door_circles()
         if self.crowd is None:
-            return np.zeros((0, 2)), np.zeros(0)
-        return self.crowd.circles()
+            return doors, door_r
+        c, r = self._crowd_circles()
+        return np.vstack([c, doors]), np.concatenate([r, door_r])
+
+    def _crowd_circles(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        assert self.crowd is not None
+        if self._legs is None:
+            self._legs = self.crowd.circles()
+        return self._legs
 
     def people_positions(self) -> NDArray[np.float64]:
         return self.crowd.positions.copy() if self.crowd is not None else np.zeros((0, 2))
@@ -197,8 +209,12 @@ class Simulator:
     def _move_robot(self, dt: float) -> None:
         pose, v, w = self.robot.propose(dt)
         radius = self.config.robot.radius
-        hit_static = _distance_at(self._world_dist, self.static, pose) < radius
-        hit_invisible = _distance_at(self._invisible_dist, self.static, pose) < radius
+        doors, door_r = self.objects.door_circles()
+        hit_door = bool(
+            len(door_r) and (np.hypot(doors[:, 0] - pose[0], doors[:, 1] - pose[1]) - door_r).min() < radius
+        )
+        hit_static = hit_door or _covers(self._occupied, self.static, pose, self._footprint)
+        hit_invisible = _covers(self._invisible, self.static, pose, self._footprint)
         self._contact("static", hit_static)
         self._contact("invisible", hit_invisible)
         if hit_static or hit_invisible:
@@ -211,7 +227,7 @@ class Simulator:
         if self.crowd is None:
             self._contact("person", False)
             return
-        centres, radii = self.crowd.legs()
+        centres, radii = self._crowd_circles()
         x, y, _ = self.robot.pose
         d = np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radii
         self._contact("person", bool(d.size and d.min() < self.config.robot.radius))
@@ -222,23 +238,30 @@ class Simulator:
         self._in_contact[kind] = now
 
 
-def _clearance(blocked: NDArray[np.bool_], resolution: float) -> NDArray[np.float32]:
-    """Metres from each cell centre to the nearest blocked cell's edge (inf when none)."""
-    if not blocked.any():
-        return np.full(blocked.shape, np.inf, dtype=np.float32)
-    d = ndimage.distance_transform_edt(~blocked)
-    return np.maximum(d - 0.5, 0.0).astype(np.float32) * np.float32(resolution)
+def _disc_offsets(radius: float, resolution: float) -> NDArray[np.int64]:
+    """``(row, col)`` offsets of the cells whose centres lie within ``radius`` of a cell's centre."""
+    k = math.ceil(radius / resolution)
+    rr, cc = np.mgrid[-k : k + 1, -k : k + 1]
+    inside = np.hypot(rr, cc) * resolution <= radius
+    return np.stack([rr[inside], cc[inside]], axis=-1).astype(np.int64)
 
 
-def _distance_at(dist: NDArray[np.float32], grid: OccupancyGrid, pose: tuple[float, float, float]) -> float:
-    r, c = grid.world_to_cell(np.asarray(pose[:2]))
-    if not (0 <= r < dist.shape[0] and 0 <= c < dist.shape[1]):
-        return math.inf
-    return float(dist[r, c])
+def _covers(
+    mask: NDArray[np.bool_], grid: OccupancyGrid, pose: tuple[float, float, float], disc: NDArray[np.int64]
+) -> bool:
+    """Whether the robot's footprint at ``pose`` covers a ``True`` cell of ``mask``."""
+    ox, oy, oth = grid.origin
+    c, s = math.cos(oth), math.sin(oth)
+    dx, dy = pose[0] - ox, pose[1] - oy
+    col = math.floor((c * dx + s * dy) / grid.resolution)
+    row = math.floor((-s * dx + c * dy) / grid.resolution)
+    rc = disc + np.array([row, col])
+    ok = (rc[:, 0] >= 0) & (rc[:, 0] < mask.shape[0]) & (rc[:, 1] >= 0) & (rc[:, 1] < mask.shape[1])
+    return bool(mask[rc[ok, 0], rc[ok, 1]].any())
 
 
 def _some_free_pose(grid: OccupancyGrid) -> tuple[float, float, float]:
-    d = _clearance(~grid.free(), grid.resolution)
+    d = ndimage.distance_transform_edt(grid.free())
     r, c = np.unravel_index(int(np.argmax(d)), d.shape)
     x, y = grid.cell_to_world(np.array([r, c]))
     return (float(x), float(y), 0.0)

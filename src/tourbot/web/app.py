@@ -14,6 +14,8 @@ holder's commands move a robot, checked here on the server, never in the page.
 from __future__ import annotations
 
 import asyncio
+import base64
+import hashlib
 import io
 import json
 import math
@@ -62,6 +64,7 @@ __all__ = ["WebConfig", "create_app", "find_node_modules"]
 STATIC = Path(__file__).with_name("static")
 COOKIE = "tourbot_session"
 _SPEECH_NAME = re.compile(r"^[0-9a-f]{24}\.wav$")
+_IMPORTMAP = re.compile(r'<script type="importmap">(.*?)</script>', re.DOTALL)
 
 
 def find_node_modules(start: Path | None = None) -> Path | None:
@@ -137,6 +140,29 @@ class _TourIn(BaseModel):
     name: Annotated[str, Field(min_length=1, max_length=200)]
     description: Annotated[str, Field(max_length=4000)] = ""
     exhibits: Annotated[list[str], Field(max_length=100)]
+
+
+def _staff(request: Request) -> _Client:
+    """The logged-in staff member making ``request``; 401 otherwise (a FastAPI dependency)."""
+    client = request.app.state.lookup(request.cookies.get(COOKIE))
+    if client is None or not client.staff:
+        raise HTTPException(401, "staff login required")
+    return client
+
+
+Staff = Annotated[_Client, Depends(_staff)]
+
+
+def _policy(html: str) -> str:
+    """Content security policy: our own scripts only, plus the page's inline import map by hash."""
+    hashes = [
+        "'sha256-" + base64.b64encode(hashlib.sha256(m.encode()).digest()).decode() + "'"
+        for m in _IMPORTMAP.findall(html)
+    ]
+    return (
+        "default-src 'self'; img-src 'self' data: blob: https:; media-src 'self' blob:; "
+        f"connect-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self' {' '.join(hashes)}"
+    ).strip()
 
 
 def _map_png(grid: OccupancyGrid) -> bytes:
@@ -223,6 +249,8 @@ def create_app(
         sessions[token] = client
         return client
 
+    app.state.lookup = lookup
+
     def ensure_session(request: Request, response: Response, kind: str = "web") -> _Client:
         client = lookup(request.cookies.get(COOKIE))
         if client is None:
@@ -230,12 +258,6 @@ def create_app(
             client = _Client(sid, kind, False)
             sessions[token] = client
             response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
-        return client
-
-    def staff(request: Request) -> _Client:
-        client = lookup(request.cookies.get(COOKIE))
-        if client is None or not client.staff:
-            raise HTTPException(401, "staff login required")
         return client
 
     def is_onboard(host: str | None, client: _Client | None) -> bool:
@@ -248,12 +270,12 @@ def create_app(
 
     # --- pages ---------------------------------------------------------------------------
     def page(name: str, request: Request, kind: str = "web") -> HTMLResponse:
-        response = HTMLResponse((STATIC / name).read_text())
+        html = (STATIC / name).read_text()
+        response = HTMLResponse(html)
         ensure_session(request, response, kind)
-        response.headers["Content-Security-Policy"] = (
-            "default-src 'self'; img-src 'self' data: blob: https:; media-src 'self' blob:; "
-            "connect-src 'self'; style-src 'self' 'unsafe-inline'; script-src 'self'"
-        )
+        response.headers["Content-Security-Policy"] = _policy(html)
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers["Referrer-Policy"] = "same-origin"
         return response
 
     @app.get("/", response_class=HTMLResponse)
@@ -357,8 +379,6 @@ def create_app(
         response = JSONResponse({"ok": True})
         response.delete_cookie(COOKIE, path="/")
         return response
-
-    Staff = Annotated[_Client, Depends(staff)]
 
     @app.post("/api/admin/exhibits")
     def admin_save_exhibit(_: Staff, body: _ExhibitIn) -> dict[str, object]:

@@ -85,6 +85,8 @@ class RobotHub:
     # --- lifecycle --------------------------------------------------------------------------
     async def start(self) -> None:
         self._changed = asyncio.Condition()
+        self._slot_lock = asyncio.Lock()
+        self._pending: set[asyncio.Future[None]] = set()
         if self.drive:
             self._thread = threading.Thread(target=self._run_robot, name=f"robot-{self.name}", daemon=True)
             self._thread.start()
@@ -137,7 +139,7 @@ class RobotHub:
         now = time.time()
         self.view = view
         self.scene = scene_of(view, now)
-        await self._handle(self.arbiter.update(now), now)
+        await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
             await self._arrived(state[1])
@@ -198,13 +200,29 @@ class RobotHub:
         self.connections.pop(session, None)
         now = time.time()
         self.arbiter.leave(session, now)
-        await self._handle(self.arbiter.update(now), now)
+        await self._sync_slots(now)
         await self.notify()
 
     async def slot_changed(self) -> None:
         now = time.time()
-        await self._handle(self.arbiter.update(now), now)
+        await self._sync_slots(now)
         await self.notify()
+
+    async def _sync_slots(self, now: float) -> None:
+        """Apply time to the slots and record the changes of holder, one caller at a time.
+
+        Shielded: a caller cancelled midway (a closing connection) must not lose the events it took.
+        """
+
+        async def sync() -> None:
+            async with self._slot_lock:
+                self.arbiter.update(now)
+                await self._handle(self.arbiter.take_events(), now)
+
+        task = asyncio.ensure_future(sync())
+        self._pending.add(task)
+        task.add_done_callback(self._pending.discard)
+        await asyncio.shield(task)
 
     async def _handle(self, events: list[SlotEvent], now: float) -> None:
         for event in events:

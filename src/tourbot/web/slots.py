@@ -132,8 +132,13 @@ class SlotArbiter(Generic[Client]):
             return 0.0
         return min(self.config.slot_length, max(0.0, self.config.slot_length - (now - self.holder_since)))
 
-    def update(self, now: float) -> list[SlotEvent]:
-        """Expire the slot or a silent client, hand over to the next in the queue; the events."""
+    def take_events(self) -> list[SlotEvent]:
+        """The changes of holder since the last call (for bookings and notices), oldest first."""
+        events, self._events = self._events, []
+        return events
+
+    def update(self, now: float) -> None:
+        """Expire the slot or a silent client, hand over to the next in the queue."""
         timeout = self.config.answer_timeout
         for client in list(self.queue):
             if now - self._last_seen.get(client, now) > timeout:
@@ -149,8 +154,6 @@ class SlotArbiter(Generic[Client]):
             self.holder_since = now
             self._last_seen[self.holder] = now
             self._events.append(SlotEvent("started", self.holder, "next in queue"))
-        events, self._events = self._events, []
-        return events
 
     def _end(self, reason: str, now: float) -> None:
         assert self.holder is not None

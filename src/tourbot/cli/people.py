@@ -1,0 +1,78 @@
+"""``tourbot track``: people tracks of a recorded log or bag, written as CSV."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["PoseSource", "register"]
+
+
+class PoseSource(StrEnum):
+    """Where the robot's pose at each scan comes from (tracks are in that pose's frame)."""
+
+    odom = "odom"
+    reference = "reference"
+    none = "none"
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("track")
+    def track(
+        log: Annotated[Path, typer.Argument(help="A CARMEN log or a ROS bag.")],
+        output: Annotated[Path, typer.Option("-o", "--output", help="The CSV of tracks to write.")],
+        map_path: Annotated[
+            Path | None, typer.Option("--map", help="ROS map_server YAML: legs on the map are furniture.")
+        ] = None,
+        scan_topic: Annotated[str | None, typer.Option(help="LaserScan topic of a bag.")] = None,
+        pose: Annotated[
+            PoseSource,
+            typer.Option(
+                help="Robot pose per scan: odometry, the log's reference pose, or none (robot still)."
+            ),
+        ] = PoseSource.odom,
+        tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
+        seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
+    ) -> None:
+        """Track people (SJPDAF, Burgard et al. Sec. 4); CSV: scan, time, id, x, y, vx, vy."""
+        import csv
+
+        import numpy as np
+        from rich.progress import Progress
+
+        from tourbot.io import load_log, log_kind
+        from tourbot.io.mapserver import read_map
+        from tourbot.io.rosbag import read_bag
+        from tourbot.people.sjpdaf import PeopleTracker
+
+        if log_kind(log) == "rosbag" and log.exists():
+            robot_log = read_bag(log, scan_topic=scan_topic)
+        else:
+            robot_log = load_log(log)
+        grid = read_map(map_path) if map_path is not None else None
+        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed))
+        output.parent.mkdir(parents=True, exist_ok=True)
+        rows = 0
+        ids: set[int] = set()
+        with output.open("w", newline="") as fh, Progress() as progress:
+            writer = csv.writer(fh)
+            writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
+            task = progress.add_task(f"tracking {log.name}", total=len(robot_log.scans))
+            for k, scan in enumerate(robot_log.scans):
+                chosen = scan.odom if pose is PoseSource.odom else scan.reference
+                robot = np.asarray(
+                    chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
+                )
+                for tr in tracker.update(scan, robot):
+                    if tr.confirmed or tentative:
+                        writer.writerow(
+                            [k, f"{scan.timestamp:.6f}", tr.id]
+                            + [f"{v:.4f}" for v in (*tr.position, *tr.velocity)]
+                        )
+                        rows += 1
+                        ids.add(tr.id)
+                progress.advance(task)
+        typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")

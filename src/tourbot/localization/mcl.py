@@ -1,0 +1,644 @@
+"""Monte Carlo localization with the entropy and novelty filters of Fox et al. (1998).
+
+The belief ``Bel(l)`` of Markov localization (Fox, Burgard, Thrun & Cremers 1998, Eq. 1-2) is
+held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo localization"). One
+:meth:`MonteCarloLocalization.update` per scan:
+
+1. *motion* (Eq. 1): every sample moves by the odometry since the last scan, with noise sampled
+   from the odometry motion model (:mod:`tourbot.localization.motion_model`);
+2. *beam selection* (Eq. 3-6): beams without a return are skipped, then the entropy or the novelty
+   filter (:mod:`tourbot.localization.beam_filters`) picks the beams to integrate, over the
+   current weighted samples. The novelty filter's expected ranges are ray cast for a few hundred
+   samples drawn by weight (an unbiased estimate of the belief average of Eq. 6);
+3. *perception* (Eq. 2): the weights are multiplied by the likelihood-field likelihood of the
+   selected beams (:class:`tourbot.maps.likelihood_field.LikelihoodField`), tempered by
+   ``likelihood_exponent`` because neighbouring beams are not independent;
+4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3): short-
+   and long-term averages of the per-beam measurement likelihood; when the short-term one falls
+   below the long-term one, a fraction ``1 - w_fast / w_slow`` of the samples is replaced at the
+   next resampling by poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000):
+   candidate poses over the free space are scored against the scan and drawn by score. Because the
+   likelihood is measured on the *filtered* beams only, a crowd that hides the walls does not
+   trigger resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer
+   than expected are kept (Fox et al.: the novelty filter "forces the incorporation of very
+   unlikely sensor measurements (especially too long readings)") and do;
+5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
+   ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
+   chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
+   KLD-sampling", Eq. 13);
+6. *estimate*: the samples are clustered on a grid of bins (neighbouring occupied bins join);
+   the estimate is the weighted mean of the heaviest cluster, with its covariance.
+
+Hot loops (motion sampling, likelihood look-ups, entropy, resampling, KLD counting, clustering)
+are numba kernels; each has a plain-numpy reference beside it (see the tests).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from statistics import NormalDist
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from tourbot.errors import TourbotError
+from tourbot.geometry import compose, wrap_angle
+from tourbot.localization.beam_filters import (
+    BeamFilter,
+    BeamFilterConfig,
+    entropy_filter,
+    novelty_filter,
+)
+from tourbot.localization.estimate import LocalizationEstimate
+from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.maps.beam_model import BeamModel
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
+from tourbot.maps.raycast import DistanceCaster, RayCaster
+from tourbot.records import LaserGeometry, Scan
+
+__all__ = [
+    "LocalizationError",
+    "MCLConfig",
+    "MonteCarloLocalization",
+    "cluster_bins",
+    "cluster_bins_reference",
+    "kld_bounds",
+    "kld_sample_count",
+    "low_variance_resample",
+    "low_variance_resample_reference",
+]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+class LocalizationError(TourbotError):
+    """A localizer used wrongly: no map free space, no start, a scan it cannot read."""
+
+
+@dataclass(frozen=True)
+class MCLConfig:
+    """Parameters of Monte Carlo localization; defaults cited where a source gives them.
+
+    Samples
+        ``min_samples`` / ``max_samples``: bounds of the KLD-adapted sample count (Nav2 AMCL:
+        500 / 2000; 5000 here, the budget of the project's benchmark). ``global_samples``: samples
+        spread over the free space by :meth:`MonteCarloLocalization.reset_global` (KLD-sampling then
+        shrinks the set as the belief concentrates). ``kld_epsilon`` 0.05 and ``kld_quantile``
+        0.99: Nav2 AMCL's ``pf_err`` and ``pf_z`` (Fox 2003, Eq. 13). ``kld_bin`` (0.5 m, 0.5 m,
+        10 deg): AMCL's histogram bins, also the bins of the clustering of the estimate.
+        ``resample_threshold`` 0.5: resample when the effective sample size falls below half the
+        samples (Doucet, Godsill & Andrieu 2000; Probabilistic Robotics Sec. 4.3.4).
+    Filters
+        ``beam_filter``: ``novelty`` by default, the paper's recommendation (Fox et al. 1998,
+        Conclusions: "only the localization algorithm with the novelty filter is able to localize
+        robots in densely crowded environments, while retaining the ability to efficiently recover
+        from extreme localization errors"). ``filters.theta`` 0.99 (Eq. 6 threshold).
+        ``entropy_cell`` (15 cm, 2 deg): the paper's grid; samples sharing a cell are one location
+        when the entropy of the belief is computed (Eq. 3). ``novelty_samples``: hypotheses drawn
+        by weight for which expected ranges are ray cast for Eq. 6.
+    Sensor
+        ``likelihood_exponent``: the likelihood field of all beams of a scan is raised to this
+        power: consecutive beams of a scan are strongly correlated and the product over 180 of them
+        would be far too confident (Probabilistic Robotics Sec. 6.4 and 6.8 discuss this; Nav2
+        AMCL sidesteps it with its own heuristic). ``sigma_hit`` 0.2 m, ``z_hit`` 0.95, ``z_rand``
+        0.05, ``max_dist`` 2 m: the likelihood field's own defaults (Nav2 AMCL's).
+    Recovery
+        ``alpha_slow`` / ``alpha_fast``: the averaging rates of augmented MCL (Probabilistic
+        Robotics Table 8.3, Nav2 AMCL ``recovery_alpha_slow`` 0.001 / ``recovery_alpha_fast`` 0.1);
+        per update, and AMCL updates every 0.25 m whereas a scan of the museum logs comes every
+        ~0.8 m, so ours are faster. ``max_injection``: at most this fraction of the samples is
+        replaced per update. ``injection_candidates``: candidate poses (uniform over the free space)
+        scored against the scan with every ``injection_beam_step``-th beam.
+    """
+
+    min_samples: int = 500
+    max_samples: int = 5000
+    global_samples: int = 50000
+    kld_epsilon: float = 0.05
+    kld_quantile: float = 0.99
+    kld_bin: tuple[float, float, float] = (0.5, 0.5, math.radians(10.0))
+    resample_threshold: float = 0.5
+    beam_filter: BeamFilter = BeamFilter.NOVELTY
+    filters: BeamFilterConfig = field(default_factory=BeamFilterConfig)
+    entropy_cell: tuple[float, float] = (0.15, math.radians(2.0))
+    novelty_samples: int = 128
+    likelihood_exponent: float = 0.1
+    sigma_hit: float = 0.2
+    z_hit: float = 0.95
+    z_rand: float = 0.05
+    max_dist: float = 2.0
+    motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
+    alpha_slow: float = 0.01
+    alpha_fast: float = 0.3
+    max_injection: float = 0.5
+    injection_candidates: int = 20000
+    injection_beam_step: int = 6
+    tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.min_samples <= self.max_samples:
+            raise LocalizationError(
+                f"need 1 <= min_samples <= max_samples, got {self.min_samples}, {self.max_samples}"
+            )
+        if not self.likelihood_exponent > 0:
+            raise LocalizationError(f"likelihood_exponent must be positive, got {self.likelihood_exponent}")
+        if not 0 <= self.max_injection <= 1:
+            raise LocalizationError(f"max_injection must be in [0, 1], got {self.max_injection}")
+
+
+class MonteCarloLocalization:
+    """Monte Carlo localization on an occupancy grid, with the beam filters of Fox et al. 1998.
+
+    Use: ``mcl = MonteCarloLocalization(grid, config, seed=0)``, then ``mcl.reset_tracking(pose)``
+    or ``mcl.reset_global()``, then ``mcl.update(odom_pose, scan)`` for each scan in order (the
+    odometry pose at the scan's time, in the odometry frame). ``samples`` ``(N, 3)`` and
+    ``weights`` ``(N,)`` are the belief, for drawing.
+    """
+
+    def __init__(self, grid: OccupancyGrid, config: MCLConfig | None = None, seed: int | None = None) -> None:
+        self.grid = grid
+        self.config = config or MCLConfig()
+        self.rng = np.random.default_rng(seed)
+        free = grid.free()
+        if not free.any():
+            raise LocalizationError("the map has no free cell to localize in")
+        self._free_cells = np.argwhere(free)
+        self._field_params = LikelihoodFieldParams(
+            sigma_hit=self.config.sigma_hit,
+            z_hit=self.config.z_hit,
+            z_rand=self.config.z_rand,
+            max_dist=self.config.max_dist,
+        )
+        self._fields: dict[float, LikelihoodField] = {}
+        self._casters: dict[float, RayCaster] = {}
+        self.samples: FloatArray = np.zeros((0, 3))
+        self.weights: FloatArray = np.zeros(0)
+        self._odom: FloatArray | None = None
+        self._w_slow = 0.0
+        self._w_fast = 0.0
+        self.last_estimate: LocalizationEstimate | None = None
+
+    # ------------------------------------------------------------------ initialisation
+
+    def reset_tracking(self, pose: ArrayLike, cov: ArrayLike | None = None) -> None:
+        """Start from a known pose: ``max_samples`` samples from a Gaussian around ``pose``.
+
+        ``cov`` ``(3, 3)`` defaults to ``diag(tracking_std**2)`` (10 cm, 10 cm, 5 deg).
+        """
+        p = np.asarray(pose, dtype=np.float64).reshape(3)
+        c = np.diag(np.square(self.config.tracking_std)) if cov is None else np.asarray(cov, np.float64)
+        n = self.config.max_samples
+        s = self.rng.multivariate_normal(p, c, size=n)
+        s[:, 2] = wrap_angle(s[:, 2])
+        self._set_belief(s)
+
+    def reset_global(self, grid: OccupancyGrid | None = None, rng: np.random.Generator | None = None) -> None:
+        """Global localization: ``global_samples`` samples uniform over the free space of ``grid``.
+
+        ``grid`` defaults to the localizer's map; ``rng``, when given, replaces the localizer's
+        random generator.
+        """
+        if rng is not None:
+            self.rng = rng
+        cells = self._free_cells if grid is None else np.argwhere(grid.free())
+        g = self.grid if grid is None else grid
+        if cells.shape[0] == 0:
+            raise LocalizationError("the map has no free cell to localize in")
+        self._set_belief(_uniform_free_poses(g, cells, self.config.global_samples, self.rng))
+
+    def _set_belief(self, samples: FloatArray) -> None:
+        self.samples = np.ascontiguousarray(samples, dtype=np.float64)
+        self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
+        self._odom = None
+        self._w_slow = 0.0
+        self._w_fast = 0.0
+
+    # ------------------------------------------------------------------ the filter
+
+    def update(self, odom_pose: ArrayLike, scan: Scan) -> LocalizationEstimate:
+        """Integrate one scan taken at odometry pose ``odom_pose``; return the new estimate."""
+        if self.samples.shape[0] == 0:
+            raise LocalizationError("call reset_tracking(pose) or reset_global() before update()")
+        t0 = time.perf_counter()
+        cfg = self.config
+        odom = np.asarray(odom_pose, dtype=np.float64).reshape(3)
+        geometry = scan.geometry
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        if ranges.shape != (geometry.num_beams,):
+            raise LocalizationError(
+                f"scan at t={scan.timestamp}: {ranges.shape[0]} ranges for {geometry.num_beams} beams"
+            )
+
+        # 1. Motion (Eq. 1): sample the odometry motion model.
+        if self._odom is not None:
+            self.samples = cfg.motion.sample(self.samples, self._odom, odom, self.rng)
+        self._odom = odom
+
+        # 2. Beam selection: returns only, then the paper's filter (Eq. 3-6).
+        field_ = self._field(geometry)
+        valid = np.isfinite(ranges) & (ranges >= geometry.min_range) & (ranges < geometry.max_range)
+        used = self._select_beams(valid, ranges, geometry, field_)
+
+        # 3. Perception (Eq. 2), in log space, tempered.
+        n_used = int(used.sum())
+        info: dict[str, float] = {"n_valid_beams": float(valid.sum())}
+        injected = 0
+        if n_used:
+            loglik = field_.log_likelihood(self.samples, ranges, geometry, beam_mask=used)
+            # Per-beam average likelihood of the scan under the belief (for augmented MCL).
+            per_beam = loglik / n_used
+            w_avg = float(np.dot(self.weights, np.exp(per_beam - per_beam.max()))) * math.exp(per_beam.max())
+            logw = np.log(np.maximum(self.weights, 1e-300)) + cfg.likelihood_exponent * loglik
+            logw -= logw.max()
+            w = np.exp(logw)
+            self.weights = w / w.sum()
+            # 4. Recovery: augmented MCL's short- and long-term likelihood averages.
+            if self._w_slow == 0.0:
+                self._w_slow = self._w_fast = w_avg
+            else:
+                self._w_slow += cfg.alpha_slow * (w_avg - self._w_slow)
+                self._w_fast += cfg.alpha_fast * (w_avg - self._w_fast)
+            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - self._w_fast / self._w_slow))
+            info["w_avg"] = w_avg
+            info["inject_fraction"] = inject_fraction
+        else:
+            inject_fraction = 0.0
+
+        # 6. Estimate, before resampling (the weights carry the scan).
+        pose, cov, cluster_weight = self._estimate()
+        ess = 1.0 / float(np.sum(self.weights**2))
+        info["ess"] = ess
+        info["cluster_weight"] = cluster_weight
+
+        # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
+        if n_used and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0):
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid)
+        info["injected"] = float(injected)
+
+        est = LocalizationEstimate(
+            timestamp=scan.timestamp,
+            pose=pose,
+            covariance=cov,
+            used_beams=used,
+            n_samples=int(self.samples.shape[0]),
+            updated=n_used > 0,
+            update_seconds=time.perf_counter() - t0,
+            info=info,
+        )
+        self.last_estimate = est
+        return est
+
+    # ------------------------------------------------------------------ steps
+
+    def _field(self, geometry: LaserGeometry) -> LikelihoodField:
+        """The likelihood field for this laser's maximum range (built once per laser)."""
+        key = float(geometry.max_range)
+        f = self._fields.get(key)
+        if f is None:
+            f = LikelihoodField.from_grid(self.grid, replace(self._field_params, max_range=key))
+            self._fields[key] = f
+        return f
+
+    def _caster(self, max_range: float) -> RayCaster:
+        """The project's ray caster for expected ranges (built once per laser)."""
+        c = self._casters.get(max_range)
+        if c is None:
+            c = DistanceCaster(self.grid, max_range)
+            self._casters[max_range] = c
+        return c
+
+    def _select_beams(
+        self, valid: NDArray[np.bool_], ranges: FloatArray, geometry: LaserGeometry, field_: LikelihoodField
+    ) -> NDArray[np.bool_]:
+        cfg = self.config
+        if cfg.beam_filter == BeamFilter.NONE or not valid.any():
+            return valid
+        if cfg.beam_filter == BeamFilter.ENTROPY:
+            lik = np.exp(field_.beam_log_likelihoods(self.samples, ranges, geometry)[:, valid])
+            groups = _cell_keys(self.samples, cfg.entropy_cell[0], cfg.entropy_cell[1])
+            keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance)
+        else:
+            m = min(cfg.novelty_samples, self.samples.shape[0])
+            idx = low_variance_resample(self.weights, m, float(self.rng.random()))
+            laser = compose(self.samples[idx], np.asarray(geometry.offset, dtype=np.float64))
+            angles = geometry.angles[valid]
+            expected = self._caster(float(geometry.max_range)).cast(laser, angles)
+            model = BeamModel(sigma_hit=cfg.sigma_hit)
+            p_short = model.prob_shorter(expected, ranges[valid], float(geometry.max_range))
+            keep = novelty_filter(p_short, np.ones(m), cfg.filters.theta)
+        used = np.zeros_like(valid)
+        used[np.flatnonzero(valid)[keep]] = True
+        return used
+
+    def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
+        cfg = self.config
+        labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
+        cw = np.bincount(labels, weights=self.weights)
+        best = int(np.argmax(cw))
+        sel = labels == best
+        return (*_weighted_mean_cov(self.samples[sel], self.weights[sel]), float(cw[best]))
+
+    def _resample(
+        self,
+        inject_fraction: float,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        field_: LikelihoodField,
+        valid: NDArray[np.bool_],
+    ) -> int:
+        cfg = self.config
+        n_max = max(cfg.max_samples, cfg.min_samples)
+        drawn = self.samples[low_variance_resample(self.weights, n_max, float(self.rng.random()))]
+        drawn = drawn[self.rng.permutation(n_max)]
+        n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
+        new = drawn[:n].copy()
+        n_inject = round(inject_fraction * n)
+        if n_inject:
+            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid)
+            # Injected samples are a new hypothesis: the averages start over from the present.
+            self._w_slow = self._w_fast
+        self.samples = np.ascontiguousarray(new)
+        self.weights = np.full(n, 1.0 / n)
+        return n_inject
+
+    def _scan_drawn_poses(
+        self,
+        n: int,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        field_: LikelihoodField,
+        valid: NDArray[np.bool_],
+    ) -> FloatArray:
+        """Sensor resetting: candidate poses over the free space, drawn by their scan likelihood."""
+        cfg = self.config
+        cand = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+        mask = np.zeros_like(valid)
+        mask[:: max(1, cfg.injection_beam_step)] = True
+        mask &= valid
+        if not mask.any():
+            return cand[:n]
+        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)
+        # Tempered as the main update, scaled up for the subsampled beams.
+        logw = cfg.likelihood_exponent * ll * (valid.sum() / mask.sum())
+        w = np.exp(logw - logw.max())
+        idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
+        return cand[idx]
+
+
+# ---------------------------------------------------------------------- helpers
+
+
+def _uniform_free_poses(grid: OccupancyGrid, cells: IntArray, n: int, rng: np.random.Generator) -> FloatArray:
+    """``n`` poses uniform over the free cells (uniform inside each cell, uniform heading)."""
+    pick = cells[rng.integers(0, cells.shape[0], n)]
+    local = (pick[:, ::-1] + rng.random((n, 2))) * grid.resolution  # (col, row) -> (x, y)
+    th = rng.uniform(-math.pi, math.pi, n)
+    return grid.grid_to_world(np.column_stack([local, th - grid.origin[2]]))
+
+
+def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:
+    """An integer label per sample: the cell of a ``cell x cell x cell_theta`` grid holding it."""
+    ix = np.floor(samples[:, 0] / cell).astype(np.int64)
+    iy = np.floor(samples[:, 1] / cell).astype(np.int64)
+    n_th = max(1, round(2 * math.pi / cell_theta))
+    it = np.floor((samples[:, 2] + math.pi) / (2 * math.pi) * n_th).astype(np.int64) % n_th
+    ix -= ix.min()
+    iy -= iy.min()
+    return (ix * (int(iy.max()) + 1) + iy) * n_th + it
+
+
+def _weighted_mean_cov(samples: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+    w = weights / weights.sum()
+    mx = float(w @ samples[:, 0])
+    my = float(w @ samples[:, 1])
+    mth = math.atan2(float(w @ np.sin(samples[:, 2])), float(w @ np.cos(samples[:, 2])))
+    d = np.column_stack([samples[:, 0] - mx, samples[:, 1] - my, wrap_angle(samples[:, 2] - mth)])
+    cov = (d * w[:, None]).T @ d
+    return np.array([mx, my, mth]), np.asarray(cov, dtype=np.float64)
+
+
+# ---------------------------------------------------------------------- resampling
+
+
+@numba.njit(cache=True)
+def _low_variance_kernel(cum: FloatArray, n: int, u0: float, out: IntArray) -> None:
+    step = cum[-1] / n
+    j = 0
+    m = cum.shape[0]
+    for i in range(n):
+        u = (u0 + i) * step
+        while j < m - 1 and cum[j] < u:
+            j += 1
+        out[i] = j
+
+
+def low_variance_resample(weights: ArrayLike, n: int, u0: float) -> IntArray:
+    """Low-variance (systematic) resampling: ``n`` indices drawn by weight (PR Table 4.4).
+
+    ``u0`` in [0, 1) is the one random number: the ``i``-th pointer is ``(u0 + i) / n`` of the
+    total weight.
+    """
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    cum = np.cumsum(w)
+    out = np.empty(n, dtype=np.int64)
+    if n:
+        _low_variance_kernel(cum, n, u0, out)
+    return out
+
+
+def low_variance_resample_reference(weights: ArrayLike, n: int, u0: float) -> IntArray:
+    """Plain-numpy reference of :func:`low_variance_resample`."""
+    w = np.asarray(weights, dtype=np.float64).ravel()
+    cum = np.cumsum(w)
+    pointers = (u0 + np.arange(n)) * (cum[-1] / n)
+    idx = np.searchsorted(cum, pointers, side="left")
+    return np.minimum(idx, w.shape[0] - 1).astype(np.int64)
+
+
+# ---------------------------------------------------------------------- KLD-sampling
+
+
+def _bin_keys(samples: FloatArray, cell: float, cell_theta: float) -> tuple[IntArray, int, int]:
+    """Integer bins ``(ix, iy, it)`` packed in one key, with the strides used to pack them."""
+    return _bin_keys_kernel(np.ascontiguousarray(samples), cell, cell_theta)
+
+
+@numba.njit(cache=True)
+def _bin_keys_kernel(samples: FloatArray, cell: float, cell_theta: float) -> tuple[IntArray, int, int]:
+    n = samples.shape[0]
+    n_th = max(1, round(2.0 * math.pi / cell_theta))
+    ix = np.empty(n, np.int64)
+    iy = np.empty(n, np.int64)
+    it = np.empty(n, np.int64)
+    for i in range(n):
+        ix[i] = math.floor(samples[i, 0] / cell)
+        iy[i] = math.floor(samples[i, 1] / cell)
+        t = math.floor((samples[i, 2] + math.pi) / (2.0 * math.pi) * n_th) % n_th
+        it[i] = t
+    x0 = ix.min() - 1 if n else 0
+    y0 = iy.min() - 1 if n else 0
+    ny = (iy.max() - y0 + 2) if n else 1
+    keys = np.empty(n, np.int64)
+    for i in range(n):
+        keys[i] = ((ix[i] - x0) * ny + (iy[i] - y0)) * n_th + it[i]
+    return keys, ny, n_th
+
+
+def kld_bounds(k_max: int, epsilon: float, quantile: float) -> IntArray:
+    """Fox 2003, Eq. 13, for ``k = 0 .. k_max``: samples needed so that, with probability
+    ``quantile``, the KL divergence between the sample-based and the true belief stays below
+    ``epsilon`` when the samples fall in ``k`` bins."""
+    z = NormalDist().inv_cdf(quantile)
+    k = np.arange(k_max + 1, dtype=np.float64)
+    km1 = np.maximum(k - 1.0, 1.0)
+    a = 2.0 / (9.0 * km1)
+    n = np.ceil(km1 / (2.0 * epsilon) * (1.0 - a + np.sqrt(a) * z) ** 3)
+    return np.where(k <= 1, 1, n).astype(np.int64)
+
+
+@numba.njit(cache=True)
+def _kld_count_kernel(keys: IntArray, bounds: IntArray, n_min: int, n_max: int) -> int:
+    seen = set()
+    seen.add(keys[0])
+    k = 1
+    for i in range(1, keys.shape[0]):
+        if keys[i] not in seen:
+            seen.add(keys[i])
+            k += 1
+        n = i + 1
+        if n >= n_min and n >= bounds[min(k, bounds.shape[0] - 1)]:
+            return n
+        if n >= n_max:
+            return n_max
+    return keys.shape[0]
+
+
+def kld_sample_count(
+    drawn: FloatArray,
+    kld_bin: tuple[float, float, float],
+    epsilon: float,
+    quantile: float,
+    n_min: int,
+    n_max: int,
+) -> int:
+    """KLD-sampling (Fox 2003, Table 1): how many of the samples ``drawn`` (in random order) to keep.
+
+    Walks the samples, counting occupied bins ``k``, and stops as soon as the count reaches the
+    bound of Eq. 13 for ``k`` (and ``n_min``), or ``n_max``.
+    """
+    n = drawn.shape[0]
+    if n == 0:
+        return 0
+    keys, _, _ = _bin_keys(drawn, kld_bin[0], kld_bin[2])
+    bounds = kld_bounds(n + 1, epsilon, quantile)
+    return int(min(_kld_count_kernel(keys, bounds, n_min, min(n, n_max)), n))
+
+
+# ---------------------------------------------------------------------- clustering
+
+
+@numba.njit(cache=True)
+def _find(parent: IntArray, i: int) -> int:
+    root = i
+    while parent[root] != root:
+        root = parent[root]
+    while parent[i] != root:
+        nxt = parent[i]
+        parent[i] = root
+        i = nxt
+    return root
+
+
+@numba.njit(cache=True)
+def _cluster_kernel(keys: IntArray, ny: int, n_th: int) -> IntArray:
+    order = np.argsort(keys)
+    sk = keys[order]
+    # unique bins
+    n = keys.shape[0]
+    bin_of = np.empty(n, np.int64)
+    uniq = np.empty(n, np.int64)
+    m = 0
+    for j in range(n):
+        if j == 0 or sk[j] != sk[j - 1]:
+            uniq[m] = sk[j]
+            m += 1
+        bin_of[order[j]] = m - 1
+    uniq = uniq[:m]
+    parent = np.arange(m)
+    for b in range(m):
+        key = uniq[b]
+        it = key % n_th
+        rest = key // n_th
+        iy = rest % ny
+        ix = rest // ny
+        for dx in range(-1, 2):
+            for dy in range(-1, 2):
+                for dt in range(-1, 2):
+                    t = (it + dt) % n_th
+                    nk = ((ix + dx) * ny + (iy + dy)) * n_th + t
+                    pos = np.searchsorted(uniq, nk)
+                    if pos < m and uniq[pos] == nk:
+                        ra = _find(parent, b)
+                        rb = _find(parent, pos)
+                        if ra != rb:
+                            parent[max(ra, rb)] = min(ra, rb)
+    # compact labels
+    label_of_root = np.full(m, -1, np.int64)
+    labels = np.empty(n, np.int64)
+    nl = 0
+    for i in range(n):
+        r = _find(parent, bin_of[i])
+        if label_of_root[r] < 0:
+            label_of_root[r] = nl
+            nl += 1
+        labels[i] = label_of_root[r]
+    return labels
+
+
+def cluster_bins(samples: ArrayLike, cell: float, cell_theta: float) -> IntArray:
+    """Cluster labels ``(N,)``: samples in bins that touch (26-neighbourhood, heading wraps) share one.
+
+    Labels are numbered in order of first appearance.
+    """
+    s = np.ascontiguousarray(samples, dtype=np.float64).reshape(-1, 3)
+    if s.shape[0] == 0:
+        return np.zeros(0, np.int64)
+    keys, ny, n_th = _bin_keys(s, cell, cell_theta)
+    return np.asarray(_cluster_kernel(keys, ny, n_th), dtype=np.int64)
+
+
+def cluster_bins_reference(samples: ArrayLike, cell: float, cell_theta: float) -> IntArray:
+    """Plain-Python reference of :func:`cluster_bins` (breadth-first search over occupied bins)."""
+    s = np.asarray(samples, dtype=np.float64).reshape(-1, 3)
+    n_th = max(1, round(2 * math.pi / cell_theta))
+    bins = [
+        (
+            math.floor(x / cell),
+            math.floor(y / cell),
+            math.floor((t + math.pi) / (2 * math.pi) * n_th) % n_th,
+        )
+        for x, y, t in s
+    ]
+    occupied = set(bins)
+    comp: dict[tuple[int, int, int], int] = {}
+    for start in dict.fromkeys(bins):
+        if start in comp:
+            continue
+        root = len(set(comp.values()))
+        comp[start] = root
+        stack = [start]
+        while stack:
+            bx, by, bt = stack.pop()
+            for dx in (-1, 0, 1):
+                for dy in (-1, 0, 1):
+                    for dt in (-1, 0, 1):
+                        nb = (bx + dx, by + dy, (bt + dt) % n_th)
+                        if nb in occupied and nb not in comp:
+                            comp[nb] = root
+                            stack.append(nb)
+    return np.array([comp[b] for b in bins], dtype=np.int64)

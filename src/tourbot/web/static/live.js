@@ -1,0 +1,90 @@
+// The live connection of a page to one robot: binary stream in, JSON status and commands.
+import { StreamDecoder } from "./stream.js";
+
+export class Live {
+  constructor(robot, streamConfig, { screen = "web", onStatus, onPath, onSay, onReply, onOpen } = {}) {
+    this.robot = robot;
+    this.config = streamConfig;
+    this.screen = screen;
+    this.handlers = { onStatus, onPath, onSay, onReply, onOpen };
+    this.decoder = new StreamDecoder(streamConfig);
+    this.offset = null; // local clock minus server clock (s), smallest seen: the least delayed
+    this.ws = null;
+    this.closed = false;
+    this.retry = 500;
+    this.bytes = 0;
+    this.connect();
+    this.heartbeat = setInterval(() => this.send({ type: "ping" }), 5000);
+  }
+
+  connect() {
+    const scheme = location.protocol === "https:" ? "wss" : "ws";
+    const query = this.screen === "onboard" ? "?screen=onboard" : "";
+    const ws = new WebSocket(`${scheme}://${location.host}/ws/${encodeURIComponent(this.robot)}${query}`);
+    ws.binaryType = "arraybuffer";
+    ws.onopen = () => {
+      this.retry = 500;
+      this.decoder = new StreamDecoder(this.config);
+      if (this.handlers.onOpen) this.handlers.onOpen();
+    };
+    ws.onmessage = (event) => this.receive(event.data);
+    ws.onclose = () => {
+      if (this.closed) return;
+      setTimeout(() => this.connect(), this.retry);
+      this.retry = Math.min(this.retry * 2, 10000);
+    };
+    this.ws = ws;
+  }
+
+  receive(data) {
+    if (data instanceof ArrayBuffer) {
+      this.bytes += data.byteLength;
+      const t = this.decoder.feed(data);
+      const offset = performance.now() / 1000 + performance.timeOrigin / 1000 - t;
+      this.offset = this.offset === null ? offset : Math.min(offset, this.offset + 0.001);
+      return;
+    }
+    this.bytes += data.length;
+    const message = JSON.parse(data);
+    const h = this.handlers;
+    if (message.type === "status" && h.onStatus) h.onStatus(message);
+    else if (message.type === "path" && h.onPath) h.onPath(message.points);
+    else if (message.type === "say" && h.onSay) h.onSay(message);
+    else if (h.onReply) h.onReply(message);
+  }
+
+  // The scene to draw now: server time = local time - offset, minus a small interpolation delay.
+  scene(delay = 0.1) {
+    if (this.offset === null) return [];
+    const now = performance.timeOrigin / 1000 + performance.now() / 1000;
+    return this.decoder.at(now - this.offset - delay);
+  }
+
+  send(command) {
+    if (this.ws && this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(command));
+  }
+
+  close() {
+    this.closed = true;
+    clearInterval(this.heartbeat);
+    if (this.ws) this.ws.close();
+  }
+}
+
+export async function getJSON(url, options = {}) {
+  const response = await fetch(url, { credentials: "same-origin", ...options });
+  const body = await response.json().catch(() => ({}));
+  if (!response.ok) throw new Error(body.detail ? JSON.stringify(body.detail) : response.statusText);
+  return body;
+}
+
+export function el(tag, attrs = {}, ...children) {
+  const node = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs)) {
+    if (k === "class") node.className = v;
+    else if (k.startsWith("on")) node.addEventListener(k.slice(2), v);
+    else node.setAttribute(k, v);
+  }
+  for (const child of children) node.append(child);
+  return node;
+}

@@ -1,0 +1,124 @@
+// The remote visitor page (Burgard et al., section 6.1): tours and exhibits on the left, the live
+// 2D floor plan and the 3D view in the centre, exhibit information on the right.
+import { Live, getJSON, el } from "./live.js";
+import { MapView } from "./mapview.js";
+
+const $ = (id) => document.getElementById(id);
+const state = { site: null, live: null, role: "watcher", slotEnds: null, slot: null, view3d: null };
+
+function message(text) {
+  const line = el("div", {}, `${new Date().toLocaleTimeString()}  ${text}`);
+  $("messages").prepend(line);
+}
+
+function showExhibit(e) {
+  const info = $("info");
+  info.replaceChildren(el("h2", {}, e.name), el("p", {}, e.text || e.summary || ""));
+  for (const p of e.pictures) info.append(el("figure", {}, el("img", { src: p.url, alt: p.caption }), el("figcaption", {}, p.caption)));
+  for (const l of e.links) info.append(el("p", {}, el("a", { href: l.url, target: "_blank", rel: "noopener" }, l.caption || l.url)));
+}
+
+function command(cmd) {
+  if (state.role !== "holder") {
+    message("Take control first (you will be queued if someone else is driving).");
+    return;
+  }
+  state.live.send(cmd);
+}
+
+function renderSlot() {
+  const s = state.slot;
+  if (!s) return;
+  let text;
+  const left = state.slotEnds ? Math.max(0, Math.round(state.slotEnds - performance.now() / 1000)) : 0;
+  const mmss = `${Math.floor(left / 60)}:${String(left % 60).padStart(2, "0")}`;
+  if (s.staff_stop) text = "Stopped by staff";
+  else if (s.role === "holder") text = `You control the robot: ${mmss} left${s.onboard ? " (visitors on site have precedence now)" : ""}`;
+  else if (s.role === "queued") text = `You are number ${s.position} in the queue: about ${mmss} to wait`;
+  else text = `Watching (${s.queue_length} waiting)`;
+  $("slot").textContent = text;
+  $("slot").dataset.role = s.role;
+}
+
+function onStatus(status) {
+  const before = state.role;
+  state.slot = status.slot;
+  state.role = status.slot.role;
+  state.slotEnds = performance.now() / 1000 + status.slot.time_left;
+  if (before !== "holder" && state.role === "holder") message("You have control of the robot.");
+  if (before === "holder" && state.role !== "holder") message("Your control slot has ended.");
+  renderSlot();
+  const nav = status.nav;
+  let text = nav.state;
+  const exhibit = state.site.exhibits.find((e) => e.slug === nav.exhibit);
+  if (nav.state === "arrived" && exhibit) text = `Arrived at ${exhibit.name}`;
+  else if (exhibit) text = `${nav.state}: ${exhibit.name}`;
+  if (nav.tour) text += ` (tour ${nav.tour}, ${nav.progress[0]}/${nav.progress[1]})`;
+  if ($("state").textContent !== text) {
+    $("state").textContent = text;
+    message(text + (nav.message ? `: ${nav.message}` : ""));
+  }
+  if (nav.state === "arrived" && exhibit) showExhibit(exhibit);
+}
+
+async function start() {
+  await getJSON("/api/session");
+  const site = await getJSON("/api/site");
+  state.site = site;
+  $("title").textContent = `tourbot: ${site.name}`;
+  for (const r of site.robots) $("robot").append(el("option", { value: r }, r));
+  const robot = new URLSearchParams(location.search).get("robot") || site.robots[0];
+  $("robot").value = robot;
+  $("robot").addEventListener("change", () => { location.search = `?robot=${encodeURIComponent($("robot").value)}`; });
+  for (const t of site.tours) {
+    $("tours").append(el("li", {}, el("button", { "data-tour": t.slug, onclick: () => command({ type: "tour", tour: t.slug }) }, t.name)));
+  }
+  for (const e of site.exhibits) {
+    $("exhibits").append(el("li", {}, el("button", {
+      "data-exhibit": e.slug,
+      onclick: () => { showExhibit(e); command({ type: "exhibit", exhibit: e.slug }); },
+    }, e.name)));
+  }
+  const map = new MapView($("map"), site, {
+    onClick: (world, exhibit) => {
+      if (exhibit) { showExhibit(exhibit); command({ type: "exhibit", exhibit: exhibit.slug }); }
+      else { map.marker = world; command({ type: "goto", x: world.x, y: world.y }); }
+    },
+  });
+  state.live = new Live(robot, site.stream, {
+    onStatus,
+    onPath: (points) => { map.path = points; },
+    onSay: (say) => message(`Robot says: ${say.text}`),
+    onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
+    onOpen: () => message(`Connected to ${robot}.`),
+  });
+  $("book").addEventListener("click", () => state.live.send({ type: "book" }));
+  $("leave").addEventListener("click", () => state.live.send({ type: "leave" }));
+  $("stop").addEventListener("click", () => command({ type: "stop" }));
+  window.addEventListener("pagehide", () => state.live.send({ type: "leave" }));
+  if (site.three) {
+    try {
+      const { View3D } = await import("./view3d.js");
+      state.view3d = new View3D($("view3d"), site);
+      for (const b of document.querySelectorAll("[data-preset]")) {
+        b.addEventListener("click", () => state.view3d.setPreset(b.dataset.preset));
+      }
+    } catch (error) {
+      message(`3D view unavailable: ${error.message}`);
+    }
+  } else {
+    message("3D view unavailable: three.js is not installed on the server (npm ci).");
+  }
+  let lastSlot = 0;
+  const frame = (now) => {
+    const bodies = state.live.scene();
+    map.draw(bodies);
+    if (state.view3d) state.view3d.update(bodies);
+    if (now - lastSlot > 1000) { renderSlot(); lastSlot = now; }
+    requestAnimationFrame(frame);
+  };
+  requestAnimationFrame(frame);
+  window.tourbot = state; // for tests and curious visitors
+}
+
+start().catch((error) => message(`Cannot start: ${error.message}`));

@@ -1,0 +1,39 @@
+from __future__ import annotations
+
+import numpy as np
+
+from tourbot.bench._stonesoup_jpda import StoneSoupJPDA
+from tourbot.bench.tracking import run_sjpdaf, score_frames, simulate_crowd
+
+
+def test_truth_as_hypotheses_scores_perfectly() -> None:
+    run = simulate_crowd(5, 20, seed=1)
+    hyps = [
+        [(int(i), float(p[i, 0]), float(p[i, 1])) for i in np.flatnonzero(c)]
+        for p, c in zip(run.truth, run.counted, strict=True)
+    ]
+    m = score_frames(run, hyps)
+    assert sum(c.sum() for c in run.counted) > 0
+    assert m["mota"] == 1.0
+    assert m["motp"] == 0.0
+    assert m["num_switches"] == 0.0
+
+
+def test_sjpdaf_tracks_a_small_crowd() -> None:
+    run = simulate_crowd(5, 60, seed=2)
+    hyps, feats, cost = run_sjpdaf(run)
+    assert len(feats) == 60
+    assert cost[0] > 0.0
+    m = score_frames(run, hyps)
+    assert m["mota"] > 0.6
+    assert m["motp"] < 0.15
+
+
+def test_stonesoup_peer_follows_a_walker() -> None:
+    peer = StoneSoupJPDA()
+    out: list[tuple[int, float, float]] = []
+    for k in range(20):
+        out = peer.update(0.1 * k, np.array([[1.0 + 0.1 * k, 2.0]]))
+    assert len(out) == 1
+    assert abs(out[0][1] - 2.9) < 0.1
+    assert abs(out[0][2] - 2.0) < 0.1

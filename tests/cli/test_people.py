@@ -1,0 +1,34 @@
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from tourbot.cli.main import main
+
+
+def test_track_writes_csv_of_a_real_bag(shared_data: Path, tmp_path: Path) -> None:
+    out = tmp_path / "tracks.csv"
+    main(
+        [
+            "track",
+            str(shared_data / "leg_tracker" / "positive_1_extracted.bag"),
+            "--pose",
+            "none",
+            "-o",
+            str(out),
+        ]
+    )
+    rows = list(csv.DictReader(out.open()))
+    assert list(rows[0].keys()) == ["scan", "time", "track", "x", "y", "vx", "vy"]
+    # People walk in front of the laser in this bag: some confirmed tracks, within the laser's reach.
+    assert len({r["track"] for r in rows}) >= 1
+    assert all(abs(float(r["x"])) < 10.0 and abs(float(r["y"])) < 10.0 for r in rows)
+
+
+def test_track_missing_log_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(tmp_path / "nope.bag"), "-o", str(tmp_path / "t.csv")])
+    assert exc.value.code == 2
+    assert "nope.bag" in capsys.readouterr().err

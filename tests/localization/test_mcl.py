@@ -1,0 +1,228 @@
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from tourbot.geometry import compose, relative, wrap_angle
+from tourbot.localization.beam_filters import BeamFilter
+from tourbot.localization.mcl import (
+    LocalizationError,
+    MCLConfig,
+    MonteCarloLocalization,
+    cluster_bins,
+    cluster_bins_reference,
+    kld_bounds,
+    kld_sample_count,
+    low_variance_resample,
+    low_variance_resample_reference,
+)
+from tourbot.maps.grid import OccupancyGrid
+
+from .conftest import Drive, simulate, waypoints_path
+
+
+def _errors(est_poses: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    return np.hypot(est_poses[:, 0] - truth[:, 0], est_poses[:, 1] - truth[:, 1])
+
+
+def _run(mcl: MonteCarloLocalization, drive: Drive) -> np.ndarray:
+    poses = [mcl.update(drive.odom[k], s).pose for k, s in enumerate(drive.scans)]
+    return np.array(poses)
+
+
+# ---------------------------------------------------------------------- kernels vs references
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    arrays(np.float64, st.integers(1, 60), elements=st.floats(0.0, 1.0)),
+    st.integers(1, 80),
+    st.floats(0, 0.999),
+)
+def test_low_variance_matches_reference(w: np.ndarray, n: int, u0: float) -> None:
+    w = w + 1e-3
+    assert np.array_equal(low_variance_resample(w, n, u0), low_variance_resample_reference(w, n, u0))
+
+
+def test_low_variance_is_proportional() -> None:
+    w = np.array([0.1, 0.0, 0.6, 0.3])
+    counts = np.bincount(low_variance_resample(w, 1000, 0.37), minlength=4)
+    assert counts.tolist() == [100, 0, 600, 300]
+
+
+poses_strategy = arrays(
+    np.float64,
+    st.tuples(st.integers(1, 60), st.just(3)),
+    elements=st.floats(-2.0, 2.0),
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(poses_strategy)
+def test_clustering_matches_reference(p: np.ndarray) -> None:
+    p = p.copy()
+    p[:, 2] = wrap_angle(p[:, 2] * 1.6)
+    assert np.array_equal(
+        cluster_bins(p, 0.5, math.radians(30)), cluster_bins_reference(p, 0.5, math.radians(30))
+    )
+
+
+def test_clustering_separates_distant_groups_and_wraps_heading() -> None:
+    p = np.array([[0.0, 0.0, math.pi - 0.01], [0.1, 0.0, -math.pi + 0.01], [5.0, 5.0, 0.0]])
+    labels = cluster_bins(p, 0.5, math.radians(10))
+    assert labels[0] == labels[1] != labels[2]
+
+
+def test_kld_bounds_known_values() -> None:
+    # Fox 2003: k = 2 bins, epsilon 0.05, 99 % need about 1e2 samples; the bound grows ~linearly.
+    b = kld_bounds(1000, 0.05, 0.99)
+    assert b[1] == 1
+    assert 40 < b[2] < 120
+    assert np.all(np.diff(b[2:]) > 0)
+    assert 9000 < b[1000] < 12000
+
+
+def test_kld_count_grows_with_spread() -> None:
+    rng = np.random.default_rng(0)
+    tight = rng.normal(0.0, 0.05, (5000, 3))
+    wide = np.column_stack([rng.uniform(-20, 20, (5000, 2)), rng.uniform(-math.pi, math.pi, 5000)])
+    b = (0.5, 0.5, math.radians(10))
+    n_tight = kld_sample_count(tight, b, 0.05, 0.99, 100, 5000)
+    n_wide = kld_sample_count(wide, b, 0.05, 0.99, 100, 5000)
+    assert n_tight < 300
+    assert n_wide == 5000
+
+
+# ---------------------------------------------------------------------- the filter on a synthetic room
+
+
+def test_tracking_follows_the_robot(room: OccupancyGrid) -> None:
+    drive = simulate(room, waypoints_path(50), seed=1)
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=1000, min_samples=200), seed=2)
+    mcl.reset_tracking(drive.truth[0])
+    est = _run(mcl, drive)
+    err = _errors(est, drive.truth)
+    assert err.mean() < 0.08
+    assert err.max() < 0.3
+    assert np.abs(wrap_angle(est[:, 2] - drive.truth[:, 2])).mean() < math.radians(3)
+
+
+def test_odometry_alone_would_drift(room: OccupancyGrid) -> None:
+    """The tracking test is not trivial: dead reckoning alone drifts far more."""
+    drive = simulate(room, waypoints_path(50), seed=1)
+    from tourbot.geometry import relative
+
+    dead = [drive.truth[0]]
+    for k in range(1, len(drive.scans)):
+        dead.append(compose(dead[-1], relative(drive.odom[k - 1], drive.odom[k])))
+    assert _errors(np.array(dead), drive.truth).mean() > 0.15
+
+
+def test_global_localization_converges(room: OccupancyGrid) -> None:
+    drive = simulate(room, waypoints_path(50), seed=3)
+    cfg = MCLConfig(max_samples=2000, min_samples=300, global_samples=20000)
+    mcl = MonteCarloLocalization(room, cfg, seed=4)
+    mcl.reset_global()
+    est = _run(mcl, drive)
+    err = _errors(est, drive.truth)
+    assert err[25:].max() < 0.3
+    assert mcl.samples.shape[0] < 2000  # KLD shrank the set once localized
+
+
+def test_recovers_from_a_kidnap(room: OccupancyGrid) -> None:
+    loop = waypoints_path(80)
+    # After scan 20 the robot is carried 20 steps ahead on its loop (about 4 m away, heading
+    # turned by about 90 deg) without its odometry knowing: the odometry keeps following the
+    # loop from where the robot was taken.
+    taken = np.r_[np.arange(20), np.arange(40, 80)]
+    unaware = np.vstack([loop[:20], compose(loop[19], relative(loop[39], loop[40:]))])
+    drive = simulate(room, loop[taken], seed=5, odom_truth=unaware)
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=2000, min_samples=300), seed=6)
+    mcl.reset_tracking(loop[0])
+    est = _run(mcl, drive)
+    err = _errors(est, drive.truth)
+    assert err[:20].max() < 0.3
+    assert err[20] > 0.45  # lost right after the kidnap
+    assert err[40:].max() < 0.3  # and found again
+
+
+def _people_in_front(truth: np.ndarray, rng: np.random.Generator) -> list[np.ndarray]:
+    """Two people (four legs) 0.8-1.5 m in front of the robot at every pose."""
+    out = []
+    for p in truth:
+        pts = []
+        for _ in range(2):
+            d = rng.uniform(0.8, 1.5)
+            a = rng.uniform(-0.6, 0.6)
+            c = compose(p, np.array([d * math.cos(a), d * math.sin(a), 0.0]))
+            pts += [c[:2] + np.array([0.0, 0.12]), c[:2] - np.array([0.0, 0.12])]
+        out.append(np.array(pts))
+    return out
+
+
+@pytest.mark.parametrize("kind", [BeamFilter.NOVELTY, BeamFilter.ENTROPY])
+def test_filters_drop_beams_that_hit_people(room: OccupancyGrid, kind: BeamFilter) -> None:
+    truth = waypoints_path(30)
+    rng = np.random.default_rng(7)
+    people = _people_in_front(truth, rng)
+    drive = simulate(room, truth, seed=7, circles=people)
+    clean = simulate(room, truth, seed=7)
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=1000, min_samples=300, beam_filter=kind), seed=8)
+    mcl.reset_tracking(truth[0])
+    dropped_people = kept_people = dropped_other = kept_other = 0
+    for s, c in zip(drive.scans, clean.scans, strict=True):
+        est = mcl.update(np.asarray(s.odom), s)
+        hit_person = c.ranges - s.ranges > 0.3
+        dropped_people += int((~est.used_beams & hit_person).sum())
+        kept_people += int((est.used_beams & hit_person).sum())
+        other = ~hit_person & (s.ranges < s.geometry.max_range)
+        dropped_other += int((~est.used_beams & other).sum())
+        kept_other += int((est.used_beams & other).sum())
+    drop_people = dropped_people / (dropped_people + kept_people)
+    drop_other = dropped_other / (dropped_other + kept_other)
+    assert drop_other < 0.1
+    if kind == BeamFilter.NOVELTY:
+        assert drop_people > 0.9
+    else:
+        # A beam ending more than the likelihood field's max_dist from any wall is equally likely
+        # at every sample: Delta H = 0, and Eq. 4 keeps it (harmlessly: it changes no weight).
+        assert drop_people > 0.5
+
+
+def test_unfiltered_uses_every_return(room: OccupancyGrid) -> None:
+    drive = simulate(room, waypoints_path(5), seed=9)
+    mcl = MonteCarloLocalization(
+        room, MCLConfig(max_samples=300, min_samples=100, beam_filter=BeamFilter.NONE)
+    )
+    mcl.reset_tracking(drive.truth[0])
+    est = mcl.update(drive.odom[0], drive.scans[0])
+    assert np.array_equal(est.used_beams, drive.scans[0].ranges < drive.scans[0].geometry.max_range)
+    assert est.covariance.shape == (3, 3)
+    assert est.n_samples == mcl.samples.shape[0] == mcl.weights.shape[0]
+
+
+def test_update_before_reset_is_an_error(room: OccupancyGrid) -> None:
+    drive = simulate(room, waypoints_path(2), seed=9)
+    mcl = MonteCarloLocalization(room)
+    with pytest.raises(LocalizationError, match="reset"):
+        mcl.update(drive.odom[0], drive.scans[0])
+
+
+def test_map_without_free_space() -> None:
+    with pytest.raises(LocalizationError, match="free"):
+        MonteCarloLocalization(OccupancyGrid(np.ones((5, 5), np.float32), 0.1))
+
+
+def test_same_seed_same_result(room: OccupancyGrid) -> None:
+    drive = simulate(room, waypoints_path(6), seed=10)
+    runs = []
+    for _ in range(2):
+        mcl = MonteCarloLocalization(room, MCLConfig(max_samples=500, min_samples=100), seed=11)
+        mcl.reset_tracking(drive.truth[0])
+        runs.append(_run(mcl, drive))
+    assert np.array_equal(runs[0], runs[1])

@@ -1,0 +1,271 @@
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from fastapi.testclient import TestClient
+from starlette.testclient import WebSocketTestSession
+from starlette.websockets import WebSocketDisconnect
+
+from tests.web.fakes import FakeRobot
+from tourbot.web.app import COOKIE, WebConfig, create_app
+from tourbot.web.db import Database, open_database
+from tourbot.web.guard import GuardConfig
+from tourbot.web.stream import StreamDecoder
+
+ORIGIN = {"origin": "http://testserver"}
+
+
+@pytest.fixture
+def robot() -> FakeRobot:
+    return FakeRobot()
+
+
+@pytest.fixture
+def db(sqlite_url: str) -> Database:
+    db = open_database(sqlite_url)
+    db.save_exhibit("amphora", "Amphora", x=4.0, y=2.0, summary="A clay amphora.")
+    db.save_exhibit("loom", "Loom", x=6.0, y=4.0)
+    db.save_tour("short", "Short tour", ["amphora", "loom"])
+    db.set_staff("curator", "correct horse")
+    return db
+
+
+@pytest.fixture
+def client(robot: FakeRobot, db: Database, tmp_path: Path) -> Iterator[TestClient]:
+    config = WebConfig(
+        site_name="Test museum",
+        speech_dir=tmp_path / "speech",
+        onboard_hosts=("127.0.0.1",),
+        guard=GuardConfig(commands_per_second=5.0, burst=10),
+    )
+    with TestClient(create_app({"lefkos": robot}, db, None, config)) as c:
+        yield c
+
+
+def new_session(client: TestClient) -> str:
+    client.cookies.clear()
+    response = client.get("/api/session")
+    token = response.cookies.get(COOKIE)
+    assert token
+    client.cookies.clear()
+    return token
+
+
+def connect(client: TestClient, token: str, robot: str = "lefkos", query: str = "") -> WebSocketTestSession:
+    headers = {**ORIGIN, "cookie": f"{COOKIE}={token}"}
+    return client.websocket_connect(f"/ws/{robot}{query}", headers=headers)
+
+
+def wait_for(
+    ws: WebSocketTestSession, test: Callable[[dict[str, Any]], bool], limit: int = 200
+) -> dict[str, Any]:
+    """Read messages until a JSON one passes ``test`` (binary frames are skipped)."""
+    for _ in range(limit):
+        message = ws.receive()
+        if message.get("text"):
+            data = json.loads(message["text"])
+            if test(data):
+                return data
+    raise AssertionError("expected message never came")
+
+
+def role_is(role: str) -> Callable[[dict[str, Any]], bool]:
+    return lambda m: m["type"] == "status" and m["slot"]["role"] == role
+
+
+def test_pages_set_a_session_cookie_and_a_strict_policy(client: TestClient) -> None:
+    response = client.get("/")
+    assert response.status_code == 200
+    assert COOKIE in response.cookies
+    policy = response.headers["content-security-policy"]
+    assert "script-src 'self' 'sha256-" in policy
+    assert "unsafe-eval" not in policy
+    site = client.get("/api/site").json()
+    assert site["robots"] == ["lefkos"]
+    assert [e["slug"] for e in site["exhibits"]] == ["amphora", "loom"]
+    assert site["tours"][0]["exhibits"] == ["amphora", "loom"]
+
+
+def test_stream_starts_with_a_keyframe_of_robot_and_people(client: TestClient) -> None:
+    with connect(client, new_session(client)) as ws:
+        assert json.loads(ws.receive_text())["type"] == "hello"
+        decoder = StreamDecoder()
+        for _ in range(20):
+            message = ws.receive()
+            if message.get("bytes"):
+                decoder.feed(message["bytes"])
+                break
+        scene = decoder.scene()
+        assert scene.robot.x == pytest.approx(2.0, abs=0.01)
+        assert len(scene.people) == 7
+
+
+@pytest.mark.parametrize("origin", [None, "http://evil.example", "null"])
+def test_websocket_from_a_foreign_origin_is_refused(client: TestClient, origin: str | None) -> None:
+    token = new_session(client)
+    headers = {"cookie": f"{COOKIE}={token}"}
+    if origin is not None:
+        headers["origin"] = origin
+    with (
+        pytest.raises(WebSocketDisconnect) as refused,
+        client.websocket_connect("/ws/lefkos", headers=headers),
+    ):
+        pass
+    assert refused.value.code == 1008
+
+
+def test_websocket_without_session_is_refused(client: TestClient) -> None:
+    with pytest.raises(WebSocketDisconnect), client.websocket_connect("/ws/lefkos", headers=ORIGIN):
+        pass
+    with (
+        pytest.raises(WebSocketDisconnect),
+        client.websocket_connect("/ws/lefkos", headers={**ORIGIN, "cookie": f"{COOKIE}=forged"}),
+    ):
+        pass
+
+
+def test_only_the_slot_holder_moves_the_robot(client: TestClient, robot: FakeRobot) -> None:
+    first, second = new_session(client), new_session(client)
+    with connect(client, first) as a, connect(client, second) as b:
+        b.send_text(json.dumps({"type": "goto", "x": 1.0, "y": 1.0}))
+        error = wait_for(b, lambda m: m["type"] == "error")
+        assert "book a slot" in error["message"]
+        a.send_text(json.dumps({"type": "book"}))
+        wait_for(a, role_is("holder"))
+        b.send_text(json.dumps({"type": "book"}))
+        queued = wait_for(b, role_is("queued"))
+        assert queued["slot"]["position"] == 1
+        assert queued["slot"]["time_left"] == pytest.approx(600.0, abs=2.0)
+        b.send_text(json.dumps({"type": "exhibit", "exhibit": "amphora"}))
+        assert "number 1 in the queue" in wait_for(b, lambda m: m["type"] == "error")["message"]
+        assert robot.commands == []
+        a.send_text(json.dumps({"type": "exhibit", "exhibit": "amphora"}))
+        wait_for(a, lambda m: m["type"] == "ack")
+        assert robot.commands == [("goal", (4.0, 2.0, 0.0, "amphora"))]
+        arrived = wait_for(a, lambda m: m["type"] == "status" and m["nav"]["state"] == "arrived")
+        assert arrived["nav"]["exhibit"] == "amphora"
+        a.send_text(json.dumps({"type": "leave"}))
+        wait_for(b, role_is("holder"))
+        b.send_text(json.dumps({"type": "tour", "tour": "short"}))
+        wait_for(b, lambda m: m["type"] == "ack")
+        assert robot.commands[-1] == ("tour", "short")
+
+
+def test_holder_closing_the_page_hands_over(client: TestClient, db: Database) -> None:
+    first, second = new_session(client), new_session(client)
+    with connect(client, second) as b:
+        with connect(client, first) as a:
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("queued"))
+        wait_for(b, role_is("holder"))
+        bookings = db.bookings()
+        deadline = time.monotonic() + 5.0  # the rows are written just after the hand-over
+        while time.monotonic() < deadline and len(bookings) < 2:
+            time.sleep(0.05)
+            bookings = db.bookings()
+        assert [(row[1], row[4]) for row in bookings] == [(1, "left"), (2, "")]
+
+
+@pytest.mark.parametrize(
+    ("raw", "expected"),
+    [
+        ("not json", "not JSON"),
+        (json.dumps({"type": "goto", "x": "far"}), "bad command"),
+        (json.dumps({"type": "goto", "x": 1, "y": 1, "extra": 1}), "bad command"),
+        (json.dumps({"type": "launch"}), "bad command"),
+        (json.dumps({"type": "goto", "x": 1e9, "y": 0}), "bad command"),
+        (json.dumps([1, 2]), "bad command"),
+        ("x" * 5000, "at most 2048"),
+    ],
+)
+def test_malformed_or_oversized_messages_get_an_error_not_a_crash(
+    client: TestClient, raw: str, expected: str
+) -> None:
+    with connect(client, new_session(client)) as ws:
+        ws.send_text(raw)
+        assert expected in wait_for(ws, lambda m: m["type"] == "error")["message"]
+        ws.send_bytes(b"\x00\xff" * 10)
+        wait_for(ws, lambda m: m["type"] == "error")
+        ws.send_text(json.dumps({"type": "book"}))
+        wait_for(ws, lambda m: m["type"] == "ack")
+
+
+def test_rate_limit_per_client(client: TestClient) -> None:
+    with connect(client, new_session(client)) as ws:
+        for _ in range(25):
+            ws.send_text(json.dumps({"type": "ping"}))
+        error = wait_for(ws, lambda m: m["type"] == "error")
+        assert "too many" in error["message"]
+
+
+def test_staff_actions_need_a_login(client: TestClient, robot: FakeRobot) -> None:
+    exhibit = {"slug": "lyre", "name": "Lyre", "x": 1.0, "y": 2.0}
+    assert client.post("/api/admin/exhibits", json=exhibit).status_code == 401
+    assert client.post("/api/robots/lefkos/staff-stop").status_code == 401
+    assert client.post("/api/login", json={"username": "curator", "password": "wrong one"}).status_code == 401
+    assert (
+        client.post("/api/login", json={"username": "curator", "password": "correct horse"}).status_code
+        == 200
+    )
+    assert client.post("/api/admin/exhibits", json=exhibit).status_code == 200
+    moved = client.post("/api/admin/exhibits/lyre/place", json={"x": 3.0, "y": 3.0}).json()
+    assert (moved["x"], moved["y"]) == (3.0, 3.0)
+    tour = {"slug": "music", "name": "Music", "exhibits": ["lyre", "loom"]}
+    assert client.post("/api/admin/tours", json=tour).json()["exhibits"] == ["lyre", "loom"]
+    bad_tour = {"slug": "bad", "name": "Bad", "exhibits": ["nowhere"]}
+    assert client.post("/api/admin/tours", json=bad_tour).status_code == 422
+    assert client.post("/api/admin/exhibits", json={**exhibit, "slug": "../x"}).status_code == 422
+    assert client.post("/api/robots/lefkos/staff-stop").status_code == 200
+    assert robot.commands[-1] == ("stop", None)
+    assert client.get("/api/admin/stats").json()["visits"]["lyre"] == 0
+    client.post("/api/logout")
+    assert client.get("/api/admin/stats").status_code == 401
+
+
+def test_staff_stop_overrides_the_holder(client: TestClient) -> None:
+    token = new_session(client)
+    with connect(client, token) as ws:
+        ws.send_text(json.dumps({"type": "book"}))
+        wait_for(ws, role_is("holder"))
+        client.post("/api/login", json={"username": "curator", "password": "correct horse"})
+        client.post("/api/robots/lefkos/staff-stop")
+        ws.send_text(json.dumps({"type": "goto", "x": 1.0, "y": 1.0}))
+        assert "staff" in wait_for(ws, lambda m: m["type"] == "error")["message"]
+        client.post("/api/robots/lefkos/staff-release")
+        ws.send_text(json.dumps({"type": "goto", "x": 1.0, "y": 1.0}))
+        wait_for(ws, lambda m: m["type"] == "ack")
+
+
+def test_login_attempts_are_limited(client: TestClient) -> None:
+    codes = [
+        client.post("/api/login", json={"username": "curator", "password": f"guess {i}"}).status_code
+        for i in range(6)
+    ]
+    assert codes[:3] == [401, 401, 401]
+    assert 429 in codes
+
+
+def test_onboard_screen_is_only_for_the_robot_itself(client: TestClient) -> None:
+    assert client.get("/onboard").status_code == 403
+    with (
+        pytest.raises(WebSocketDisconnect),
+        connect(client, new_session(client), query="?screen=onboard"),
+    ):
+        pass
+
+
+def test_speech_files_cannot_escape_their_folder(client: TestClient) -> None:
+    assert client.get("/speech/..%2F..%2Fetc%2Fpasswd").status_code == 404
+    assert client.get("/speech/" + "a" * 24 + ".wav").status_code == 404
+
+
+def test_unknown_robot(client: TestClient) -> None:
+    with pytest.raises(WebSocketDisconnect), connect(client, new_session(client), robot="ghost"):
+        pass

@@ -1,0 +1,201 @@
+"""The visitor page in a real browser (Debian's Chromium driven by Playwright)."""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import uvicorn
+
+from tests.web.fakes import FakeRobot
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.web.app import WebConfig, create_app, find_node_modules
+from tourbot.web.db import Database, open_database
+
+CHROMIUM = Path("/usr/bin/chromium")
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(
+        not CHROMIUM.exists(), reason="Debian's chromium is not installed at /usr/bin/chromium"
+    ),
+]
+FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
+    "--autoplay-policy=no-user-gesture-required",
+]
+
+
+def _room() -> OccupancyGrid:
+    """A 12 m x 8 m hall with walls, at 10 cm."""
+    prob = np.zeros((80, 120), dtype=np.float32)
+    prob[0, :] = prob[-1, :] = prob[:, 0] = prob[:, -1] = 1.0
+    prob[40, 30:60] = 1.0
+    return OccupancyGrid(prob, 0.1, (0.0, 0.0, 0.0))
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+class _Server:
+    def __init__(self, app: Any) -> None:
+        self.port = _free_port()
+        self.server = uvicorn.Server(
+            uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
+        )
+        self.thread = threading.Thread(target=self.server.run, daemon=True)
+
+    def __enter__(self) -> str:
+        self.thread.start()
+        deadline = time.monotonic() + 20
+        while not self.server.started:
+            if time.monotonic() > deadline:
+                raise RuntimeError("server did not start")
+            time.sleep(0.05)
+        return f"http://127.0.0.1:{self.port}"
+
+    def __exit__(self, *_: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(10)
+
+
+@pytest.fixture
+def site_db(sqlite_url: str) -> Database:
+    db = open_database(sqlite_url)
+    db.save_exhibit("amphora", "Amphora", x=9.0, y=2.0, text="A painted clay amphora.", summary="An amphora.")
+    db.save_exhibit("loom", "Loom", x=3.0, y=6.0, text="A weaver's loom.")
+    db.save_tour("short", "Short tour", ["amphora", "loom"])
+    return db
+
+
+@pytest.fixture
+def server(site_db: Database, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]:
+    if find_node_modules() is None:
+        pytest.skip("three.js is not installed (npm ci)")
+    robot = FakeRobot(speed=2.0)
+    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech")
+    with _Server(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
+        yield url, robot
+
+
+@pytest.fixture
+def browser() -> Iterator[Any]:
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=str(CHROMIUM), args=FLAGS, headless=True)
+        yield b
+        b.close()
+
+
+class _Visitor:
+    """A browser context (its own cookies: its own session) that refuses any non-local request."""
+
+    def __init__(self, browser: Any, url: str) -> None:
+        self.context = browser.new_context()
+        self.outside: list[str] = []
+        self.errors: list[str] = []
+        self.context.route("**/*", self._route)
+        self.page = self.context.new_page()
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+        self.page.goto(url)
+
+    def _route(self, route: Any) -> None:
+        address = route.request.url
+        if address.startswith(("http://127.0.0.1:", "ws://127.0.0.1:")):
+            route.continue_()
+        else:
+            self.outside.append(address)
+            route.abort()
+
+    def slot(self, role: str, timeout: float = 15000) -> None:
+        self.page.wait_for_selector(f"#slot[data-role='{role}']", timeout=timeout)
+
+
+def test_visitor_books_drives_to_an_exhibit_and_hands_over(
+    server: tuple[str, FakeRobot], browser: Any
+) -> None:
+    url, robot = server
+    first = _Visitor(browser, url)
+    first.page.wait_for_selector("#exhibits button[data-exhibit='amphora']")
+    first.page.click("#book")
+    first.slot("holder")
+    assert "You control the robot" in first.page.inner_text("#slot")
+    first.page.click("#exhibits button[data-exhibit='amphora']")
+    first.page.wait_for_function(
+        "() => document.getElementById('state').textContent.includes('Arrived at Amphora')", timeout=20000
+    )
+    assert robot.commands[0] == ("goal", (9.0, 2.0, 0.0, "amphora"))
+    assert abs(robot.x - 9.0) < 0.1
+    assert "painted clay amphora" in first.page.inner_text("#info")
+    # The robot drawn on the page is where the server says it is (stream decoded in the browser).
+    shown = first.page.evaluate("() => window.tourbot.live.scene(0).find(b => b.id === 0)")
+    assert abs(shown["x"] - robot.x) < 0.1
+
+    second = _Visitor(browser, url)
+    second.page.wait_for_selector("#book")
+    second.page.click("#book")
+    second.slot("queued")
+    assert "number 1 in the queue" in second.page.inner_text("#slot")
+    second.page.click("#exhibits button[data-exhibit='loom']")
+    second.page.wait_for_function(
+        "document.getElementById('messages').textContent.includes('Take control first')"
+    )
+    assert len(robot.commands) == 1
+    first.page.close()  # the holder leaves: the slot passes on
+    second.slot("holder")
+    second.page.click("#exhibits button[data-exhibit='loom']")
+    second.page.wait_for_function(
+        "() => document.getElementById('state').textContent.includes('Arrived at Loom')", timeout=20000
+    )
+    assert robot.commands[-1][0] == "goal"
+    for visitor in (first, second):
+        assert visitor.outside == []
+        assert visitor.errors == []
+
+
+def test_3d_view_really_draws(server: tuple[str, FakeRobot], browser: Any) -> None:
+    url, _ = server
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function("() => window.tourbot && window.tourbot.view3d !== null", timeout=20000)
+    visitor.page.wait_for_timeout(1500)
+    info = visitor.page.evaluate(
+        """() => {
+            const canvas = document.getElementById('view3d');
+            const gl = canvas.getContext('webgl2') || canvas.getContext('webgl');
+            const copy = document.createElement('canvas');
+            copy.width = canvas.width; copy.height = canvas.height;
+            const ctx = copy.getContext('2d');
+            ctx.drawImage(canvas, 0, 0);
+            const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+            const colours = new Set();
+            for (let i = 0; i < data.length; i += 4 * 97) {
+                colours.add(data[i] << 16 | data[i + 1] << 8 | data[i + 2]);
+            }
+            return {webgl: gl !== null, colours: colours.size, avatars: window.tourbot.view3d.avatars.size};
+        }"""
+    )
+    assert info["webgl"]
+    assert info["colours"] > 20, info
+    assert info["avatars"] == 7
+    for preset in ("robot", "follow", "orbit"):
+        visitor.page.click(f"[data-preset='{preset}']")
+    visitor.page.wait_for_timeout(300)
+    assert visitor.outside == []
+    assert visitor.errors == []
