@@ -24,15 +24,20 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.mapping.scan_matching import MatchParams, hill_climb
 from tourbot.maps.grid import UNKNOWN, OccupancyGrid
 from tourbot.maps.reference import ReferenceMapParams, trace_beams
 from tourbot.records import Scan
 
-__all__ = ["IncrementalMapper", "MapperParams", "MapperStep"]
+__all__ = ["IncrementalMapper", "MapperParams", "MapperStep", "MappingError"]
 
 FloatArray = NDArray[np.float64]
+
+
+class MappingError(TourbotError):
+    """A log that cannot be mapped (no odometry, no scans)."""
 
 
 @dataclass(frozen=True)
@@ -100,27 +105,34 @@ class IncrementalMapper:
         match_weights: FloatArray | None = None,
         integrate: NDArray[np.bool_] | None = None,
     ) -> MapperStep:
-        """Align ``scan`` to the map so far and add it; returns the step's result."""
+        """Align ``scan`` to the map so far and add it to the map; returns the step's result."""
+        step = self.match(scan, match_weights=match_weights)
+        self.integrate(scan, np.asarray(step.pose), keep=integrate)
+        return step
+
+    def predict(self, scan: Scan) -> FloatArray:
+        """The pose of ``scan`` predicted from the last aligned pose and odometry."""
+        odom = self._odom_of(scan)
+        if self._pose is None or self._odom is None:
+            return np.asarray(self._start if self._start is not None else odom, dtype=np.float64).copy()
+        return compose(self._pose, relative(self._odom, odom))
+
+    def match(self, scan: Scan, *, match_weights: FloatArray | None = None) -> MapperStep:
+        """Align ``scan`` to the map so far (Eq. 1, with beam weights of Eq. 12); the map is unchanged.
+
+        ``match_weights`` (per beam, in [0, 1]) scale each beam's log likelihood: people-filtered
+        mapping gives ``1 - P(hit a person)``.
+        """
         t0 = time.perf_counter()
-        if scan.odom is None:
-            raise ValueError("incremental mapping needs the odometry pose of every scan")
-        odom = np.asarray(scan.odom, dtype=np.float64)
-        if self._pose is None:
-            start = self._start if self._start is not None else odom
-            self._pose = np.asarray(start, dtype=np.float64).copy()
-            self._odom = odom
-            self._centre_on(self._pose)
-            predicted = self._pose.copy()
-            best = self._pose.copy()
-            val = 0.0
+        odom = self._odom_of(scan)
+        predicted = self.predict(scan)
+        if self._pose is None or self._odom is None:
+            self._centre_on(predicted)
+            best, val = predicted.copy(), 0.0
         else:
-            assert self._odom is not None
-            delta = relative(self._odom, odom)
-            predicted = compose(self._pose, delta)
-            best, val = self._align(scan, predicted, delta, match_weights)
-            self._pose = best
-            self._odom = odom
-        self._integrate(scan, best, integrate)
+            best, val = self._align(scan, predicted, relative(self._odom, odom), match_weights)
+        self._pose = best
+        self._odom = odom
         pose = (float(best[0]), float(best[1]), float(best[2]))
         self.poses.append(pose)
         return MapperStep(
@@ -129,6 +141,12 @@ class IncrementalMapper:
             score=val,
             seconds=time.perf_counter() - t0,
         )
+
+    @staticmethod
+    def _odom_of(scan: Scan) -> FloatArray:
+        if scan.odom is None:
+            raise MappingError("incremental mapping needs the odometry pose of every scan")
+        return np.asarray(scan.odom, dtype=np.float64)
 
     def grid(self) -> OccupancyGrid:
         """The map so far as an occupancy grid (cells no beam reached are unknown)."""
@@ -190,14 +208,16 @@ class IncrementalMapper:
         best[2] = float(wrap_angle(best[2]))
         return best, val
 
-    def _integrate(self, scan: Scan, pose: FloatArray, integrate: NDArray[np.bool_] | None) -> None:
+    def integrate(self, scan: Scan, pose: FloatArray, *, keep: NDArray[np.bool_] | None = None) -> None:
+        """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given."""
         p = self.params
         g = scan.geometry
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         is_hit = (ranges < g.max_range) & (ranges > g.min_range)
-        keep = is_hit | (ranges >= g.max_range)
-        if integrate is not None:
-            keep &= np.asarray(integrate, dtype=bool)
+        use = is_hit | (ranges >= g.max_range)
+        if keep is not None:
+            use &= np.asarray(keep, dtype=bool)
+        keep = use
         if not keep.any():
             return
         laser = compose(pose, g.offset)
