@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose
-from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MapperStep
+from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
@@ -128,23 +128,30 @@ class PeopleFilteredMapper:
             params=params or PeopleFilterParams(),
         )
 
-    def add_scan(self, scan: Scan) -> MapperStep:
-        """Track people, align the scan with people-weighted beams (Eq. 12), map it a few scans later."""
+    def add_scan(self, scan: Scan, pose: FloatArray | None = None) -> FloatArray:
+        """Track people, align the scan with people-weighted beams (Eq. 12), map it a few scans later.
+
+        With ``pose`` given (mapping with known poses), the scan is not aligned but mapped there.
+        Returns the scan's pose.
+        """
         p = self.params
-        predicted = self.mapper.predict(scan)
+        predicted = self.mapper.predict(scan) if pose is None else np.asarray(pose, dtype=np.float64)
         tracks = self.tracker.update(scan, predicted)
         keep_ids = {t.id for t in tracks if t.confirmed or not p.confirmed_only}
-        samples = [s for i, s in self.tracker.sample_sets().items() if i in keep_ids]
-        pts, _ = beam_endpoints(scan, predicted)
-        h = hit_probability(samples, pts, p)
-        step = self.mapper.match(scan, match_weights=1.0 - h)
+        if pose is None:
+            samples = [s for i, s in self.tracker.sample_sets().items() if i in keep_ids]
+            pts, _ = beam_endpoints(scan, predicted)
+            h = hit_probability(samples, pts, p)
+            at = np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose)
+        else:
+            at = predicted
         people = [t.position for t in tracks if t.id in keep_ids]
         self._people[self._index] = np.asarray(people, dtype=np.float64).reshape(-1, 2)
-        self._pending.append(_Pending(scan, np.asarray(step.pose), self._index))
+        self._pending.append(_Pending(scan, at, self._index))
         self._index += 1
         while self._pending and self._pending[0].index + p.scans_around < self._index:
             self._write(self._pending.popleft())
-        return step
+        return at
 
     def finish(self) -> None:
         """Write the scans still waiting for the people seen after them."""
