@@ -143,3 +143,16 @@ def test_fhw_map_shape(fhw_log_path: Path) -> None:
     assert 70 < grid.height < 100
     assert grid.occupied().sum() > 5000
     assert grid.free().sum() > 10 * grid.occupied().sum()
+
+
+def test_fhw_map_quality_meets_the_target(fhw_log_path: Path) -> None:
+    """Issue target: median |ray cast - measured| <= 4 cm at 5 cm cells on the FHW log."""
+    from tourbot.maps.reference import map_quality
+
+    log = read_carmen(fhw_log_path)
+    quality = map_quality(build_reference_map(log), log)
+    assert quality["median_abs_error"] <= 0.04
+    assert quality["beams"] > 80_000
+    # the textbook model (hit = the endpoint's cell) is measurably worse under ray casting
+    textbook = map_quality(build_reference_map(log, params=ReferenceMapParams(hit="endpoint")), log)
+    assert textbook["median_abs_error"] > quality["median_abs_error"]

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose
 from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
-from tourbot.records import RobotLog
+from tourbot.records import LaserGeometry, RobotLog, Scan
 
 __all__ = [
     "ReferenceMapParams",
@@ -363,17 +363,17 @@ def map_quality(grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = N
     if max_scans is not None and len(scans) > max_scans:
         scans = [scans[i] for i in np.linspace(0, len(scans) - 1, max_scans).round().astype(int)]
     errors = []
-    casters: dict[float, DistanceCaster] = {}
+    by_geometry: dict[LaserGeometry, list[Scan]] = {}
     for scan in scans:
-        g = scan.geometry
-        caster = casters.get(g.max_range)
-        if caster is None:
-            caster = casters[g.max_range] = DistanceCaster(grid, g.max_range)
-        assert scan.reference is not None
-        laser = compose(scan.reference, g.offset)[None, :]
-        cast = np.asarray(caster.cast(laser, g.angles), dtype=np.float64)[0]
-        valid = (scan.ranges < g.max_range) & (scan.ranges > g.min_range)
-        errors.append(np.abs(cast[valid] - scan.ranges[valid]))
+        by_geometry.setdefault(scan.geometry, []).append(scan)
+    for g, group in by_geometry.items():
+        caster = DistanceCaster(grid, g.max_range)
+        robot = np.array([s.reference for s in group], dtype=np.float64)
+        lasers = compose(robot, np.broadcast_to(np.asarray(g.offset, dtype=np.float64), robot.shape))
+        cast = np.asarray(caster.cast(lasers, g.angles), dtype=np.float64)
+        ranges = np.stack([s.ranges for s in group])
+        valid = (ranges < g.max_range) & (ranges > g.min_range)
+        errors.append(np.abs(cast[valid] - ranges[valid]))
     err = np.concatenate(errors)
     return {
         "median_abs_error": float(np.median(err)),

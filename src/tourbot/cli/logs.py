@@ -1,0 +1,98 @@
+"""``tourbot log``: look into robot logs (CARMEN, ROS bags) and convert them."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+LogArg = Annotated[Path, typer.Argument(help="A CARMEN log (.log, .log.gz, .clf) or a ROS bag.")]
+LenientOpt = Annotated[
+    bool, typer.Option("--lenient", help="Skip malformed records (counted in a warning) instead of stopping.")
+]
+
+
+def register(app: typer.Typer) -> None:
+    log_app = typer.Typer(help="Robot logs: summary, conversion to CARMEN and TUM.", no_args_is_help=True)
+
+    @log_app.command("info")
+    def info(log: LogArg, lenient: LenientOpt = False) -> None:
+        """Summary of a log: scans, beams, duration, path length, warnings."""
+        from rich.console import Console
+        from rich.table import Table
+
+        from tourbot.io import load_log
+        from tourbot.plotting import path_length
+
+        console = Console()
+        with console.status(f"reading {log}"):
+            robot_log = load_log(log, lenient=lenient)
+        table = Table(title=str(log), show_header=False)
+        table.add_column("what", style="bold")
+        table.add_column("value")
+        scans = robot_log.scans
+        sensors = sorted({s.sensor for s in scans})
+        beams = sorted({s.geometry.num_beams for s in scans})
+        g = scans[0].geometry
+        times = robot_log.times
+        table.add_row("laser", ", ".join(sensors))
+        table.add_row("scans", str(len(scans)))
+        table.add_row("beams per scan", ", ".join(map(str, beams)))
+        table.add_row("field of view", f"{g.fov * 180 / 3.141592653589793:.1f} deg")
+        table.add_row("max range", f"{g.max_range:.2f} m")
+        table.add_row("duration", f"{times[-1] - times[0]:.1f} s")
+        table.add_row("odometry readings", str(len(robot_log.odometry)))
+        if not all(s.odom is None for s in scans):
+            table.add_row("path length (odometry)", f"{path_length(robot_log.odom_poses):.1f} m")
+        if robot_log.has_reference:
+            table.add_row("path length (reference)", f"{path_length(robot_log.reference_poses):.1f} m")
+        else:
+            table.add_row("reference poses", "none")
+        table.add_row("warnings", str(len(robot_log.warnings)))
+        console.print(table)
+        for warning in robot_log.warnings:
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+
+    @log_app.command("convert")
+    def convert(
+        log: LogArg,
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="CARMEN log to write (.log or .log.gz).")
+        ],
+        lenient: LenientOpt = False,
+    ) -> None:
+        """Write a log (CARMEN or ROS bag) as a CARMEN log that reads back identically."""
+        from tourbot.io import load_log, write_carmen
+
+        robot_log = load_log(log, lenient=lenient)
+        write_carmen(robot_log, output)
+        typer.echo(f"wrote {output} ({len(robot_log)} scans, {len(robot_log.odometry)} odometry readings)")
+
+    @log_app.command("tum")
+    def tum(
+        log: LogArg,
+        output: Annotated[Path, typer.Option("-o", "--output", help="TUM trajectory file to write.")],
+        poses: Annotated[
+            str, typer.Option(help="Which pose of each scan: 'reference' or 'odometry'.")
+        ] = "reference",
+        lenient: LenientOpt = False,
+    ) -> None:
+        """Write the pose of each scan, in log order, as a TUM trajectory (for evo)."""
+        import numpy as np
+
+        from tourbot.errors import TourbotError
+        from tourbot.io import load_log
+        from tourbot.io.tum import write_tum
+
+        if poses not in ("reference", "odometry"):
+            raise TourbotError(f"--poses must be 'reference' or 'odometry', got {poses!r}")
+        robot_log = load_log(log, lenient=lenient)
+        values = robot_log.reference_poses if poses == "reference" else robot_log.odom_poses
+        ok = ~np.isnan(values).any(axis=1)
+        if not ok.any():
+            raise TourbotError(f"{log}: no scan has a {poses} pose")
+        write_tum(output, robot_log.times[ok], values[ok])
+        typer.echo(f"wrote {output} ({int(ok.sum())} poses)")
+
+    app.add_typer(log_app, name="log")
