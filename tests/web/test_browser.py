@@ -199,3 +199,47 @@ def test_3d_view_really_draws(server: tuple[str, FakeRobot], browser: Any) -> No
     visitor.page.wait_for_timeout(300)
     assert visitor.outside == []
     assert visitor.errors == []
+
+
+def test_onboard_screen_talks_and_staff_place_an_exhibit(
+    server: tuple[str, FakeRobot], browser: Any, site_db: Database
+) -> None:
+    url, robot = server
+    onboard = _Visitor(browser, url + "/onboard")
+    onboard.page.wait_for_selector("#exhibits button[data-exhibit='loom']")
+    onboard.page.wait_for_selector("#face[data-mood='happy']")
+    onboard.page.fill("#phrase", "who are you?")
+    onboard.page.click("#talk button")
+    onboard.page.wait_for_function("() => document.getElementById('said').textContent.includes('Lefkos')")
+    # The on-board screen has precedence: it moves the robot without a slot.
+    onboard.page.click("#exhibits button[data-exhibit='loom']")
+    onboard.page.wait_for_function(
+        "() => document.getElementById('said').textContent.includes('Here is Loom')", timeout=20000
+    )
+    assert robot.commands[-1] == ("goal", (3.0, 6.0, 0.0, "loom"))
+    audio = onboard.page.evaluate("() => document.getElementById('voice').getAttribute('src')")
+    if audio is not None:  # espeak-ng installed: the page got a WAV file to play
+        response = onboard.context.request.get(url + audio)
+        assert response.status == 200
+        assert response.body()[:4] == b"RIFF"
+
+    staff = _Visitor(browser, url + "/admin")
+    site_db.set_staff("curator", "correct horse")
+    staff.page.fill("#username", "curator")
+    staff.page.fill("#password", "correct horse")
+    staff.page.click("#login button")
+    staff.page.wait_for_selector("#work:not([hidden])")
+    staff.page.fill("#exhibit [name=slug]", "lyre")
+    staff.page.fill("#exhibit [name=name]", "Lyre")
+    box = staff.page.locator("#map").bounding_box()
+    staff.page.mouse.click(box["x"] + box["width"] * 0.5, box["y"] + box["height"] * 0.5)
+    staff.page.click("#exhibit button:not([type])")
+    staff.page.wait_for_function(
+        "() => document.getElementById('message').textContent.includes('saved lyre')"
+    )
+    lyre = site_db.exhibit("lyre")
+    assert 0.0 < lyre.x < 12.0
+    assert 0.0 < lyre.y < 8.0
+    for page in (onboard, staff):
+        assert page.outside == []
+        assert page.errors == []

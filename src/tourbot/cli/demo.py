@@ -1,50 +1,42 @@
-"""``tourbot demo``: the best end-to-end thing that exists so far (a real log to a map and a picture)."""
+"""``tourbot demo``: a guided tour through the crowded FHW museum, simulated, with MCL in the loop."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
 
 import typer
+
+__all__ = ["register"]
 
 
 def register(app: typer.Typer) -> None:
     @app.command("demo")
     def demo(
-        out: Annotated[Path, typer.Option(help="Folder for the results.")] = Path("out"),
+        tour: str = typer.Option("highlights", help="Tour of the site to guide."),
+        crowd: str = typer.Option("peak", help="Crowd: empty, sparse, peak, or a number of visitors."),
+        seed: int = typer.Option(0, help="Seed: the same seed gives the same run."),
+        duration: float = typer.Option(900.0, help="Stop after this many simulated seconds."),
+        speedup: float = typer.Option(
+            0.0, help="Pace to this many times real time (0: as fast as possible)."
+        ),
+        particles: int = typer.Option(1000, help="MCL samples."),
+        dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times."),
+        site: str = typer.Option("fhw", help="Shipped site name or site file."),
+        out: str = typer.Option("out/demo", help="Folder for the recording, summary and animation."),
+        animation: bool = typer.Option(True, help="Write the tour's animation (GIF)."),
     ) -> None:
-        """Build the FHW museum's map from its corrected log (cached) and draw it with the robot's path."""
-        from rich.console import Console
+        """Run a guided tour in the simulated crowded museum; live progress, then a recording and a GIF."""
+        from tourbot.cli._tour_view import run_tour
 
-        from tourbot.data import find_data
-        from tourbot.io import read_carmen
-        from tourbot.io.mapserver import read_map, write_map
-        from tourbot.maps.reference import build_reference_map, map_quality
-        from tourbot.plotting import show_log
-
-        console = Console()
-        log_path = find_data("carmen/fhw-corrected.log.gz")
-        with console.status(f"reading {log_path.name}"):
-            log = read_carmen(log_path)
-        map_yaml = out / "maps" / "fhw.yaml"
-        if map_yaml.exists() and map_yaml.stat().st_mtime >= log_path.stat().st_mtime:
-            grid = read_map(map_yaml)
-            console.print(f"map: {map_yaml} (cached)")
-        else:
-            with console.status("building the reference map"):
-                grid = build_reference_map(log)
-            write_map(grid, map_yaml)
-            console.print(f"map: {map_yaml}")
-        with console.status("measuring the map"):
-            quality = map_quality(grid, log)
-        note = f"median |ray cast - measured| {quality['median_abs_error'] * 100:.1f} cm"
-        picture = show_log(
-            log,
-            out / "demo" / "fhw.png",
-            grid=grid,
-            odometry=True,
-            title="Foundation of the Hellenic World, Athens: reference map and the robot's path",
-            map_note=note,
+        run_tour(
+            site=site,
+            tour=tour,
+            crowd=crowd,
+            seed=seed,
+            duration=duration,
+            speedup=speedup,
+            particles=particles,
+            dwell_scale=dwell_scale,
+            out=Path(out),
+            animation=animation,
         )
-        console.print(f"picture: {picture}")
-        console.print(note)

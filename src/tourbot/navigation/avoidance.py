@@ -30,9 +30,9 @@ class DWAConfig:
     there on a different scale; tuned here for 0.6 m/s among people)."""
 
     horizon: float = 2.0  # s: arcs are checked this far ahead
-    steps: int = 10  # points per arc
-    n_speeds: int = 7
-    n_turns: int = 15
+    steps: int = 8  # points per arc
+    n_speeds: int = 5
+    n_turns: int = 11
     margin: float = 0.08  # m beyond the robot's radius
     heading_weight: float = 1.0
     clearance_weight: float = 0.4

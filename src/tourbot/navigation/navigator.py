@@ -85,6 +85,8 @@ class SiteNavigator:
         self._since_plan = 0.0
         self._cmd = (0.0, 0.0)
         self._blocked_on_goal = 0.0
+        self._path_key: FloatArray | None = None
+        self._path_view: tuple[tuple[float, float], ...] = ()
 
     # -- Navigator protocol -----------------------------------------------------------------------
 
@@ -106,10 +108,13 @@ class SiteNavigator:
 
     def status(self) -> NavigationStatus:
         t = self.tours.state
-        path: tuple[tuple[float, float], ...] = ()
-        if self.path is not None and len(self.path):
-            thin = self.path[:: max(1, len(self.path) // 60)]
-            path = tuple((float(x), float(y)) for x, y in np.vstack([thin, self.path[-1:]]))
+        if self._path_key is not self.path:
+            self._path_key = self.path
+            self._path_view = ()
+            if self.path is not None and len(self.path):
+                thin = np.vstack([self.path[:: max(1, len(self.path) // 60)], self.path[-1:]])
+                self._path_view = tuple(tuple(p) for p in thin.tolist())
+        path = self._path_view
         return NavigationStatus(
             mode=self.mode,
             goal=self.goal,
@@ -276,6 +281,8 @@ class SiteNavigator:
             g = scan.geometry
             r = scan.ranges
             ok = (r < min(g.max_range, rng)) & (r > g.min_range)
+            if g.num_beams > 180:  # half a degree apart is more than the window needs
+                ok[1::2] = False
             a = g.angles[ok] + g.offset[2]
             pts = np.stack([r[ok] * np.cos(a), r[ok] * np.sin(a)], axis=-1)
             parts.append(transform_points(np.asarray(g.offset), pts) if any(g.offset) else pts)

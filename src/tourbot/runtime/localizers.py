@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -13,21 +15,66 @@ from tourbot.runtime.snapshot import PoseEstimate, SampleSummary
 if TYPE_CHECKING:
     from tourbot.localization.mcl import MonteCarloLocalization
 
-__all__ = ["MCLLocalizer"]
+__all__ = ["MCLLocalizer", "UpdatePolicy"]
+
+
+@dataclass(frozen=True)
+class UpdatePolicy:
+    """When and with what a scan is integrated.
+
+    ``beam_step``: use every k-th beam (neighbouring beams are strongly correlated, Probabilistic
+    Robotics Sec. 6.4; Nav2 AMCL uses 60 beams by default). A scan is integrated once the odometry
+    has moved ``min_travel`` metres or turned ``min_turn`` radians since the last integration, or
+    ``max_interval`` seconds have passed (Nav2 AMCL's ``update_min_d`` 0.25 m, ``update_min_a``
+    0.2 rad; smaller here because people move while the robot stands).
+    """
+
+    beam_step: int = 4
+    min_travel: float = 0.1
+    min_turn: float = 0.1
+    max_interval: float = 1.0
 
 
 class MCLLocalizer:
     """Monte Carlo localization (with the novelty filter by default) as a runtime localizer.
 
     Each scan is integrated at its own odometry pose (``scan.odom``; the last odometry reading when
-    a source gives none). ``display_samples`` samples, drawn by weight, go to the snapshot.
+    a source gives none), under the :class:`UpdatePolicy`; between integrations the last belief
+    stands. ``display_samples`` samples, drawn by weight, go to the snapshot.
     """
 
-    def __init__(self, mcl: MonteCarloLocalization, display_samples: int = 200, seed: int = 0) -> None:
+    def __init__(
+        self,
+        mcl: MonteCarloLocalization,
+        policy: UpdatePolicy | None = None,
+        display_samples: int = 200,
+        seed: int = 0,
+    ) -> None:
         self.mcl = mcl
+        self.policy = policy or UpdatePolicy()
         self.display_samples = display_samples
         self._odom: tuple[float, float, float] | None = None
+        self._last: tuple[float, tuple[float, float, float]] | None = None
+        self._belief: PoseBelief | None = None
         self._rng = np.random.default_rng(seed)
+        self.updates = 0
+
+    def _due(self, t: float, odom: tuple[float, float, float]) -> bool:
+        if self._last is None or self._belief is None:
+            return True
+        t0, o0 = self._last
+        p = self.policy
+        moved = math.hypot(odom[0] - o0[0], odom[1] - o0[1]) >= p.min_travel
+        turned = abs(math.remainder(odom[2] - o0[2], 2 * math.pi)) >= p.min_turn
+        return moved or turned or t - t0 >= p.max_interval
+
+    def _decimate(self, scan: Scan) -> Scan:
+        k = self.policy.beam_step
+        if k <= 1:
+            return scan
+        g = scan.geometry
+        geometry = replace(g, num_beams=len(range(0, g.num_beams, k)), angle_increment=g.angle_increment * k)
+        return replace(scan, ranges=np.ascontiguousarray(scan.ranges[::k]), geometry=geometry)
 
     def on_odometry(self, odom: Odometry) -> None:
         self._odom = odom.pose
@@ -36,7 +83,11 @@ class MCLLocalizer:
         odom = scan.odom if scan.odom is not None else self._odom
         if odom is None:
             return None
-        est = self.mcl.update(odom, scan)
+        if not self._due(scan.timestamp, odom):
+            return self._belief
+        self._last = (scan.timestamp, odom)
+        self.updates += 1
+        est = self.mcl.update(odom, self._decimate(scan))
         samples = np.asarray(self.mcl.samples, dtype=np.float64)
         weights = np.asarray(self.mcl.weights, dtype=np.float64)
         total = weights.sum()
@@ -57,6 +108,7 @@ class MCLLocalizer:
         summary = SampleSummary(
             count=len(samples),
             n_effective=float(1.0 / np.sum(weights**2)) if len(weights) else 0.0,
-            poses=tuple((float(x), float(y), float(t)) for x, y, t in samples[idx]),
+            poses=tuple(tuple(p) for p in samples[idx].tolist()),
         )
-        return PoseBelief(estimate, samples, weights, summary)
+        self._belief = PoseBelief(estimate, samples, weights, summary)
+        return self._belief

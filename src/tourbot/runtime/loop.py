@@ -81,6 +81,8 @@ class Runtime:
         self._wall_start: float | None = None
         self._time_start: float | None = None
         self._snapshot = StateSnapshot(time=source.time, step=0, source=source.name, site=site)
+        # Protocol isinstance checks are slow: decide once
+        self._drivable: DrivableSource | None = source if isinstance(source, DrivableSource) else None
 
     # -- plugging in -----------------------------------------------------------------------------
 
@@ -109,8 +111,8 @@ class Runtime:
         with self._lock:
             if self.navigator is not None:
                 self.navigator.stop()
-            if isinstance(self.source, DrivableSource):
-                self.source.command(0.0, 0.0)
+            if self._drivable is not None:
+                self._drivable.command(0.0, 0.0)
 
     def snapshot(self) -> StateSnapshot:
         """The latest snapshot (immutable; safe to read from any thread)."""
@@ -143,9 +145,9 @@ class Runtime:
                     self._on_scan(record)
             self._steps += 1
             snapshot = self._build_snapshot()
-            if self.navigator is not None and isinstance(self.source, DrivableSource):
-                speed, turn = self.navigator.control(snapshot, self._last_scan, self.source.dt)
-                self.source.command(speed, turn)
+            if self.navigator is not None and self._drivable is not None:
+                speed, turn = self.navigator.control(snapshot, self._last_scan, self._drivable.dt)
+                self._drivable.command(speed, turn)
             self._snapshot = snapshot
             for sink in self.sinks:
                 sink.on_snapshot(snapshot)
@@ -232,7 +234,7 @@ class Runtime:
                 furniture = furniture + out.furniture
             if out.extra:
                 extras[est.name] = dict(out.extra)
-        truth = self.source.truth() if isinstance(self.source, DrivableSource) else None
+        truth = self._drivable.truth() if self._drivable is not None else None
         nav = self.navigator.status() if self.navigator is not None else NavigationStatus()
         wall = _time.perf_counter() - (self._wall_start or _time.perf_counter())
         elapsed = self.source.time - (self._time_start if self._time_start is not None else self.source.time)

@@ -473,6 +473,10 @@ class Database:
                 s.add(found)
             found.password_hash = _hash_password(password)
 
+    def has_staff(self) -> bool:
+        with self.session() as s:
+            return s.scalars(select(StaffUser.id)).first() is not None
+
     def check_staff(self, username: str, password: str) -> int | None:
         """The staff user's id when the password is right, else None."""
         with self.session() as s:

@@ -68,7 +68,8 @@ export class View3D {
       new THREE.MeshLambertMaterial({ color: 0xcc8800 }),
     );
     stand.rotation.x = Math.PI / 2;
-    stand.position.set(e.x, e.y, 0.45);
+    // x, y, theta is where the robot stands to present the exhibit, facing it: the stand is ahead.
+    stand.position.set(e.x + Math.cos(e.theta), e.y + Math.sin(e.theta), 0.45);
     this.scene.add(stand);
   }
 

@@ -1,0 +1,409 @@
+"""``tourbot bench web``: the live stream's bandwidth, 200 viewers, and command-to-motion latency.
+
+Burgard et al. (section 6.1.1): a 240x180 video stream at about 5 Hz needed about 40 kbit/s, the
+graphics-based view about 1 kbit/s with 7 people around the robot. Here the server runs as its
+own process (``tourbot serve`` on the simulated site) and the bench is its visitors:
+
+1. bandwidth: one viewer behind a loopback relay that counts every byte the server sends (TCP
+   payload: WebSocket framing and per-message deflate included, TCP/IP headers not), with the
+   robot on a tour and 7 people;
+2. 200 concurrent viewers: the delay from the server sampling a state to a viewer holding it
+   (p50/p99), and the server's CPU;
+3. the slot holder's command-to-motion latency on loopback: from sending ``goto`` to the first
+   streamed state in which the robot moves.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import suppress
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+__all__ = ["register"]
+
+TARGET_KBIT = 1.0
+TARGET_P99_MS = 100.0
+PAPER_VIDEO_KBIT = 40.0
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _cpu_seconds(pid: int) -> float:
+    """User + system CPU time of a process (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+class _Server:
+    """``tourbot serve`` in a child process on a fresh SQLite file."""
+
+    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1) -> None:
+        self.port = _free_port()
+        self.folder = tempfile.TemporaryDirectory(prefix="tourbot-bench-web-")
+        db = f"sqlite:///{Path(self.folder.name) / 'site.db'}"
+        command = [
+            sys.executable, "-m", "tourbot", "serve", "--site", site, "--port", str(self.port),
+            "--database", db, "--crowd", crowd, "--seed", str(seed), "--robots", str(robots),
+            "--staff-password", "bench-password",
+        ]  # fmt: skip
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), *sys.path])}
+        self.process = subprocess.Popen(
+            command, cwd=self.folder.name, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+        )
+        self.base = f"http://127.0.0.1:{self.port}"
+
+    def wait(self, timeout: float = 180.0) -> None:
+        import httpx
+
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                err = self.process.stderr.read().decode() if self.process.stderr else ""
+                raise typer.BadParameter(f"the server stopped: {err[-2000:]}")
+            with suppress(httpx.HTTPError):
+                if httpx.get(self.base + "/api/site", timeout=2.0).status_code == 200:
+                    return
+            time.sleep(0.5)
+        raise typer.BadParameter("the server did not start in time")
+
+    def close(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(15)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+        self.folder.cleanup()
+
+
+async def _session(base: str) -> str:
+    import httpx
+
+    async with httpx.AsyncClient(base_url=base, trust_env=False) as client:
+        response = await client.get("/api/session")
+        return str(response.cookies["tourbot_session"])
+
+
+class _Viewer:
+    """A visitor's page without the page: the WebSocket, the decoder, timings."""
+
+    def __init__(
+        self, port: int, robot: str, stream: dict[str, float], origin_port: int | None = None
+    ) -> None:
+        from tourbot.web.stream import StreamConfig, StreamDecoder
+
+        self.port = port
+        self.origin = f"http://127.0.0.1:{origin_port or port}"
+        self.robot = robot
+        self.decoder = StreamDecoder(StreamConfig(**{k: v for k, v in stream.items() if k != "rate_hz"}))
+        self.delays: list[float] = []
+        self.binary = self.text = 0
+        self.naive_json = 0
+        self.frames = 0
+        self.ws: Any = None
+        self.replies: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
+        self.on_frame: Any = None
+
+    async def open(self, base: str) -> None:
+        from websockets.asyncio.client import connect
+
+        token = await _session(base)
+        self.ws = await connect(
+            f"ws://127.0.0.1:{self.port}/ws/{self.robot}",
+            origin=self.origin,  # type: ignore[arg-type]
+            additional_headers={"Cookie": f"tourbot_session={token}"},
+            proxy=None,
+            max_queue=None,
+        )
+
+    async def run(self, until: float) -> None:
+        while time.monotonic() < until:
+            try:
+                message = await asyncio.wait_for(self.ws.recv(), timeout=max(0.01, until - time.monotonic()))
+            except TimeoutError:
+                break
+            now = time.time()
+            if isinstance(message, bytes):
+                self.binary += len(message)
+                self.decoder.feed(message)
+                self.frames += 1
+                self.delays.append(now - self.decoder.t)
+                scene = self.decoder.scene()
+                self.naive_json += len(_naive(scene))
+                if self.on_frame is not None:
+                    self.on_frame(scene, now)
+            else:
+                self.text += len(message)
+                data = json.loads(message)
+                if data.get("type") in ("ack", "error"):
+                    self.replies.put_nowait(data)
+
+    async def send(self, command: dict[str, Any]) -> None:
+        await self.ws.send(json.dumps(command))
+
+    async def close(self) -> None:
+        with suppress(Exception):
+            await self.ws.close()
+
+
+def _naive(scene: Any) -> str:
+    """The same state as plain JSON (what a rosbridge-style stream sends each frame)."""
+    bodies = [scene.robot, *scene.people]
+    return json.dumps(
+        {
+            "t": scene.t,
+            "bodies": [
+                {"id": b.id, "x": b.x, "y": b.y, "vx": b.vx, "vy": b.vy, "th": b.theta} for b in bodies
+            ],
+        }
+    )
+
+
+async def _relay(server_port: int) -> tuple[int, list[int], asyncio.Server]:
+    """A loopback TCP relay that counts the bytes flowing from the server to the client."""
+    down = [0]
+
+    async def pump(reader: asyncio.StreamReader, writer: asyncio.StreamWriter, count: bool) -> None:
+        with suppress(ConnectionError):
+            while data := await reader.read(65536):
+                if count:
+                    down[0] += len(data)
+                writer.write(data)
+                await writer.drain()
+        writer.close()
+
+    async def handle(client_r: asyncio.StreamReader, client_w: asyncio.StreamWriter) -> None:
+        server_r, server_w = await asyncio.open_connection("127.0.0.1", server_port)
+        await asyncio.gather(pump(client_r, server_w, False), pump(server_r, client_w, True))
+
+    server = await asyncio.start_server(handle, "127.0.0.1", 0)
+    port = int(server.sockets[0].getsockname()[1])
+    return port, down, server
+
+
+async def _site(base: str) -> dict[str, Any]:
+    import httpx
+
+    async with httpx.AsyncClient(base_url=base, trust_env=False) as client:
+        return dict((await client.get("/api/site")).json())
+
+
+async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
+    site = await _site(server.base)
+    robot = site["robots"][0]
+    port, down, relay = await _relay(server.port)
+    viewer = _Viewer(port, robot, site["stream"], origin_port=server.port)
+    driver = _Viewer(server.port, robot, site["stream"])
+    await viewer.open(server.base)
+    await driver.open(server.base)
+    await driver.send({"type": "book"})
+    tour = site["tours"][0]["slug"] if site["tours"] else None
+    if tour:
+        await driver.send({"type": "tour", "tour": tour})
+    start = time.monotonic()
+    wire_start = down[0]
+    await asyncio.gather(viewer.run(start + seconds), driver.run(start + seconds))
+    elapsed = time.monotonic() - start
+    wire = down[0] - wire_start
+    people = len(viewer.decoder.scene().people)
+    await viewer.close()
+    await driver.close()
+    relay.close()
+    return {
+        "seconds": elapsed,
+        "wire_bytes": wire,
+        "kbit_s": 8 * wire / elapsed / 1000,
+        "payload_kbit_s": 8 * (viewer.binary + viewer.text) / elapsed / 1000,
+        "naive_json_kbit_s": 8 * viewer.naive_json / elapsed / 1000,
+        "frames": viewer.frames,
+        "people": people,
+        "tour": tour,
+    }
+
+
+async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[str, Any]:
+    site = await _site(server.base)
+    robot = site["robots"][0]
+    viewers = [_Viewer(server.port, robot, site["stream"]) for _ in range(n)]
+    for chunk in range(0, n, 20):
+        await asyncio.gather(*(v.open(server.base) for v in viewers[chunk : chunk + 20]))
+    await asyncio.sleep(1.0)  # keyframes out of the way
+    for v in viewers:
+        v.delays.clear()
+    cpu0, wall0 = _cpu_seconds(pid), time.monotonic()
+    await asyncio.gather(*(v.run(wall0 + seconds) for v in viewers))
+    cpu = (_cpu_seconds(pid) - cpu0) / (time.monotonic() - wall0)
+    delays = sorted(d for v in viewers for d in v.delays)
+    for v in viewers:
+        await v.close()
+    if not delays:
+        return {"viewers": n, "frames": 0}
+    return {
+        "viewers": n,
+        "frames": len(delays),
+        "p50_ms": 1000 * delays[len(delays) // 2],
+        "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
+        "server_cpu": cpu,
+    }
+
+
+async def _latency(server: _Server, trials: int) -> dict[str, Any]:
+    site = await _site(server.base)
+    robot = site["robots"][0]
+    holder = _Viewer(server.port, robot, site["stream"])
+    await holder.open(server.base)
+    await holder.send({"type": "book"})
+    moved: asyncio.Queue[float] = asyncio.Queue()
+    state: dict[str, Any] = {"from": None}
+
+    def on_frame(scene: Any, now: float) -> None:
+        start = state["from"]
+        if start is None:
+            return
+        x0, y0 = start
+        if (
+            math.hypot(scene.robot.x - x0, scene.robot.y - y0) > 0.02
+            or abs(scene.robot.vx) + abs(scene.robot.vy) > 0
+        ):
+            moved.put_nowait(now)
+            state["from"] = None
+
+    holder.on_frame = on_frame
+    reader = asyncio.create_task(holder.run(time.monotonic() + 60 * trials))
+    acks, motions = [], []
+    exhibits = site["exhibits"]
+    for k in range(trials):
+        await holder.send({"type": "stop"})
+        await asyncio.sleep(2.5)  # the robot comes to rest
+        while not holder.replies.empty():
+            holder.replies.get_nowait()
+        while not moved.empty():
+            moved.get_nowait()
+        scene = holder.decoder.scene()
+        state["from"] = (scene.robot.x, scene.robot.y)
+        target = exhibits[k % len(exhibits)]
+        sent = time.time()
+        await holder.send({"type": "exhibit", "exhibit": target["slug"]})
+        reply = await asyncio.wait_for(holder.replies.get(), 10)
+        if reply.get("type") != "ack":
+            raise typer.BadParameter(f"command refused: {reply}")
+        acks.append(time.time() - sent)
+        with suppress(TimeoutError):
+            motions.append(await asyncio.wait_for(moved.get(), 10) - sent)
+    reader.cancel()
+    with suppress(asyncio.CancelledError):
+        await reader
+    await holder.close()
+    acks.sort()
+    motions.sort()
+    return {
+        "trials": trials,
+        "ack_p50_ms": 1000 * acks[len(acks) // 2],
+        "motion_p50_ms": 1000 * motions[len(motions) // 2] if motions else math.nan,
+        "motion_max_ms": 1000 * motions[-1] if motions else math.nan,
+        "moved": len(motions),
+    }
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("web")
+    def web(
+        site: Annotated[str, typer.Option(help="site served (shipped name or file)")] = "fhw",
+        seconds: Annotated[float, typer.Option(help="length of the bandwidth run")] = 60.0,
+        viewers: Annotated[int, typer.Option(help="concurrent viewers")] = 200,
+        viewer_seconds: Annotated[float, typer.Option(help="length of the viewers run")] = 20.0,
+        trials: Annotated[int, typer.Option(help="command-to-motion trials")] = 10,
+        seed: int = 0,
+        output: Annotated[Path | None, typer.Option(help="JSON file")] = None,
+    ) -> None:
+        """Live-stream bandwidth, many viewers, command-to-motion latency (server in its own process)."""
+        from rich.progress import Progress
+
+        from tourbot.bench._report import BenchReport
+
+        report = BenchReport(
+            "web",
+            ["measure", "value", "unit", "target", "met"],
+            meta={"site": site, "seconds": seconds, "viewers": viewers, "seed": seed, "people": 7},
+        )
+        server = _Server(site, "7", seed)
+        try:
+            with Progress(transient=True) as progress:
+                task = progress.add_task("starting the server (simulated site)", total=4)
+                server.wait()
+                progress.update(task, advance=1, description=f"bandwidth, one viewer, {seconds:.0f} s")
+                bandwidth = asyncio.run(_bandwidth(server, seconds))
+                progress.update(task, advance=1, description=f"{viewers} viewers, {viewer_seconds:.0f} s")
+                crowd = asyncio.run(_viewers(server, viewers, viewer_seconds, server.process.pid))
+                baseline = asyncio.run(_viewers(server, 1, min(10.0, viewer_seconds), server.process.pid))
+                progress.update(task, advance=1, description="command-to-motion latency")
+                latency = asyncio.run(_latency(server, trials))
+                progress.update(task, advance=1)
+        finally:
+            server.close()
+        kbit = bandwidth["kbit_s"]
+        report.add(
+            measure="live stream on the wire (1 viewer)",
+            value=kbit,
+            unit="kbit/s",
+            target=f"<= {TARGET_KBIT}",
+            met=kbit <= TARGET_KBIT,
+        )
+        report.add(
+            measure="  payload (binary + status JSON)", value=bandwidth["payload_kbit_s"], unit="kbit/s"
+        )
+        report.add(measure="  same states as plain JSON", value=bandwidth["naive_json_kbit_s"], unit="kbit/s")
+        report.add(measure="  paper's 240x180 video at 5 Hz", value=PAPER_VIDEO_KBIT, unit="kbit/s")
+        report.add(measure="  people streamed", value=bandwidth["people"], unit="")
+        p99 = crowd.get("p99_ms", math.nan)
+        report.add(
+            measure=f"update delay p50 ({viewers} viewers)", value=crowd.get("p50_ms", math.nan), unit="ms"
+        )
+        report.add(
+            measure=f"update delay p99 ({viewers} viewers)",
+            value=p99,
+            unit="ms",
+            target=f"<= {TARGET_P99_MS:.0f}",
+            met=p99 <= TARGET_P99_MS,
+        )
+        report.add(
+            measure=f"server CPU ({viewers} viewers)",
+            value=100 * crowd.get("server_cpu", math.nan),
+            unit="% of a core",
+        )
+        report.add(
+            measure="server CPU (1 viewer)",
+            value=100 * baseline.get("server_cpu", math.nan),
+            unit="% of a core",
+        )
+        report.add(measure="update delay p99 (1 viewer)", value=baseline.get("p99_ms", math.nan), unit="ms")
+        report.add(measure="command acknowledged p50", value=latency["ack_p50_ms"], unit="ms")
+        report.add(measure="command to motion seen p50", value=latency["motion_p50_ms"], unit="ms")
+        report.add(measure="command to motion seen max", value=latency["motion_max_ms"], unit="ms")
+        report.meta.update(bandwidth=bandwidth, viewers_run=crowd, baseline_run=baseline, latency=latency)
+        report.notes.append(
+            "server = `tourbot serve` child process with the simulated robot (its CPU includes the simulator "
+            "and MCL); viewers run in the bench process on the same 2 cores; delays have +-5 ms from the "
+            "stream's 10 ms time quantum"
+        )
+        if kbit > TARGET_KBIT:
+            report.notes.append(f"MISSED: bandwidth {kbit:.2f} kbit/s > {TARGET_KBIT} kbit/s")
+        if not p99 <= TARGET_P99_MS:
+            report.notes.append(
+                f"MISSED: p99 delay {p99:.0f} ms > {TARGET_P99_MS:.0f} ms with {viewers} viewers"
+            )
+        report.finish(output)

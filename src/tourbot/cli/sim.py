@@ -1,0 +1,65 @@
+"""``tourbot simulate``: run the simulator and write its sensor stream as a CARMEN log, with ground truth."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+__all__ = ["register"]
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("simulate")
+    def simulate(
+        site: str = typer.Option("fhw", help="Shipped site name or site file."),
+        tour: str = typer.Option("highlights", help="Tour the robot guides while the log is recorded."),
+        crowd: str = typer.Option("sparse", help="Crowd: empty, sparse, peak, or a number of visitors."),
+        seed: int = typer.Option(0, help="Seed."),
+        duration: float = typer.Option(120.0, help="Simulated seconds."),
+        write_log: str = typer.Option(
+            "out/sim/sim.log.gz", "--write-log", help="CARMEN log to write (true pose as reference)."
+        ),
+    ) -> None:
+        """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it."""
+        import json
+
+        import numpy as np
+        from rich.console import Console
+        from rich.progress import Progress
+
+        from tourbot.cli._tour_view import start_pose_for
+        from tourbot.io.carmen import write_carmen
+        from tourbot.io.tum import write_tum
+        from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+        from tourbot.sim.simulator import SimConfig
+        from tourbot.site.default import site_path
+        from tourbot.site.model import load_site
+
+        console = Console()
+        the_site = load_site(site_path(site))
+        settings = SimulationSettings(crowd=crowd, seed=seed, sim=SimConfig(record=True))
+        robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
+        rt = robot.runtime
+        rt.start_tour(tour)
+        with Progress(console=console) as progress:
+            task = progress.add_task("simulating", total=duration)
+            while rt.snapshot().time < duration:
+                snap = rt.step()
+                if snap is None:
+                    break
+                progress.update(task, completed=min(snap.time, duration))
+        sim = robot.simulator
+        log_path = Path(write_log)
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        write_carmen(sim.to_robot_log(), log_path)
+        stem = str(write_log).removesuffix(".gz").removesuffix(".log")
+        write_tum(stem + ".truth.tum", sim.truth_times, sim.truth_poses)
+        people = {
+            "times": sim.truth_times,
+            "positions": [np.round(p, 4).tolist() for p in sim.people_history],
+        }
+        Path(stem + ".people.json").write_text(json.dumps(people))
+        console.print(
+            f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
+        )

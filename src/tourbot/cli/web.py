@@ -1,0 +1,161 @@
+"""``tourbot serve`` (the tele-presence server) and ``tourbot site ...`` (authoring the content)."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+
+if TYPE_CHECKING:
+    from tourbot.web.db import Database
+
+__all__ = ["register"]
+
+DatabaseOpt = Annotated[
+    str | None, typer.Option("--database", help="SQLAlchemy URL; default $DATABASE_URL or ./tourbot-SITE.db")
+]
+SiteOpt = Annotated[str, typer.Option("--site", help="a shipped site name (fhw) or a site file or folder")]
+
+
+def _db(database: str | None, site: str) -> Database:
+    from pathlib import Path
+
+    from tourbot.web.db import default_url, open_database
+
+    name = Path(site).stem if site.endswith((".yaml", ".yml")) else Path(site).name
+    return open_database(database or default_url(name), site=name)
+
+
+def register(app: typer.Typer) -> None:
+    site_app = typer.Typer(
+        help="Author a site's exhibits and tours (the web database).", no_args_is_help=True
+    )
+    app.add_typer(site_app, name="site")
+
+    @app.command()
+    def serve(
+        site: SiteOpt = "fhw",
+        host: Annotated[str, typer.Option(help="address to listen on")] = "127.0.0.1",
+        port: Annotated[int, typer.Option(help="TCP port")] = 8000,
+        database: DatabaseOpt = None,
+        robots: Annotated[int, typer.Option(min=1, max=8, help="simulated robots, each with its queue")] = 1,
+        crowd: Annotated[str, typer.Option(help="visitors: empty, sparse, peak or a number")] = "sparse",
+        seed: Annotated[int, typer.Option(help="simulation seed")] = 0,
+        slot_minutes: Annotated[float, typer.Option(help="length of a control slot")] = 10.0,
+        staff_password: Annotated[
+            str | None, typer.Option(envvar="TOURBOT_STAFF_PASSWORD", help="password of user 'staff'")
+        ] = None,
+    ) -> None:
+        """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
+        from tourbot.web.serve import ServeSettings, build_site_app, run
+
+        settings = ServeSettings(
+            site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
+            slot_minutes=slot_minutes, staff_password=staff_password,
+        )  # fmt: skip
+        web, _ = build_site_app(settings)
+        run(web, host, port)
+
+    @site_app.command("import")
+    def import_(
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+        replace: Annotated[bool, typer.Option(help="overwrite exhibits and tours edited since")] = False,
+    ) -> None:
+        """Copy a site file's exhibits (at their viewing poses) and tours into the database."""
+        from tourbot.site.default import site_path
+        from tourbot.site.model import load_site
+        from tourbot.web.sitedata import import_site
+
+        db = _db(database, site)
+        exhibits, tours = import_site(load_site(site_path(site)), db, replace=replace)
+        typer.echo(f"{exhibits} exhibits and {tours} tours written to {db.url}")
+
+    @site_app.command("list")
+    def list_(site: SiteOpt = "fhw", database: DatabaseOpt = None) -> None:
+        """The exhibits and tours in the database, with visit counts."""
+        from rich.console import Console
+        from rich.table import Table
+
+        db = _db(database, site)
+        visits = db.visit_counts()
+        table = Table(title="exhibits")
+        for col in ("slug", "name", "x", "y", "theta", "visits"):
+            table.add_column(col)
+        for e in db.exhibits():
+            table.add_row(
+                e.slug, e.name, f"{e.x:.2f}", f"{e.y:.2f}", f"{e.theta:.2f}", str(visits.get(e.slug, 0))
+            )
+        console = Console()
+        console.print(table)
+        for t in db.tours():
+            console.print(f"tour [bold]{t.slug}[/] ({t.name}): {' -> '.join(t.exhibits)}")
+
+    @site_app.command("exhibit")
+    def exhibit(
+        slug: Annotated[str, typer.Argument(help="short name, e.g. minoan-fresco")],
+        x: Annotated[float, typer.Option(help="where the robot stands to present it (m)")],
+        y: Annotated[float, typer.Option(help="(m)")],
+        theta: Annotated[float, typer.Option(help="heading at the viewing pose (rad)")] = 0.0,
+        name: Annotated[str | None, typer.Option(help="display name")] = None,
+        text: Annotated[str, typer.Option(help="the exhibit's text")] = "",
+        summary: Annotated[str, typer.Option(help="what the robot says on arrival")] = "",
+        picture: Annotated[list[str] | None, typer.Option(help="picture URL (repeatable)")] = None,
+        link: Annotated[list[str] | None, typer.Option(help="link URL (repeatable)")] = None,
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+    ) -> None:
+        """Add an exhibit, or replace one with the same slug."""
+        from tourbot.web.sitedata import title
+
+        db = _db(database, site)
+        saved = db.save_exhibit(
+            slug, name or title(slug), x=x, y=y, theta=theta, text=text, summary=summary,
+            pictures=[(u, "") for u in picture or []], links=[(u, "") for u in link or []],
+        )  # fmt: skip
+        typer.echo(f"exhibit {saved.slug} at ({saved.x:.2f}, {saved.y:.2f}, {saved.theta:.2f})")
+
+    @site_app.command("place")
+    def place(
+        slug: str,
+        x: float,
+        y: float,
+        theta: Annotated[float | None, typer.Option(help="new heading (rad)")] = None,
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+    ) -> None:
+        """Move an exhibit's viewing pose."""
+        saved = _db(database, site).place_exhibit(slug, x, y, theta)
+        typer.echo(f"exhibit {saved.slug} at ({saved.x:.2f}, {saved.y:.2f}, {saved.theta:.2f})")
+
+    @site_app.command("remove")
+    def remove(slug: str, site: SiteOpt = "fhw", database: DatabaseOpt = None) -> None:
+        """Remove an exhibit (and it from every tour)."""
+        _db(database, site).delete_exhibit(slug)
+        typer.echo(f"removed {slug}")
+
+    @site_app.command("tour")
+    def tour(
+        slug: str,
+        exhibits: Annotated[list[str], typer.Argument(help="exhibit slugs in visiting order")],
+        name: Annotated[str | None, typer.Option(help="display name")] = None,
+        description: str = "",
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+    ) -> None:
+        """Add or replace a tour."""
+        from tourbot.web.sitedata import title
+
+        saved = _db(database, site).save_tour(slug, name or title(slug), exhibits, description)
+        typer.echo(f"tour {saved.slug}: {' -> '.join(saved.exhibits)}")
+
+    @site_app.command("staff")
+    def staff(
+        username: str,
+        password: Annotated[str, typer.Option(prompt=True, hide_input=True, confirmation_prompt=True)],
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+    ) -> None:
+        """Create a staff login (or change its password)."""
+        _db(database, site).set_staff(username, password)
+        typer.echo(f"staff user {username} saved")

@@ -1,0 +1,150 @@
+"""The robot's runtime (:mod:`tourbot.runtime`) seen through the web's :class:`RobotLink`.
+
+The simulator runtime and a real robot's runtime both give a plain
+:class:`~tourbot.runtime.snapshot.StateSnapshot`; this adapter turns it into the web's
+:class:`RobotView` and passes goals, tours and stops on. It shows the *estimated* pose (what the
+robot acts on). People are the tracker's tracks when a tracking estimator runs; without one, a
+simulator's true people are shown (display only, never used for control) and the status says so.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from tourbot.errors import TourbotError
+from tourbot.runtime.loop import Runtime
+from tourbot.runtime.snapshot import NavMode, StateSnapshot
+from tourbot.web.link import NavStatus, PersonView, RobotView
+
+__all__ = ["RuntimeLink"]
+
+_STATE = {
+    NavMode.IDLE: "idle",
+    NavMode.NAVIGATING: "moving",
+    NavMode.BLOCKED: "blocked",
+    NavMode.DWELLING: "arrived",
+    NavMode.FINISHED: "arrived",
+    NavMode.FAILED: "failed",
+}
+
+
+@dataclass
+class RuntimeLink:
+    """A :class:`~tourbot.runtime.loop.Runtime` as a web :class:`~tourbot.web.link.RobotLink`.
+
+    ``period`` is the source's time step; the server calls :meth:`step` at that pace (real time).
+    Tours the robot's site file knows run on the robot's own tour executor. A tour authored only
+    in the web database is run here as a sequence of goals, ``dwell`` seconds at each exhibit.
+    """
+
+    runtime: Runtime
+    period: float = 0.1
+    site_tours: frozenset[str] = frozenset()
+    dwell: float = 10.0
+    _exhibit: str | None = None
+    _web_tour: str | None = None
+    _stops: list[tuple[str, float, float, float]] = field(default_factory=list)
+    _done: int = 0
+    _dwell_until: float | None = None
+    _finished_seen: bool = False
+
+    def step(self) -> None:
+        snapshot = self.runtime.step()
+        if snapshot is not None and self._web_tour is not None:
+            self._advance_web_tour(snapshot)
+
+    def view(self) -> RobotView:
+        return view_of(self.runtime.snapshot(), self._exhibit, self._web_status())
+
+    def send_goal(self, x: float, y: float, theta: float | None = None, exhibit: str | None = None) -> None:
+        self._web_tour, self._stops = None, []
+        self._exhibit = exhibit
+        self.runtime.send_goal(x, y, 0.0 if theta is None else theta)
+
+    def start_tour(self, name: str, exhibits: list[tuple[str, float, float, float]]) -> None:
+        if name in self.site_tours:
+            self._web_tour, self._stops, self._exhibit = None, [], None
+            self.runtime.start_tour(name)
+            return
+        if not exhibits:
+            raise TourbotError(f"tour {name!r} has no exhibits")
+        self._web_tour, self._stops, self._done = name, list(exhibits), 0
+        self._go_to_stop()
+
+    def stop(self) -> None:
+        self._web_tour, self._stops, self._exhibit = None, [], None
+        self.runtime.stop()
+
+    # --- tours authored on the web --------------------------------------------------------------
+    def _go_to_stop(self) -> None:
+        slug, x, y, theta = self._stops[self._done]
+        self._exhibit, self._dwell_until, self._finished_seen = slug, None, False
+        self.runtime.send_goal(x, y, theta)
+
+    def _advance_web_tour(self, snapshot: StateSnapshot) -> None:
+        mode = snapshot.navigation.mode
+        if mode == NavMode.FAILED:
+            self._web_tour, self._stops = None, []
+            return
+        if mode != NavMode.FINISHED or self._finished_seen:
+            return
+        now = time.monotonic()
+        if self._dwell_until is None:
+            self._dwell_until = now + self.dwell
+        if now >= self._dwell_until:
+            self._finished_seen = True
+            self._done += 1
+            if self._done < len(self._stops):
+                self._go_to_stop()
+            else:
+                self._web_tour = None
+
+    def _web_status(self) -> tuple[str, int, int] | None:
+        if self._web_tour is None:
+            return None
+        return (self._web_tour, self._done, len(self._stops))
+
+
+def view_of(
+    snapshot: StateSnapshot, exhibit: str | None = None, web_tour: tuple[str, int, int] | None = None
+) -> RobotView:
+    """The web's view of a runtime snapshot (estimated pose, tracks or else true people)."""
+    nav = snapshot.navigation
+    pose = snapshot.pose
+    message = nav.message
+    people = snapshot.people
+    if not people and snapshot.truth is not None:
+        people = snapshot.truth.people
+        message = (message + "; " if message else "") + "people shown from the simulator (no tracker)"
+    if pose is None:
+        x = y = theta = 0.0
+        cov = (0.0, 0.0, 0.0)
+        message = (message + "; " if message else "") + "localizing"
+    else:
+        x, y, theta = pose.x, pose.y, pose.theta
+        cov = (pose.covariance[0][0], pose.covariance[1][1], pose.covariance[2][2])
+    tour, progress = nav.tour, (len(nav.visited), nav.exhibits_total)
+    if web_tour is not None:
+        tour, progress = web_tour[0], (web_tour[1], web_tour[2])
+    status = NavStatus(
+        state=_STATE.get(nav.mode, str(nav.mode)),
+        exhibit=nav.current_exhibit or exhibit,
+        goal=None if nav.goal is None else (nav.goal[0], nav.goal[1]),
+        path=tuple(nav.path),
+        blocked_time=nav.blocked_time,
+        tour=tour,
+        tour_progress=progress,
+        message=message,
+    )
+    return RobotView(
+        t=snapshot.time,
+        x=x,
+        y=y,
+        theta=theta,
+        v=nav.speed,
+        omega=nav.turn_rate,
+        covariance=cov,
+        people=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in people if p.confirmed),
+        nav=status,
+    )

@@ -1,0 +1,95 @@
+from __future__ import annotations
+
+from typing import Any, cast
+
+from tourbot.runtime.loop import Runtime
+from tourbot.runtime.snapshot import (
+    GroundTruth,
+    NavigationStatus,
+    NavMode,
+    PersonState,
+    PoseEstimate,
+    StateSnapshot,
+)
+from tourbot.web.runtime_link import RuntimeLink, view_of
+
+
+def _snapshot(mode: NavMode = NavMode.NAVIGATING, **nav: Any) -> StateSnapshot:
+    return StateSnapshot(
+        time=12.0,
+        step=3,
+        source="sim",
+        pose=PoseEstimate(1.0, 2.0, 0.5, ((0.01, 0, 0), (0, 0.02, 0), (0, 0, 0.003))),
+        people=(PersonState(4, 3.0, 3.0, 0.5, 0.0), PersonState(5, 9.0, 9.0, confirmed=False)),
+        navigation=NavigationStatus(mode=mode, path=((1.0, 2.0), (3.0, 2.0)), speed=0.4, **nav),
+        truth=GroundTruth(pose=(1.1, 2.0, 0.5), people=(PersonState(77, 0.0, 0.0),)),
+    )
+
+
+def test_view_shows_the_estimate_and_the_confirmed_tracks() -> None:
+    view = view_of(_snapshot(blocked_time=4.0, current_exhibit="vase", goal=(3.0, 2.0, 0.0)))
+    assert (view.x, view.y, view.theta, view.v) == (1.0, 2.0, 0.5, 0.4)
+    assert view.covariance == (0.01, 0.02, 0.003)
+    assert [p.id for p in view.people] == [4]  # tentative tracks and the truth are not shown
+    assert view.nav.state == "moving"
+    assert view.nav.exhibit == "vase"
+    assert view.nav.blocked_time == 4.0
+    assert view.nav.path == ((1.0, 2.0), (3.0, 2.0))
+
+
+def test_without_a_tracker_the_simulators_people_are_shown_and_said_so() -> None:
+    snapshot = _snapshot()
+    bare = StateSnapshot(
+        time=snapshot.time, step=1, source="sim", pose=snapshot.pose, truth=snapshot.truth,
+        navigation=NavigationStatus(mode=NavMode.DWELLING, current_exhibit="vase"),
+    )  # fmt: skip
+    view = view_of(bare)
+    assert [p.id for p in view.people] == [77]
+    assert "no tracker" in view.nav.message
+    assert view.nav.state == "arrived"
+
+
+class _Runtime:
+    """Only what RuntimeLink calls (test stand-in)."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[Any, ...]] = []
+        self.mode = NavMode.NAVIGATING
+
+    def step(self) -> StateSnapshot:
+        return self.snapshot()
+
+    def snapshot(self) -> StateSnapshot:
+        return _snapshot(self.mode)
+
+    def send_goal(self, x: float, y: float, theta: float = 0.0) -> None:
+        self.calls.append(("goal", x, y, theta))
+        self.mode = NavMode.NAVIGATING
+
+    def start_tour(self, tour: str) -> None:
+        self.calls.append(("tour", tour))
+
+    def stop(self) -> None:
+        self.calls.append(("stop",))
+
+
+def test_site_tours_run_on_the_robot_and_web_tours_as_goals() -> None:
+    fake = _Runtime()
+    link = RuntimeLink(cast(Runtime, fake), site_tours=frozenset({"classic"}), dwell=0.0)
+    link.start_tour("classic", [("a", 1.0, 1.0, 0.0)])
+    assert fake.calls == [("tour", "classic")]
+    link.start_tour("web-only", [("a", 1.0, 1.0, 0.0), ("b", 2.0, 2.0, 1.0)])
+    assert fake.calls[-1] == ("goal", 1.0, 1.0, 0.0)
+    assert link.view().nav.tour == "web-only"
+    assert link.view().nav.exhibit == "a"
+    fake.mode = NavMode.FINISHED
+    link.step()  # dwell 0: on to the next stop
+    assert fake.calls[-1] == ("goal", 2.0, 2.0, 1.0)
+    assert link.view().nav.tour_progress == (1, 2)
+    fake.mode = NavMode.FINISHED
+    link.step()
+    assert link.view().nav.tour is None  # done
+    link.send_goal(5.0, 5.0, None, "vase")
+    assert fake.calls[-1] == ("goal", 5.0, 5.0, 0.0)
+    link.stop()
+    assert fake.calls[-1] == ("stop",)
