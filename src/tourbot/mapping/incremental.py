@@ -210,6 +210,8 @@ class IncrementalMapper:
 
     def integrate(self, scan: Scan, pose: FloatArray, *, keep: NDArray[np.bool_] | None = None) -> None:
         """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given."""
+        if math.isnan(self._x0):
+            self._centre_on(np.asarray(pose, dtype=np.float64))
         p = self.params
         g = scan.geometry
         ranges = np.asarray(scan.ranges, dtype=np.float64)
