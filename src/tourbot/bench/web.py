@@ -206,7 +206,7 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
     site = await _site(server.base)
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
-    viewer = _Viewer(port, robot, site["stream"], origin_port=server.port)
+    viewer = _Viewer(port, robot, site["stream"])  # as if the page came through the relay too
     driver = _Viewer(server.port, robot, site["stream"])
     await viewer.open(server.base)
     await driver.open(server.base)

@@ -30,7 +30,6 @@ odometry reading that follows it in time has been read.
 
 from __future__ import annotations
 
-import bisect
 import gzip
 import math
 import re
@@ -43,7 +42,7 @@ from typing import IO, cast
 
 import numpy as np
 
-from tourbot.geometry import relative
+from tourbot.geometry import relative, wrap_angle
 from tourbot.io._interp import interpolate_pose
 from tourbot.io.errors import LogFormatError
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
@@ -203,7 +202,10 @@ def _timestamp(tokens: list[str], index: int, kind: str) -> float:
 
 
 def _pose(tokens: list[str], start: int, names: Sequence[str]) -> Pose:
+    """A pose from three fields, its angle wrapped to (-pi, pi] (left untouched when already in it)."""
     x, y, th = (_number(tokens[start + k], names[k]) for k in range(3))
+    if not -math.pi < th <= math.pi:
+        th = float(wrap_angle(th))
     return (x, y, th)
 
 
@@ -620,8 +622,10 @@ class CarmenReader:
 
 def _interpolate(history: deque[Odometry], t: float) -> Pose:
     """Odometry pose at time ``t`` from the recent readings (their times strictly increase)."""
-    times = [o.timestamp for o in history]
-    i = bisect.bisect_left(times, t)
+    # scans come just before or after the latest readings: search back from the newest
+    i = len(history) - 1
+    while i > 0 and history[i - 1].timestamp >= t:
+        i -= 1
     if i == 0:
         return history[0].pose
     a, b = history[i - 1], history[i]
@@ -740,8 +744,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         )
     odom_policy = _policy([s.odom for s in log.scans], "odometry", path)
     ref_policy = _policy([s.reference for s in log.scans], "reference", path)
-    opener = gzip.open if path.name.endswith(".gz") else open
-    with opener(path, "wt", encoding="utf-8", newline="\n") as out:
+    with _open_for_writing(path) as out:
         out.write(f"# CARMEN log written by tourbot from {log.source}\n")
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
@@ -766,6 +769,12 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
             )
         for reading in odometry[k:]:
             _write_odom(out, reading)
+
+
+def _open_for_writing(path: Path) -> IO[str]:
+    if path.name.endswith(".gz"):
+        return cast(IO[str], gzip.open(path, "wt", encoding="utf-8", newline="\n", compresslevel=6))
+    return path.open("w", encoding="utf-8", newline="\n")
 
 
 def _write_odom(out: IO[str], o: Odometry) -> None:

@@ -15,9 +15,13 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    ``likelihood_exponent`` because neighbouring beams are not independent;
 4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3): short-
    and long-term averages of the per-beam measurement likelihood; when the short-term one falls
-   below the long-term one, a fraction ``1 - w_fast / w_slow`` of the samples is replaced at the
-   next resampling by poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000):
-   candidate poses over the free space are scored against the scan and drawn by score. Because the
+   below ``recovery_ratio`` times the long-term one, a fraction
+   ``1 - w_fast / (recovery_ratio * w_slow)`` of the samples is replaced at the next resampling by
+   poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000): candidate poses,
+   half around the last estimate (most failures are local: a push, wheel slip, a kidnap by a
+   metre) and half over the whole free space, are scored against the scan and drawn by score.
+   The dead band ``recovery_ratio`` keeps the scan-to-scan ups and downs of the likelihood in a
+   crowd from resetting a filter that is tracking well. Because the
    likelihood is measured on the *filtered* beams only, a crowd that hides the walls does not
    trigger resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer
    than expected are kept (Fox et al.: the novelty filter "forces the incorporation of very
@@ -35,6 +39,7 @@ are numba kernels; each has a plain-numpy reference beside it (see the tests).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -111,9 +116,13 @@ class MCLConfig:
         ``alpha_slow`` / ``alpha_fast``: the averaging rates of augmented MCL (Probabilistic
         Robotics Table 8.3, Nav2 AMCL ``recovery_alpha_slow`` 0.001 / ``recovery_alpha_fast`` 0.1);
         per update, and AMCL updates every 0.25 m whereas a scan of the museum logs comes every
-        ~0.8 m, so ours are faster. ``max_injection``: at most this fraction of the samples is
-        replaced per update. ``injection_candidates``: candidate poses (uniform over the free space)
-        scored against the scan with every ``injection_beam_step``-th beam.
+        ~0.8 m, so ours are faster. ``recovery_ratio``: injection starts when the short-term
+        average falls below this fraction of the long-term one (1 in Probabilistic Robotics; 0.5
+        here, measured on the museum logs where the per-scan likelihood varies by 2x while
+        tracking). ``max_injection``: at most this fraction of the samples is replaced per update.
+        ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
+        around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
+        over the free space, scored against the scan with every ``injection_beam_step``-th beam.
     """
 
     min_samples: int = 500
@@ -134,10 +143,14 @@ class MCLConfig:
     max_dist: float = 2.0
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     alpha_slow: float = 0.01
-    alpha_fast: float = 0.3
+    alpha_fast: float = 1.0
+    recovery_ratio: float = 0.5
+    recovery_min_used: float = 0.3
     max_injection: float = 0.5
     injection_candidates: int = 20000
-    injection_beam_step: int = 6
+    injection_local: float = 0.5
+    injection_local_std: float = 2.0
+    injection_beam_step: int = 4
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -167,6 +180,7 @@ class MonteCarloLocalization:
         free = grid.free()
         if not free.any():
             raise LocalizationError("the map has no free cell to localize in")
+        self._free = free
         self._free_cells = np.argwhere(free)
         self._field_params = LikelihoodFieldParams(
             sigma_hit=self.config.sigma_hit,
@@ -250,21 +264,24 @@ class MonteCarloLocalization:
         injected = 0
         if n_used:
             loglik = field_.log_likelihood(self.samples, ranges, geometry, beam_mask=used)
-            # Per-beam average likelihood of the scan under the belief (for augmented MCL).
+            # How well the best hypothesis explains the integrated beams (per-beam geometric mean).
             per_beam = loglik / n_used
-            w_avg = float(np.dot(self.weights, np.exp(per_beam - per_beam.max()))) * math.exp(per_beam.max())
+            w_best = math.exp(float(per_beam.max()))
             logw = np.log(np.maximum(self.weights, 1e-300)) + cfg.likelihood_exponent * loglik
             logw -= logw.max()
             w = np.exp(logw)
             self.weights = w / w.sum()
-            # 4. Recovery: augmented MCL's short- and long-term likelihood averages.
-            if self._w_slow == 0.0:
-                self._w_slow = self._w_fast = w_avg
+            # 4. Recovery: augmented MCL's short- and long-term averages of that fit.
+            if n_used < cfg.recovery_min_used * valid.sum():
+                pass  # too few beams to judge the fit (a crowd all around): no evidence either way
+            elif self._w_slow == 0.0:
+                self._w_slow = self._w_fast = w_best
             else:
-                self._w_slow += cfg.alpha_slow * (w_avg - self._w_slow)
-                self._w_fast += cfg.alpha_fast * (w_avg - self._w_fast)
-            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - self._w_fast / self._w_slow))
-            info["w_avg"] = w_avg
+                self._w_slow += cfg.alpha_slow * (w_best - self._w_slow)
+                self._w_fast += cfg.alpha_fast * (w_best - self._w_fast)
+            ratio = self._w_fast / (cfg.recovery_ratio * self._w_slow) if self._w_slow > 0 else 1.0
+            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - ratio))
+            info["w_best"] = w_best
             info["inject_fraction"] = inject_fraction
         else:
             inject_fraction = 0.0
@@ -277,7 +294,7 @@ class MonteCarloLocalization:
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if n_used and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0):
-            injected = self._resample(inject_fraction, ranges, geometry, field_, valid)
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose)
         info["injected"] = float(injected)
 
         est = LocalizationEstimate(
@@ -350,6 +367,7 @@ class MonteCarloLocalization:
         geometry: LaserGeometry,
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
+        estimate: FloatArray,
     ) -> int:
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
@@ -359,9 +377,7 @@ class MonteCarloLocalization:
         new = drawn[:n].copy()
         n_inject = round(inject_fraction * n)
         if n_inject:
-            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid)
-            # Injected samples are a new hypothesis: the averages start over from the present.
-            self._w_slow = self._w_fast
+            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         return n_inject
@@ -373,21 +389,41 @@ class MonteCarloLocalization:
         geometry: LaserGeometry,
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
+        estimate: FloatArray,
     ) -> FloatArray:
-        """Sensor resetting: candidate poses over the free space, drawn by their scan likelihood."""
+        """Sensor resetting: candidate poses near the estimate and over the free space, drawn by
+        their likelihood under the current scan (every returned beam: the filters judge beams by
+        the belief, and the belief is what is in doubt)."""
         cfg = self.config
-        cand = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+        m = cfg.injection_candidates
+        n_local = round(cfg.injection_local * m)
+        local = np.column_stack(
+            [
+                estimate[0] + cfg.injection_local_std * self.rng.standard_normal(n_local),
+                estimate[1] + cfg.injection_local_std * self.rng.standard_normal(n_local),
+                self.rng.uniform(-math.pi, math.pi, n_local),
+            ]
+        )
+        cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
         mask = np.zeros_like(valid)
         mask[:: max(1, cfg.injection_beam_step)] = True
         mask &= valid
         if not mask.any():
-            return cand[:n]
+            return cand[n_local:][:n]
         ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)
-        # Tempered as the main update, scaled up for the subsampled beams.
+        # Tempered as the main update, scaled up for the subsampled beams; not in free space: never.
         logw = cfg.likelihood_exponent * ll * (valid.sum() / mask.sum())
+        logw[~self._in_free_space(cand)] = -np.inf
         w = np.exp(logw - logw.max())
         idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
         return cand[idx]
+
+    def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
+        rc = self.grid.world_to_cell(poses[:, :2])
+        inside = self.grid.inside(rc)
+        out = np.zeros(poses.shape[0], dtype=bool)
+        out[inside] = self._free[rc[inside, 0], rc[inside, 1]]
+        return out
 
 
 # ---------------------------------------------------------------------- helpers
@@ -501,6 +537,11 @@ def kld_bounds(k_max: int, epsilon: float, quantile: float) -> IntArray:
     return np.where(k <= 1, 1, n).astype(np.int64)
 
 
+@functools.lru_cache(maxsize=8)
+def _kld_bounds_cached(k_max: int, epsilon: float, quantile: float) -> IntArray:
+    return kld_bounds(k_max, epsilon, quantile)
+
+
 @numba.njit(cache=True)
 def _kld_count_kernel(keys: IntArray, bounds: IntArray, n_min: int, n_max: int) -> int:
     seen = set()
@@ -535,7 +576,7 @@ def kld_sample_count(
     if n == 0:
         return 0
     keys, _, _ = _bin_keys(drawn, kld_bin[0], kld_bin[2])
-    bounds = kld_bounds(n + 1, epsilon, quantile)
+    bounds = _kld_bounds_cached(n + 1, epsilon, quantile)
     return int(min(_kld_count_kernel(keys, bounds, n_min, min(n, n_max)), n))
 
 

@@ -134,8 +134,7 @@ class RobotHub:
     # --- state ------------------------------------------------------------------------------
     async def refresh(self) -> None:
         """Sample the robot, update the slots, announce arrivals, wake the connections."""
-        with self.lock:
-            view = self.link.view()
+        view = self.link.view()  # thread-safe by contract: never wait on the robot's step here
         now = time.time()
         self.view = view
         self.scene = scene_of(view, now)
@@ -240,6 +239,12 @@ class RobotHub:
         self.db.booking_ended(booking, now, reason)
 
     # --- commands (already authorised by the caller) ------------------------------------------
-    def command(self, action: Callable[[RobotLink], None]) -> None:
-        with self.lock:
-            action(self.link)
+    async def command(self, action: Callable[[RobotLink], None]) -> None:
+        """Run ``action`` on the link between two robot steps (in a worker thread: the event loop
+        never waits for a step)."""
+
+        def locked() -> None:
+            with self.lock:
+                action(self.link)
+
+        await asyncio.to_thread(locked)
