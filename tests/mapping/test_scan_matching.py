@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -33,13 +34,11 @@ def test_score_kernel_matches_numpy_reference(seed: int, x: float, y: float, th:
 def test_hill_climb_recovers_an_offset() -> None:
     # an L-shaped wall, blurred: the scan of it seen from a known pose
     res = 0.05
-    field = np.zeros((200, 200), np.float32)
-    field[50, 50:150] = 1.0
-    field[50:150, 50] = 1.0
-    import cv2
-
-    field = cv2.GaussianBlur(field, (0, 0), 2.0)
-    field /= field.max()
+    walls = np.zeros((200, 200), np.float32)
+    walls[50, 50:150] = 1.0
+    walls[50:150, 50] = 1.0
+    blurred = np.asarray(cv2.GaussianBlur(walls, (0, 0), 2.0), dtype=np.float32)
+    field = blurred / blurred.max()
     wall = np.r_[
         np.c_[np.linspace(2.6, 7.4, 60), np.full(60, 2.525)],
         np.c_[np.full(60, 2.525), np.linspace(2.6, 7.4, 60)],
