@@ -370,3 +370,31 @@ def test_angles_are_wrapped(tmp_path: Path) -> None:
     scan = log.scans[0]
     assert scan.reference is not None
     assert scan.reference[2] == pytest.approx(2 * math.pi - 3.5)
+
+
+def test_a_scan_from_the_far_future_does_not_hold_the_stream(tmp_path: Path) -> None:
+    lines = [_odom((0.0, 0.0, 0.0), 1.0), _flaser([1.0], (0, 0, 0), 1e9)]
+    lines += [_odom((float(i), 0.0, 0.0), 1.0 + i) for i in range(1, 50)]
+    lines += [_flaser([1.0], (0, 0, 0), 30.5), _odom((99.0, 0.0, 0.0), 60.0)]
+    log = read_carmen(_write(tmp_path, lines))
+    assert len(log.warnings) == 1
+    assert "go backwards" in log.warnings[0]
+    # record order: each scan takes the latest reading before it in the file
+    assert [s.odom for s in log.scans] == [(0.0, 0.0, 0.0), (49.0, 0.0, 0.0)]
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.51, 0.77, 0.9])
+def test_truncation_anywhere_is_reported_as_truncation(tmp_path: Path, fraction: float) -> None:
+    rng = np.random.default_rng(1)
+    lines = []
+    for i in range(300):
+        lines.append(_odom((0.01 * i, 0.0, 0.0), 1.0 + i))
+        lines.append(_flaser(rng.uniform(0.5, 9.0, 90).round(3).tolist(), (0.01 * i, 0.0, 0.0), 1.5 + i))
+    whole = _write(tmp_path, lines, "whole.log.gz").read_bytes()
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(whole[: int(len(whole) * fraction)])
+    with pytest.raises(LogFormatError, match="truncated"):
+        read_carmen(cut)
+    kept = read_carmen(cut, lenient=True)
+    assert 0 < len(kept) < 300
+    assert not any("malformed" in w for w in kept.warnings)

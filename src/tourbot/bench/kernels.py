@@ -62,6 +62,7 @@ def _run(
     seed: int,
     output: Path | None,
 ) -> None:
+    import os
     import time
 
     import numba
@@ -185,13 +186,15 @@ def _run(
             "likelihood_field_evals_per_run": evals,
             "numba_threads": 1,
             "timing": "time.thread_time, best of repeat",
+            "load_average_1min": os.getloadavg()[0],
         }
     )
     best_fast = max(v["distance_rays_per_s"] for key, v in report.meta.items() if key.startswith("cast_"))
     worst_ratio = min(v["ratio"] for key, v in report.meta.items() if key.startswith("cast_"))
     report.notes.append(
         f"FHW map {rows} x {cols} at {resolution} m; {particles} poses (true poses + N(0, 0.2 m, 0.1 rad)) x "
-        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}."
+        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}; "
+        f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs (shared machine)."
     )
     report.notes.append(
         f"target >= {TARGET_RAYS / 1e6:.0f} M rays/s/core: {'met' if best_fast >= TARGET_RAYS else 'MISSED'} "

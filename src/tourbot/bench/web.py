@@ -102,7 +102,12 @@ class _Viewer:
     """A visitor's page without the page: the WebSocket, the decoder, timings."""
 
     def __init__(
-        self, port: int, robot: str, stream: dict[str, float], origin_port: int | None = None
+        self,
+        port: int,
+        robot: str,
+        stream: dict[str, float],
+        origin_port: int | None = None,
+        naive: bool = False,
     ) -> None:
         from tourbot.web.stream import StreamConfig, StreamDecoder
 
@@ -110,7 +115,8 @@ class _Viewer:
         self.origin = f"http://127.0.0.1:{origin_port or port}"
         self.robot = robot
         self.decoder = StreamDecoder(StreamConfig(**{k: v for k, v in stream.items() if k != "rate_hz"}))
-        self.delays: list[float] = []
+        self.delays: list[tuple[float, float]] = []  # (received at, delay)
+        self.naive = naive
         self.binary = self.text = 0
         self.naive_json = 0
         self.frames = 0
@@ -141,11 +147,11 @@ class _Viewer:
                 self.binary += len(message)
                 self.decoder.feed(message)
                 self.frames += 1
-                self.delays.append(now - self.decoder.t)
-                scene = self.decoder.scene()
-                self.naive_json += len(_naive(scene))
+                self.delays.append((now, now - self.decoder.t))
+                if self.naive:
+                    self.naive_json += len(_naive(self.decoder.scene()))
                 if self.on_frame is not None:
-                    self.on_frame(scene, now)
+                    self.on_frame(self.decoder.scene(), now)
             else:
                 self.text += len(message)
                 data = json.loads(message)
@@ -206,7 +212,7 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
     site = await _site(server.base)
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
-    viewer = _Viewer(port, robot, site["stream"])  # as if the page came through the relay too
+    viewer = _Viewer(port, robot, site["stream"], naive=True)  # as if the page came through the relay
     driver = _Viewer(server.port, robot, site["stream"])
     await viewer.open(server.base)
     await driver.open(server.base)
@@ -236,18 +242,25 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
 
 
 async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[str, Any]:
+    """``n`` viewers, each reading from the moment it connects; delays counted once all are in."""
     site = await _site(server.base)
     robot = site["robots"][0]
     viewers = [_Viewer(server.port, robot, site["stream"]) for _ in range(n)]
+    horizon = time.monotonic() + 3600.0
+    readers = []
     for chunk in range(0, n, 20):
-        await asyncio.gather(*(v.open(server.base) for v in viewers[chunk : chunk + 20]))
-    await asyncio.sleep(1.0)  # keyframes out of the way
-    for v in viewers:
-        v.delays.clear()
-    cpu0, wall0 = _cpu_seconds(pid), time.monotonic()
-    await asyncio.gather(*(v.run(wall0 + seconds) for v in viewers))
+        group = viewers[chunk : chunk + 20]
+        await asyncio.gather(*(v.open(server.base) for v in group))
+        readers += [asyncio.create_task(v.run(horizon)) for v in group]
+    await asyncio.sleep(2.0)  # keyframes and joining out of the way
+    start, cpu0, wall0 = time.time(), _cpu_seconds(pid), time.monotonic()
+    await asyncio.sleep(seconds)
     cpu = (_cpu_seconds(pid) - cpu0) / (time.monotonic() - wall0)
-    delays = sorted(d for v in viewers for d in v.delays)
+    end = time.time()
+    for task in readers:
+        task.cancel()
+    await asyncio.gather(*readers, return_exceptions=True)
+    delays = sorted(d for v in viewers for (at, d) in v.delays if start <= at <= end)
     for v in viewers:
         await v.close()
     if not delays:
