@@ -2,8 +2,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
+from tourbot.mapping.incremental import (
+    IncrementalMapper,
+    MapperParams,
+    MappingError,
+    _stamp_cells,
+    _stamp_cells_reference,
+)
 from tourbot.mapping.metrics import relative_pose_error
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import LaserGeometry, RobotLog, Scan
@@ -73,3 +81,54 @@ def test_real_intel_log_start(shared_data: object) -> None:
     odom = relative_pose_error(log.odom_poses[:150], ref)
     assert slam.trans_mean < odom.trans_mean
     assert slam.rot_mean < 0.5 * odom.rot_mean
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(0, 30), radius=st.integers(0, 5))
+def test_stamp_kernel_matches_numpy_reference(seed: int, n: int, radius: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((20, 25))
+    rows = rng.integers(0, 20, n)
+    cols = rng.integers(0, 25, n)
+    weights = rng.normal(size=n)
+    stamp = rng.random((2 * radius + 1, 2 * radius + 1))
+    fast, slow = field.copy(), field.copy()
+    _stamp_cells(fast, rows, cols, weights, stamp)
+    _stamp_cells_reference(slow, rows, cols, weights, stamp)
+    assert np.allclose(fast, slow)
+
+
+def test_fields_after_forgetting_equal_fields_built_afresh(hall_log: RobotLog) -> None:
+    """Stamping changes incrementally (adding and forgetting scans) gives the fields of the final map."""
+    start = hall_log.reference_poses[0]
+    mapper = IncrementalMapper(MapperParams(window=4), start=start)
+    for scan in hall_log.scans[:10]:
+        mapper.add_scan(scan)
+    fresh = IncrementalMapper(MapperParams(window=None), start=start)
+    fresh._centre_on(start)
+    assert (fresh._x0, fresh._y0) == (mapper._x0, mapper._y0)
+    rr, cc = np.nonzero((mapper._near_hits != 0) | (mapper._near_misses != 0))
+    fresh._change(rr, cc, mapper._near_hits[rr, cc], mapper._near_misses[rr, cc])
+    for a, b in zip(mapper._fields, fresh._fields, strict=True):
+        assert np.allclose(a, b, atol=1e-9)
+
+
+def test_a_wall_reads_one_and_unexplored_space_its_level() -> None:
+    params = MapperParams(window=None)
+    mapper = IncrementalMapper(params, start=np.zeros(3))
+    mapper._centre_on(np.zeros(3))
+    n = mapper._hits.shape[0]
+    rows = np.arange(n // 4, 3 * n // 4)
+    cols = np.full(len(rows), n // 2)
+    ones = np.ones(len(rows), np.int32)
+    # free space on the left of the wall, the wall, unexplored on the right
+    free_r, free_c = np.meshgrid(np.arange(n // 4, 3 * n // 4), np.arange(n // 4, n // 2), indexing="ij")
+    mapper._change(
+        free_r.ravel(), free_c.ravel(), np.zeros(free_r.size, np.int32), np.ones(free_r.size, np.int32)
+    )
+    mapper._change(rows, cols, 5 * ones, 0 * ones)
+    for field, factor in zip(mapper._fields, mapper._factors, strict=True):
+        mid = n // 2 // factor
+        assert field[mid, mid] == pytest.approx(1.0, abs=0.15)  # on the wall
+        assert field[mid, (n // 4 + 8) // factor + 6] == pytest.approx(0.0, abs=0.05)  # free space
+        assert field[mid, -3] == pytest.approx(params.unknown_level, abs=1e-6)  # never seen

@@ -4,8 +4,8 @@ At each scan the robot predicts its pose from odometry, aligns the scan to the m
 (:mod:`tourbot.mapping.scan_matching`) and extends the map with the scan at the aligned pose. The
 map keeps hit and miss counts per cell (beams traced with :func:`tourbot.maps.reference.
 trace_beams`), from which the log-odds occupancy follows; for alignment, the occupied cells are
-blurred with Gaussians of a few widths (coarse to fine), recomputed only where a scan changed the
-map.
+blurred with Gaussians of a few widths (coarse to fine), kept up to date by stamping a Gaussian at
+each cell whose state a scan changed.
 
 People filtering (Sec. 5) enters through two per-beam inputs of :meth:`IncrementalMapper.add_scan`:
 ``match_weights`` (Eq. 12: ``1 - P(hit a person)``) scale each beam during alignment, and
@@ -20,7 +20,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
-import cv2
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -82,13 +82,16 @@ class IncrementalMapper:
         self._pose: FloatArray | None = None
         self._odom: FloatArray | None = None
         res = self.params.resolution
-        n = math.ceil(self.params.initial_size / res)
+        n = _PAD_UNIT * math.ceil(self.params.initial_size / res / _PAD_UNIT)
         self._hits = np.zeros((n, n), np.int32)  # every scan: the map that is returned
         self._misses = np.zeros((n, n), np.int32)
         self._near_hits = np.zeros((n, n), np.int32)  # the last ``window`` scans: aligned against
         self._near_misses = np.zeros((n, n), np.int32)
         self._recent: collections.deque[_Footprint] = collections.deque()
-        self._fields = [np.full((n, n), self.params.unknown_level, np.float32) for _ in self.params.smoothing]
+        # each smoothed field lives on cells ``factor`` times coarser, so that a wide Gaussian stays
+        # a small stamp (a coarse-to-fine pyramid)
+        self._factors = [_factor(sig, self.params.resolution) for sig in self.params.smoothing]
+        self._fields = [np.full((n // f, n // f), self.params.unknown_level) for f in self._factors]
         self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
         self.poses: list[tuple[float, float, float]] = []
 
@@ -201,9 +204,10 @@ class IncrementalMapper:
         prior = predicted - origin
         best = prior.copy()
         val = 0.0
-        for level, fieldk in enumerate(self._fields):
+        for level, (fieldk, factor) in enumerate(zip(self._fields, self._factors, strict=True)):
             scale = 1.0 / (2**level)
-            best, val = hill_climb(fieldk, p.resolution, best, pts[sel], w[sel], prior, sigma, m, scale)
+            res = p.resolution * factor
+            best, val = hill_climb(fieldk, res, best, pts[sel], w[sel], prior, sigma, m, scale)
         best = best + origin
         best[2] = float(wrap_angle(best[2]))
         return best, val
@@ -249,9 +253,8 @@ class IncrementalMapper:
         )
         self._hits[r0:r1, c0:c1] += hits
         self._misses[r0:r1, c0:c1] += misses
-        self._near_hits[r0:r1, c0:c1] += hits
-        self._near_misses[r0:r1, c0:c1] += misses
-        self._refresh(r0, c0, r1, c1)
+        lr, lc = np.nonzero((hits != 0) | (misses != 0))
+        self._change(r0 + lr, c0 + lc, hits[lr, lc], misses[lr, lc])
         if p.window is not None:
             self._recent.append(_Footprint.of(bx, by, hits, misses))
             if len(self._recent) > p.window:
@@ -262,37 +265,44 @@ class IncrementalMapper:
         res = self.params.resolution
         r0 = round((old.y0 - self._y0) / res)
         c0 = round((old.x0 - self._x0) / res)
-        rr, cc = r0 + old.rows, c0 + old.cols
-        np.subtract.at(self._near_hits, (rr, cc), old.hits)
-        np.subtract.at(self._near_misses, (rr, cc), old.misses)
-        self._refresh(r0, c0, r0 + old.shape[0], c0 + old.shape[1])
+        self._change(r0 + old.rows, c0 + old.cols, -old.hits, -old.misses)
 
-    def _refresh(self, r0: int, c0: int, r1: int, c1: int) -> None:
-        """Recompute the blurred fields where the counts in rows r0:r1, cols c0:c1 changed.
+    def _category(self, rr: NDArray[np.int64], cc: NDArray[np.int64]) -> NDArray[np.int8]:
+        """0 free, 1 occupied, 2 unexplored: what the aligned-against map says of these cells."""
+        c = self.params.cells
+        h = self._near_hits[rr, cc]
+        m = self._near_misses[rr, cc]
+        occupied = (h > 0) & (h * c.l_occ + m * c.l_free > 0)
+        return np.where((h == 0) & (m == 0), 2, occupied.astype(np.int8)).astype(np.int8)
 
-        The blur of a change reaches ``pad`` cells beyond it, and computing those cells needs
-        ``pad`` more: blur the doubly padded window, write back the singly padded one.
+    def _change(
+        self,
+        rr: NDArray[np.int64],
+        cc: NDArray[np.int64],
+        d_hits: NDArray[np.int32],
+        d_misses: NDArray[np.int32],
+    ) -> None:
+        """Add count changes to the aligned-against map and update the smoothed fields.
+
+        Each field is the sum over cells of the cell's value (1 occupied, ``unknown_level`` scaled
+        unexplored, 0 free) times a Gaussian stamp normalised so that a wall reads 1; only the cells
+        whose category changed are stamped again (their new value minus their old one).
         """
-        p = self.params
-        rows, cols = self._hits.shape
-        for sigma, fieldk in zip(p.smoothing, self._fields, strict=True):
-            s = sigma / p.resolution
-            pad = math.ceil(3.0 * s) + 1
-            ea, eb = max(r0 - pad, 0), min(r1 + pad, rows)  # cells whose value changes
-            fa, fb = max(c0 - pad, 0), min(c1 + pad, cols)
-            ra, rb = max(ea - pad, 0), min(eb + pad, rows)  # cells they depend on
-            ca, cb = max(fa - pad, 0), min(fb + pad, cols)
-            hits = self._near_hits[ra:rb, ca:cb]
-            misses = self._near_misses[ra:rb, ca:cb]
-            logodds = hits * p.cells.l_occ + misses * p.cells.l_free
-            peak = _wall_peak(s)
-            occ = ((hits > 0) & (logodds > 0)).astype(np.float32)
-            # unexplored space reads ``unknown_level`` (after normalisation): a beam ending there is
-            # neither confirmed nor contradicted, so alignment is not pulled towards mapped walls
-            occ[(hits == 0) & (misses == 0)] = p.unknown_level * peak
-            blurred = cv2.GaussianBlur(occ, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
-            blurred = np.minimum(blurred / peak, 1.0)
-            fieldk[ea:eb, fa:fb] = blurred[ea - ra : eb - ra, fa - ca : fb - ca]
+        before = self._category(rr, cc)
+        self._near_hits[rr, cc] += d_hits
+        self._near_misses[rr, cc] += d_misses
+        after = self._category(rr, cc)
+        changed = before != after
+        if not changed.any():
+            return
+        rows, cols, b, a = rr[changed], cc[changed], before[changed], after[changed]
+        levels = zip(self.params.smoothing, self._factors, self._fields, strict=True)
+        for sigma, factor, fieldk in levels:
+            stamp, unknown = _stamp_of(
+                sigma / (self.params.resolution * factor), factor, self.params.unknown_level
+            )
+            value = np.array([0.0, 1.0, unknown]) / (factor * factor)
+            _stamp_cells(fieldk, rows // factor, cols // factor, value[a] - value[b], stamp)
 
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
         """Grow the grid so that the world box fits, with a margin."""
@@ -305,27 +315,80 @@ class IncrementalMapper:
         top = max(0, math.ceil((ymax - (self._y0 + rows * res)) / res))
         if not (left or bottom or right or top):
             return
-        pad = (
-            (bottom + grow if bottom else 0, top + grow if top else 0),
-            (left + grow if left else 0, right + grow if right else 0),
-        )
+
+        def up(n: int) -> int:  # whole coarse cells, so that the pyramid stays aligned
+            return _PAD_UNIT * math.ceil((n + grow) / _PAD_UNIT) if n else 0
+
+        pad = ((up(bottom), up(top)), (up(left), up(right)))
         self._hits = np.pad(self._hits, pad)
         self._misses = np.pad(self._misses, pad)
         self._near_hits = np.pad(self._near_hits, pad)
         self._near_misses = np.pad(self._near_misses, pad)
-        self._fields = [np.pad(f, pad, constant_values=self.params.unknown_level) for f in self._fields]
+        self._fields = [
+            np.pad(fk, [(a // f, b // f) for a, b in pad], constant_values=self.params.unknown_level)
+            for fk, f in zip(self._fields, self._factors, strict=True)
+        ]
         self._x0 -= pad[1][0] * res
         self._y0 -= pad[0][0] * res
 
 
+_PAD_UNIT = 12  # the grid grows by whole cells of every pyramid level (factors 1, 2, 3, 4)
+
+
+def _factor(sigma: float, resolution: float) -> int:
+    """How much coarser than the map the field smoothed with ``sigma`` can be (1 to 4)."""
+    return int(min(4, max(1, math.floor(sigma / (1.5 * resolution)))))
+
+
 @functools.cache
-def _wall_peak(s: float) -> float:
-    """The blurred value at the middle of a straight wall one cell thick (normalises walls to ~1)."""
-    n = int(4 * s) + 3
-    img = np.zeros((2 * n + 1, 2 * n + 1), np.float32)
-    img[:, n] = 1.0
-    out = cv2.GaussianBlur(img, (0, 0), sigmaX=s, sigmaY=s, borderType=cv2.BORDER_CONSTANT)
-    return float(out[n, n])
+def _stamp_of(s: float, factor: int, unknown_level: float) -> tuple[NDArray[np.float64], float]:
+    """The Gaussian stamp of width ``s`` field cells, for map cells ``factor`` times finer.
+
+    A map cell adds ``value / factor**2`` times the stamp at its field cell; the stamp is scaled
+    so that a straight wall one map cell thick reads 1 at its middle, and the returned value of an
+    unexplored map cell makes unexplored space read ``unknown_level``.
+    """
+    radius = math.ceil(3.0 * s)
+    k = np.arange(-radius, radius + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (k / s) ** 2)
+    kernel = np.outer(g, g)
+    kernel /= kernel.sum()
+    wall = float(kernel[:, radius].sum())
+    return factor * kernel / wall, unknown_level * wall / factor
+
+
+@numba.njit(cache=True)
+def _stamp_cells(
+    field: np.ndarray, rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, stamp: np.ndarray
+) -> None:
+    """Add ``weights[i] * stamp`` centred on each cell ``(rows[i], cols[i])`` of ``field``."""
+    radius = stamp.shape[0] // 2
+    height, width = field.shape
+    for i in range(rows.shape[0]):
+        w = weights[i]
+        for a in range(-radius, radius + 1):
+            r = rows[i] + a
+            if r < 0 or r >= height:
+                continue
+            for b in range(-radius, radius + 1):
+                c = cols[i] + b
+                if 0 <= c < width:
+                    field[r, c] += w * stamp[a + radius, b + radius]
+
+
+def _stamp_cells_reference(
+    field: NDArray[np.float64],
+    rows: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    weights: NDArray[np.float64],
+    stamp: NDArray[np.float64],
+) -> None:
+    """Plain-numpy twin of :func:`_stamp_cells`."""
+    radius = stamp.shape[0] // 2
+    padded = np.zeros((field.shape[0] + 2 * radius, field.shape[1] + 2 * radius))
+    for r, c, w in zip(rows, cols, weights, strict=True):
+        padded[r : r + 2 * radius + 1, c : c + 2 * radius + 1] += w * stamp
+    field += padded[radius : radius + field.shape[0], radius : radius + field.shape[1]]
 
 
 @dataclass(frozen=True)

@@ -62,7 +62,8 @@ class MatchParams:
 
 @numba.njit(cache=True)
 def _field_at(field: np.ndarray, gx: float, gy: float) -> float:
-    """Bilinear interpolation of ``field`` at continuous cell coordinates (cell centres at +0.5)."""
+    """Bilinear interpolation of ``field`` at continuous cell coordinates (cell centres at +0.5),
+    capped at 1 (where walls meet, their smoothed values add up)."""
     rows, cols = field.shape
     fx = gx - 0.5
     fy = gy - 0.5
@@ -76,7 +77,8 @@ def _field_at(field: np.ndarray, gx: float, gy: float) -> float:
     v01 = field[r0, c0 + 1]
     v10 = field[r0 + 1, c0]
     v11 = field[r0 + 1, c0 + 1]
-    return (v00 * (1.0 - ax) + v01 * ax) * (1.0 - ay) + (v10 * (1.0 - ax) + v11 * ax) * ay
+    v = (v00 * (1.0 - ax) + v01 * ax) * (1.0 - ay) + (v10 * (1.0 - ax) + v11 * ax) * ay
+    return min(v, 1.0)
 
 
 @numba.njit(cache=True)
@@ -155,6 +157,7 @@ def score_reference(
     v[ok] = (f[r, c_] * (1 - ax[ok]) + f[r, c_ + 1] * ax[ok]) * (1 - ay[ok]) + (
         f[r + 1, c_] * (1 - ax[ok]) + f[r + 1, c_ + 1] * ax[ok]
     ) * ay[ok]
+    v = np.minimum(v, 1.0)
     return float(np.sum(weights * np.log(eps + (1.0 - eps) * v)))
 
 
