@@ -346,3 +346,19 @@ def test_localizes_globally_on_the_real_fhw_log(fhw_start: tuple[RobotLog, GridM
     for i in range(10, 14):
         est = loc.update(np.asarray(log.scans[i].odom), log.scans[i])
     assert _errors(est.pose, ref[13])[0] < 0.3
+
+
+def test_reset_tracking_defaults_to_the_tracking_std(room: OccupancyGrid) -> None:
+    loc = _localizer(room)
+    loc.reset_tracking([2.0, 1.0, 0.5])
+    poses, w = loc.belief()
+    mean = w @ poses[:, :2]
+    spread = np.sqrt(w @ (poses[:, :2] - mean) ** 2)
+    np.testing.assert_allclose(mean, [2.0, 1.0], atol=0.05)
+    assert np.all((spread > 0.07) & (spread < 0.15)), spread
+
+
+def test_grid_errors_are_localization_errors() -> None:
+    from tourbot.localization.mcl import LocalizationError
+
+    assert issubclass(GridMarkovError, LocalizationError)
