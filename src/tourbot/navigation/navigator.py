@@ -181,9 +181,15 @@ class SiteNavigator:
         if moving and speed >= self.config.crawl_speed:
             self._unblocked()
             return speed, turn
-        # no way forward, or only creeping between people: count it as blocked (and creep on)
-        stop_speed, stop_turn = self._blocked(dt, pose, points, turn)
-        return (speed, turn) if moving and self.goal is not None else (stop_speed, stop_turn)
+        if moving:
+            # creeping between people: the way is as good as blocked (the face shows it), but the
+            # robot makes progress, so no replanning and no giving up
+            self.mode = NavMode.BLOCKED
+            self.blocked_time += dt
+            self.total_blocked_time += dt
+            self.message = f"slowed by people for {self.blocked_time:.0f} s"
+            return speed, turn
+        return self._blocked(dt, pose, points, turn)
 
     def _dwell(self, dt: float) -> tuple[float, float]:
         self.mode = NavMode.DWELLING
