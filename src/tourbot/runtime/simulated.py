@@ -25,9 +25,10 @@ def crowd_config(crowd: str | int) -> CrowdConfig | None:
     """A crowd preset by name (``empty``, ``sparse``, ``peak``) or a number of visitors."""
     if isinstance(crowd, int) or str(crowd).isdigit():
         n = int(crowd)
-        return None if n == 0 else replace(CrowdConfig.preset("sparse"), num_people=n)
+        return None if n == 0 else replace(CrowdConfig.preset("sparse"), num_people=n, density=None)
     cfg = CrowdConfig.preset(str(crowd))
-    return None if cfg.num_people == 0 else cfg
+    empty = (cfg.density is None and cfg.num_people == 0) or cfg.density == 0
+    return None if empty else cfg
 
 
 @dataclass(frozen=True)

@@ -99,7 +99,7 @@ class Simulator:
         # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
         self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
         self.crowd: Crowd | None = None
-        if cfg.crowd is not None and cfg.crowd.num_people > 0:
+        if cfg.crowd is not None:
             crowd_cfg = cfg.crowd
             if not crowd_cfg.points_of_interest and site.exhibits:
                 from dataclasses import replace
@@ -131,8 +131,8 @@ class Simulator:
         dt = self.dt
         before = self.robot.pose
         self._move_robot(dt)
-        self._time += dt
         self._steps += 1
+        self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
         if self.crowd is not None:
             self.crowd.step(dt, self.robot.pose, self._rng_crowd)
