@@ -17,8 +17,12 @@ from tourbot.sim.crowd import (
     distance_field_reference,
     line_of_sight,
     line_of_sight_reference,
+    move_people,
+    move_people_reference,
     social_forces,
     social_forces_reference,
+    steer,
+    steer_reference,
 )
 
 
@@ -158,4 +162,80 @@ def test_bad_config_and_preset_are_errors() -> None:
         CrowdConfig.preset("rush-hour")
     with pytest.raises(CrowdError, match="speed"):
         CrowdConfig(speed_min=2.0, speed_max=1.0)
-    assert CrowdConfig.preset("peak").num_people > CrowdConfig.preset("sparse").num_people
+    peak, sparse = CrowdConfig.preset("peak"), CrowdConfig.preset("sparse")
+    assert peak.density is not None
+    assert sparse.density is not None
+    assert peak.density > sparse.density
+    assert peak.robot_interest > sparse.robot_interest
+
+
+def test_density_sets_the_number_of_people() -> None:
+    grid = _room(20.0, 10.0)
+    crowd = Crowd(CrowdConfig(density=0.5), grid, np.random.default_rng(0), (10.0, 5.0, 0.0))
+    # About 0.5 per square metre of the ~19.4 x 9.4 m walkable floor (walls 0.2 m, clearance 0.125 m).
+    assert 85 <= crowd.num_people <= 97
+
+
+def _world(seed: int, n: int) -> dict[str, np.ndarray]:
+    """A random but valid state of ``n`` people in a 6 x 5 m room with a pillar."""
+    rng = np.random.default_rng(seed)
+    wall_dist = rng.uniform(0.0, 1.0, size=(50, 60))
+    wall_dir = rng.normal(size=(50, 60, 2))
+    wall_dir /= np.linalg.norm(wall_dir, axis=-1, keepdims=True)
+    walkable = rng.random((20, 24)) < 0.8
+    return {
+        "pos": rng.uniform(0.0, 5.0, size=(n, 2)),
+        "vel": rng.normal(0.0, 0.7, size=(n, 2)),
+        "desired": rng.normal(0.0, 1.0, size=(n, 2)),
+        "cap": rng.uniform(0.5, 1.5, size=n),
+        "group": np.minimum(np.arange(n), rng.integers(0, n, size=n)),
+        "at_robot": rng.random(n) < 0.5,
+        "phase": rng.uniform(0.0, 6.0, size=n),
+        "heading": rng.uniform(-3.0, 3.0, size=n),
+        "wall_dist": wall_dist,
+        "wall_dir": wall_dir,
+        "walkable": walkable,
+        "fields": np.where(rng.random((2, 20, 24)) < 0.9, rng.uniform(0.0, 30.0, size=(2, 20, 24)), np.inf),
+    }
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2))
+def test_move_people_matches_reference(seed: int, n: int, h: float) -> None:
+    w = _world(seed, n)
+    params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3])
+    args = (
+        w["pos"],
+        w["vel"],
+        w["desired"],
+        w["cap"],
+        w["group"],
+        w["at_robot"],
+        w["phase"],
+        w["heading"],
+        w["wall_dist"],
+        w["wall_dir"],
+        0.1,
+        w["walkable"],
+        0.25,
+        2.5,
+        2.0,
+        params,
+        h,
+    )
+    for got, want in zip(move_people(*args), move_people_reference(*args), strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-7, atol=1e-7)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 10_000), st.integers(1, 25))
+def test_steer_matches_reference(seed: int, n: int) -> None:
+    w = _world(seed, n)
+    rng = np.random.default_rng(seed + 1)
+    target = rng.uniform(0.0, 5.0, size=(n, 2))
+    moving = rng.random(n) < 0.8
+    in_view = rng.random(n) < 0.5
+    field_index = rng.integers(-1, 2, size=n)
+    speed = rng.uniform(0.5, 1.5, size=n)
+    args = (w["pos"], target, moving, in_view, field_index, w["fields"], 0.25, speed, 0.5)
+    np.testing.assert_allclose(steer(*args), steer_reference(*args), atol=1e-12)

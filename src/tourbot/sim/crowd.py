@@ -44,8 +44,12 @@ __all__ = [
     "distance_field_reference",
     "line_of_sight",
     "line_of_sight_reference",
+    "move_people",
+    "move_people_reference",
     "social_forces",
     "social_forces_reference",
+    "steer",
+    "steer_reference",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -67,23 +71,30 @@ class CrowdConfig:
     Speeds: preferred walking speeds uniform in ``[speed_min, speed_max]`` = 0.5-1.5 m/s (issue 3
     §2; Helbing & Molnár 1995 use a mean of 1.34 m/s, sd 0.26). Social force (Helbing & Molnár
     1995, Eq. 3-5, per unit mass): relaxation time ``tau`` = 0.5 s, person-person potential
-    ``social_strength`` V0 = 2.1 m²/s² over ``social_range`` σ = 0.3 m, wall potential
+    ``social_strength`` = 2.0 m²/s² over ``social_range`` = 0.08 m (Helbing, Farkas & Vicsek
+    2000), wall potential
     ``wall_strength`` U0 = 10 m²/s² over ``wall_range`` R = 0.2 m. Attraction to the robot
     (Fox et al. 1998, Fig. 1a: visitors surround the robot): in the long run a fraction
     ``robot_interest`` of the visitor groups stands around the robot, each for
     ``interest_duration`` seconds on average, at ``stand_distance`` metres inside an arc of
-    ``±stand_arc`` radians in front of it (where its screen and face are). Legs at sensor height:
+    ``±stand_arc`` radians in front of it (where its screen and face are); only visitors within
+    ``notice_distance`` metres who can see the robot become interested, and those left farther
+    than ``field_max_distance`` behind lose interest. Legs at sensor height:
     radius 5-8 cm, 20 cm apart, swinging ``leg_swing`` metres with a gait cycle of
     ``stride_length`` metres.
     """
 
     num_people: int = 40
+    # People per square metre of walkable space; when set, it overrides ``num_people``.
+    density: float | None = None
     speed_min: float = 0.5
     speed_max: float = 1.5
-    # Helbing & Molnár 1995, Eq. 2-5 (per unit mass).
+    # Helbing & Molnár 1995, Eq. 2-5 (per unit mass); the person-person term with the short range
+    # of Helbing, Farkas & Vicsek 2000 (A = 2000 N over B = 0.08 m for 80 kg: A·B/m = 2.0 m²/s²),
+    # which lets visitors pack as closely around the robot as real ones do.
     tau: float = 0.5
-    social_strength: float = 2.1
-    social_range: float = 0.3
+    social_strength: float = 2.0
+    social_range: float = 0.08
     wall_strength: float = 10.0
     wall_range: float = 0.2
     person_radius: float = 0.25
@@ -94,8 +105,9 @@ class CrowdConfig:
     # Interest in the robot (Fox et al. 1998, Fig. 1a).
     robot_interest: float = 0.3
     interest_duration: float = 120.0
-    stand_distance: tuple[float, float] = (0.7, 1.8)
-    stand_arc: float = math.radians(100.0)
+    notice_distance: float = 10.0
+    stand_distance: tuple[float, float] = (0.6, 1.6)
+    stand_arc: float = math.radians(90.0)
     # Where visitors go when not at the robot.
     points_of_interest: tuple[tuple[float, float], ...] = ()
     poi_probability: float = 0.5
@@ -112,13 +124,14 @@ class CrowdConfig:
     body_radius: float = 0.22
     # Numerics.
     max_substep: float = 0.1
-    field_resolution: float = 0.25
-    field_period: float = 1.0
-    field_max_distance: float = 40.0
+    field_resolution: float = 0.3
+    decision_period: float = 0.5
+    field_max_distance: float = 30.0
 
     def __post_init__(self) -> None:
         checks = [
             (self.num_people >= 0, "num_people must be >= 0"),
+            (self.density is None or self.density >= 0.0, "density must be >= 0"),
             (0.0 < self.speed_min <= self.speed_max, "need 0 < speed_min <= speed_max"),
             (0.0 <= self.robot_interest <= 1.0, "robot_interest must be in [0, 1]"),
             (0.0 <= self.poi_probability <= 1.0, "poi_probability must be in [0, 1]"),
@@ -144,12 +157,13 @@ class CrowdConfig:
 
 # The paper's two datasets (Fox et al. 1998, Sec. "Experimental results", Fig. 4): "sparse" is the
 # museum closed (a few % of the beams corrupted), "peak" the most crowded day at peak hours (on
-# average >= 40 % corrupted, stretches above 50 % lasting minutes). The numbers of people and the
-# interest were calibrated on the FHW log with `tourbot crowd` (see docs/benchmarks.md).
+# average >= 40 % corrupted, stretches above 50 % lasting minutes). Densities and interest were
+# calibrated with `tourbot crowd` on the FHW log over its reference map (docs/benchmarks.md,
+# "localization"): sparse gives ~2-3 % of the beams corrupted, peak ~45 %.
 PRESETS: dict[str, CrowdConfig] = {
     "empty": CrowdConfig(num_people=0, robot_interest=0.0),
-    "sparse": CrowdConfig(num_people=6, robot_interest=0.05, interest_duration=30.0),
-    "peak": CrowdConfig(num_people=120, robot_interest=0.35, interest_duration=240.0),
+    "sparse": CrowdConfig(density=0.015, robot_interest=0.1, interest_duration=30.0),
+    "peak": CrowdConfig(density=0.25, robot_interest=0.85, notice_distance=15.0, interest_duration=300.0),
 }
 
 
@@ -172,10 +186,12 @@ def social_forces(pos: FloatArray, radius: FloatArray, strength: float, scale: f
         for j in range(i + 1, n):
             dx = pos[i, 0] - pos[j, 0]
             dy = pos[i, 1] - pos[j, 1]
-            d = math.sqrt(dx * dx + dy * dy)
-            gap = d - radius[i] - radius[j]
-            if gap > cutoff:
+            reach = cutoff + radius[i] + radius[j]
+            d2 = dx * dx + dy * dy
+            if d2 > reach * reach:
                 continue
+            d = math.sqrt(d2)
+            gap = d - radius[i] - radius[j]
             if d < 1e-9:
                 # Coincident people: push apart along a fixed, index-dependent direction.
                 dx, dy, d = math.cos(i - j), math.sin(i - j), 1.0
@@ -358,40 +374,311 @@ def distance_field_reference(
 
 
 @numba.njit(cache=True)
-def _descend(field: FloatArray, res: float, pos: FloatArray, active: NDArray[np.bool_]) -> FloatArray:
-    """Unit directions from each active position towards its lowest 8-neighbour in ``field``.
-
-    Zero where the field is infinite around the person (unreachable) or where it is the minimum.
-    """
-    rows, cols = field.shape
-    out = np.zeros((pos.shape[0], 2))
-    for k in range(pos.shape[0]):
-        if not active[k]:
+def steer(
+    pos: FloatArray,
+    target: FloatArray,
+    moving: NDArray[np.bool_],
+    in_view: NDArray[np.bool_],
+    field_index: NDArray[np.int64],
+    fields: FloatArray,
+    coarse_res: float,
+    speed: FloatArray,
+    tau: float,
+) -> FloatArray:
+    """Desired velocities ``(N, 2)``: towards the target when it is in view, else down the
+    geodesic field ``fields[field_index[i]]`` (none when the index is negative); slowing down to
+    arrive within about ``tau`` (Helbing & Molnár 1995, Eq. 2: ``v0 e`` with ``e`` the direction
+    of the route)."""
+    n = pos.shape[0]
+    _, rows, cols = fields.shape
+    out = np.zeros((n, 2))
+    for i in range(n):
+        if not moving[i]:
             continue
-        c0 = math.floor(pos[k, 0] / res)
-        r0 = math.floor(pos[k, 1] / res)
-        best = np.inf
-        br = -1
-        bc = -1
-        for dr in range(-1, 2):
-            for dc in range(-1, 2):
-                r = r0 + dr
-                c = c0 + dc
-                if r < 0 or r >= rows or c < 0 or c >= cols:
-                    continue
-                if field[r, c] < best:
-                    best = field[r, c]
-                    br = r
-                    bc = c
-        if br < 0 or not math.isfinite(best):
-            continue
-        dx = (bc + 0.5) * res - pos[k, 0]
-        dy = (br + 0.5) * res - pos[k, 1]
-        d = math.sqrt(dx * dx + dy * dy)
-        if d > 1e-9:
-            out[k, 0] = dx / d
-            out[k, 1] = dy / d
+        dx = target[i, 0] - pos[i, 0]
+        dy = target[i, 1] - pos[i, 1]
+        dist = math.sqrt(dx * dx + dy * dy)
+        want = min(speed[i], dist / (2.0 * tau))
+        ex = 0.0
+        ey = 0.0
+        if in_view[i]:
+            if dist > 1e-9:
+                ex = dx / dist
+                ey = dy / dist
+        elif field_index[i] >= 0:
+            f = field_index[i]
+            c0 = math.floor(pos[i, 0] / coarse_res)
+            r0 = math.floor(pos[i, 1] / coarse_res)
+            best = np.inf
+            br = -1
+            bc = -1
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    r = r0 + dr
+                    c = c0 + dc
+                    if 0 <= r < rows and 0 <= c < cols and fields[f, r, c] < best:
+                        best = fields[f, r, c]
+                        br = r
+                        bc = c
+            if br >= 0 and math.isfinite(best):
+                gx = (bc + 0.5) * coarse_res - pos[i, 0]
+                gy = (br + 0.5) * coarse_res - pos[i, 1]
+                g = math.sqrt(gx * gx + gy * gy)
+                if g > 1e-9:
+                    ex = gx / g
+                    ey = gy / g
+        out[i, 0] = want * ex
+        out[i, 1] = want * ey
     return out
+
+
+def steer_reference(
+    pos: FloatArray,
+    target: FloatArray,
+    moving: NDArray[np.bool_],
+    in_view: NDArray[np.bool_],
+    field_index: NDArray[np.int64],
+    fields: FloatArray,
+    coarse_res: float,
+    speed: FloatArray,
+    tau: float,
+) -> FloatArray:
+    """Plain-numpy :func:`steer` for the property tests."""
+    to_target = target - pos
+    dist = np.hypot(to_target[:, 0], to_target[:, 1])
+    direction = np.where(dist[:, None] > 1e-9, to_target / np.maximum(dist, 1e-9)[:, None], 0.0)
+    _, rows, cols = fields.shape
+    cells = np.floor(pos / coarse_res).astype(np.int64)  # (N, 2) as (col, row)
+    for i in np.flatnonzero(~in_view & (field_index >= 0)):
+        r0, c0 = int(cells[i, 1]), int(cells[i, 0])
+        window = np.full((3, 3), np.inf)
+        for dr in range(3):
+            for dc in range(3):
+                r, c = r0 + dr - 1, c0 + dc - 1
+                if 0 <= r < rows and 0 <= c < cols:
+                    window[dr, dc] = fields[field_index[i], r, c]
+        k = int(np.argmin(window))
+        best = window.flat[k]
+        direction[i] = 0.0
+        if np.isfinite(best):
+            g = (np.array([c0 + k % 3 - 1, r0 + k // 3 - 1]) + 0.5) * coarse_res - pos[i]
+            norm = float(np.hypot(g[0], g[1]))
+            if norm > 1e-9:
+                direction[i] = g / norm
+    direction[~in_view & (field_index < 0)] = 0.0
+    want = np.where(moving, np.minimum(speed, dist / (2.0 * tau)), 0.0)
+    return np.asarray(direction * want[:, None])
+
+
+# Parameters of move_people, in this order (see CrowdConfig).
+_P_TAU, _P_RADIUS, _P_SOC_A, _P_SOC_B, _P_WALL_A, _P_WALL_B = 0, 1, 2, 3, 4, 5
+_P_ROBOT_R, _P_ROBOT_A, _P_ROBOT_B, _P_COHESION, _P_STRIDE = 6, 7, 8, 9, 10
+
+
+@numba.njit(cache=True)
+def move_people(
+    pos: FloatArray,
+    vel: FloatArray,
+    desired: FloatArray,
+    cap: FloatArray,
+    group: NDArray[np.int64],
+    at_robot: NDArray[np.bool_],
+    phase: FloatArray,
+    heading: FloatArray,
+    wall_dist: FloatArray,
+    wall_dir: FloatArray,
+    res: float,
+    walkable: NDArray[np.bool_],
+    coarse_res: float,
+    robot_x: float,
+    robot_y: float,
+    params: FloatArray,
+    h: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """One explicit-Euler step of the social-force model for everyone: new (pos, vel, phase, heading).
+
+    Acceleration (Helbing & Molnár 1995, Eq. 1-5, per unit mass): relaxation to the desired
+    velocity over ``tau``; exponential repulsion from other people, from the nearest wall (the
+    distance transform of the map) and from the robot; a pull towards the group's leader when
+    more than 1.5 m away. Speeds are capped at ``cap``. Then hard constraints: a person closer
+    than half a radius to a wall is pushed out, one who would leave the walkable space stays
+    where they were (and stops), nobody enters the robot. Legs advance their gait phase with the
+    distance walked; walkers face where they go, visitors standing at the robot face it.
+    """
+    n = pos.shape[0]
+    tau = params[_P_TAU]
+    radius = params[_P_RADIUS]
+    rows, cols = wall_dist.shape
+    crows, ccols = walkable.shape
+    acc = np.empty((n, 2))
+    for i in range(n):
+        acc[i, 0] = (desired[i, 0] - vel[i, 0]) / tau
+        acc[i, 1] = (desired[i, 1] - vel[i, 1]) / tau
+    radii = np.full(n, radius)
+    acc += social_forces(pos, radii, params[_P_SOC_A], params[_P_SOC_B])
+    new_pos = np.empty((n, 2))
+    new_vel = np.empty((n, 2))
+    new_phase = np.empty(n)
+    new_heading = np.empty(n)
+    min_gap = params[_P_ROBOT_R] + 0.5 * radius
+    for i in range(n):
+        # Wall.
+        c = min(max(math.floor(pos[i, 0] / res), 0), cols - 1)
+        r = min(max(math.floor(pos[i, 1] / res), 0), rows - 1)
+        mag = (
+            params[_P_WALL_A] / params[_P_WALL_B] * math.exp(-(wall_dist[r, c] - radius) / params[_P_WALL_B])
+        )
+        ax = acc[i, 0] + mag * wall_dir[r, c, 0]
+        ay = acc[i, 1] + mag * wall_dir[r, c, 1]
+        # Robot.
+        rx = pos[i, 0] - robot_x
+        ry = pos[i, 1] - robot_y
+        rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
+        gap = rd - params[_P_ROBOT_R] - radius
+        mag = params[_P_ROBOT_A] / params[_P_ROBOT_B] * math.exp(-gap / params[_P_ROBOT_B]) / rd
+        ax += mag * rx
+        ay += mag * ry
+        # Group cohesion.
+        lx = pos[group[i], 0] - pos[i, 0]
+        ly = pos[group[i], 1] - pos[i, 1]
+        if math.sqrt(lx * lx + ly * ly) > 1.5:
+            ax += params[_P_COHESION] * lx
+            ay += params[_P_COHESION] * ly
+        # Integrate with a speed cap.
+        vx = vel[i, 0] + h * ax
+        vy = vel[i, 1] + h * ay
+        sp = math.sqrt(vx * vx + vy * vy)
+        scale = min(1.0, cap[i] / max(sp, 1e-9))
+        vx *= scale
+        vy *= scale
+        px = pos[i, 0] + h * vx
+        py = pos[i, 1] + h * vy
+        # Out of the walls.
+        c = min(max(math.floor(px / res), 0), cols - 1)
+        r = min(max(math.floor(py / res), 0), rows - 1)
+        if wall_dist[r, c] < 0.5 * radius:
+            push = 0.5 * radius - wall_dist[r, c]
+            px += push * wall_dir[r, c, 0]
+            py += push * wall_dir[r, c, 1]
+        # Never leave the walkable space.
+        oc = math.floor(pos[i, 0] / coarse_res)
+        orr = math.floor(pos[i, 1] / coarse_res)
+        nc = math.floor(px / coarse_res)
+        nr = math.floor(py / coarse_res)
+        was_ok = 0 <= orr < crows and 0 <= oc < ccols and walkable[orr, oc]
+        now_ok = 0 <= nr < crows and 0 <= nc < ccols and walkable[nr, nc]
+        if was_ok and not now_ok:
+            # Slide along the blocked side: keep the one coordinate that stays walkable.
+            if 0 <= orr < crows and 0 <= nc < ccols and walkable[orr, nc]:
+                py = pos[i, 1]
+                vy = 0.0
+            elif 0 <= nr < crows and 0 <= oc < ccols and walkable[nr, oc]:
+                px = pos[i, 0]
+                vx = 0.0
+            else:
+                px = pos[i, 0]
+                py = pos[i, 1]
+                vx = 0.0
+                vy = 0.0
+        # Not into the robot.
+        rx = px - robot_x
+        ry = py - robot_y
+        rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
+        if rd < min_gap:
+            px = robot_x + rx / rd * min_gap
+            py = robot_y + ry / rd * min_gap
+        # Gait and heading.
+        sp = math.sqrt(vx * vx + vy * vy)
+        new_phase[i] = (phase[i] + 2.0 * math.pi * sp * h / params[_P_STRIDE]) % (2.0 * math.pi)
+        if sp > 0.1:
+            new_heading[i] = math.atan2(vy, vx)
+        elif at_robot[i]:
+            new_heading[i] = math.atan2(robot_y - py, robot_x - px)
+        else:
+            new_heading[i] = heading[i]
+        new_pos[i, 0] = px
+        new_pos[i, 1] = py
+        new_vel[i, 0] = vx
+        new_vel[i, 1] = vy
+    return new_pos, new_vel, new_phase, new_heading
+
+
+def move_people_reference(
+    pos: FloatArray,
+    vel: FloatArray,
+    desired: FloatArray,
+    cap: FloatArray,
+    group: NDArray[np.int64],
+    at_robot: NDArray[np.bool_],
+    phase: FloatArray,
+    heading: FloatArray,
+    wall_dist: FloatArray,
+    wall_dir: FloatArray,
+    res: float,
+    walkable: NDArray[np.bool_],
+    coarse_res: float,
+    robot_x: float,
+    robot_y: float,
+    params: FloatArray,
+    h: float,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Plain-numpy :func:`move_people` for the property tests."""
+    tau, radius = params[_P_TAU], params[_P_RADIUS]
+    robot = np.array([robot_x, robot_y])
+
+    def wall(points: FloatArray) -> tuple[FloatArray, FloatArray]:
+        c = np.clip(np.floor(points[:, 0] / res).astype(np.int64), 0, wall_dist.shape[1] - 1)
+        r = np.clip(np.floor(points[:, 1] / res).astype(np.int64), 0, wall_dist.shape[0] - 1)
+        return wall_dist[r, c], wall_dir[r, c]
+
+    def is_walkable(points: FloatArray) -> NDArray[np.bool_]:
+        c = np.floor(points[:, 0] / coarse_res).astype(np.int64)
+        r = np.floor(points[:, 1] / coarse_res).astype(np.int64)
+        inside = (r >= 0) & (r < walkable.shape[0]) & (c >= 0) & (c < walkable.shape[1])
+        out = np.zeros(len(points), dtype=bool)
+        out[inside] = walkable[r[inside], c[inside]]
+        return out
+
+    acc = (desired - vel) / tau
+    acc += social_forces_reference(pos, np.full(len(pos), radius), params[_P_SOC_A], params[_P_SOC_B])
+    wd, wn = wall(pos)
+    acc += (params[_P_WALL_A] / params[_P_WALL_B] * np.exp(-(wd - radius) / params[_P_WALL_B]))[:, None] * wn
+    rel = pos - robot
+    rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+    gap = rd - params[_P_ROBOT_R] - radius
+    acc += (params[_P_ROBOT_A] / params[_P_ROBOT_B] * np.exp(-gap / params[_P_ROBOT_B]) / rd)[:, None] * rel
+    to_lead = pos[group] - pos
+    acc += params[_P_COHESION] * np.where(np.linalg.norm(to_lead, axis=-1, keepdims=True) > 1.5, to_lead, 0.0)
+
+    new_vel = vel + h * acc
+    speed = np.linalg.norm(new_vel, axis=-1)
+    new_vel *= np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
+    new_pos = pos + h * new_vel
+    nd, nn = wall(new_pos)
+    inside = nd < 0.5 * radius
+    new_pos = np.where(inside[:, None], new_pos + (0.5 * radius - nd)[:, None] * nn, new_pos)
+    bad = ~is_walkable(new_pos) & is_walkable(pos)
+    keep_x = bad & is_walkable(np.stack([new_pos[:, 0], pos[:, 1]], axis=-1))
+    keep_y = bad & ~keep_x & is_walkable(np.stack([pos[:, 0], new_pos[:, 1]], axis=-1))
+    stop = bad & ~keep_x & ~keep_y
+    new_pos[keep_x, 1] = pos[keep_x, 1]
+    new_vel[keep_x, 1] = 0.0
+    new_pos[keep_y, 0] = pos[keep_y, 0]
+    new_vel[keep_y, 0] = 0.0
+    new_pos[stop] = pos[stop]
+    new_vel[stop] = 0.0
+    rel = new_pos - robot
+    rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+    min_gap = params[_P_ROBOT_R] + 0.5 * radius
+    close = rd < min_gap
+    new_pos = np.where(close[:, None], robot + rel / rd[:, None] * min_gap, new_pos)
+    speed = np.linalg.norm(new_vel, axis=-1)
+    new_phase = np.mod(phase + 2.0 * np.pi * speed * h / params[_P_STRIDE], 2.0 * np.pi)
+    face_robot = np.arctan2(robot_y - new_pos[:, 1], robot_x - new_pos[:, 0])
+    new_heading = np.where(
+        speed > 0.1, np.arctan2(new_vel[:, 1], new_vel[:, 0]), np.where(at_robot, face_robot, heading)
+    )
+    return new_pos, new_vel, new_phase, new_heading
 
 
 # --------------------------------------------------------------------------------------------
@@ -507,17 +794,40 @@ class Crowd:
         self.config = config
         self.grid = grid
         self.time = 0.0
-        self._space = _Space.from_grid(grid, config.person_radius, config.field_resolution)
-        if config.num_people > 0 and len(self._space.free_cells) == 0:
+        # People may brush past furniture: walkable cells keep half a body radius from obstacles.
+        self._space = _Space.from_grid(grid, 0.5 * config.person_radius, config.field_resolution)
+        area = len(self._space.free_cells) * self._space.coarse_res**2
+        self._count = config.num_people if config.density is None else round(config.density * area)
+        if self._count > 0 and len(self._space.free_cells) == 0:
             raise CrowdError("the map has no free space wide enough for a person")
         self._robot = self._local_pose(robot_pose)
-        self._robot_field: FloatArray | None = None
-        self._robot_field_time = -np.inf
         self._poi = np.array(
             [self._local_point(p) for p in config.points_of_interest], dtype=np.float64
         ).reshape(-1, 2)
-        self._poi_fields = [self._space.field_to(p, config.field_max_distance * 4.0) for p in self._poi]
+        # Geodesic fields: 0 to the robot (computed when needed), 1.. to the exhibits.
+        self._fields = np.full((1 + len(self._poi), *self._space.walkable.shape), np.inf)
+        for j, poi in enumerate(self._poi):
+            self._fields[1 + j] = self._space.field_to(poi, config.field_max_distance * 4.0)
+        self._field_robot_at = np.array([np.inf, np.inf])
         self._people = self._spawn(rng)
+        self._in_view = np.zeros(self.num_people, dtype=bool)
+        self._last_decision = 0.0
+        self._next_decision = 0.0
+        self._params = np.array(
+            [
+                config.tau,
+                config.person_radius,
+                config.social_strength,
+                config.social_range,
+                config.wall_strength,
+                config.wall_range,
+                config.robot_radius,
+                config.robot_strength,
+                config.robot_range,
+                config.group_cohesion,
+                config.stride_length,
+            ]
+        )
 
     # ---- frames ------------------------------------------------------------------------------
 
@@ -597,7 +907,7 @@ class Crowd:
 
     def _spawn(self, rng: np.random.Generator) -> _People:
         cfg = self.config
-        n = cfg.num_people
+        n = self._count
         # Groups of 1..group_size_max visitors; the first of each group leads.
         group = np.empty(n, dtype=np.int64)
         i = 0
@@ -620,7 +930,8 @@ class Crowd:
         speed = rng.uniform(cfg.speed_min, cfg.speed_max, size=n)
         speed = speed[group]  # a group walks at its leader's pace
         heading = rng.uniform(-np.pi, np.pi, size=n)
-        interested = (rng.random(n) < cfg.robot_interest)[group]
+        near = np.hypot(pos[:, 0] - self._robot[0], pos[:, 1] - self._robot[1]) < cfg.notice_distance
+        interested = ((rng.random(n) < cfg.robot_interest) & near)[group]
         stand = np.stack(
             [
                 rng.uniform(cfg.stand_distance[0], cfg.stand_distance[1], size=n),
@@ -672,8 +983,23 @@ class Crowd:
             on_rate = off_rate * cfg.robot_interest / max(1e-9, 1.0 - cfg.robot_interest)
             u = rng.random(len(p.pos))
             leader = p.group == np.arange(len(p.pos))
-            flip_on = leader & ~p.interested & (u < 1.0 - math.exp(-on_rate * h))
-            flip_off = leader & p.interested & (u < 1.0 - math.exp(-off_rate * h))
+            robot = self._robot[:2]
+            dist = np.hypot(p.pos[:, 0] - robot[0], p.pos[:, 1] - robot[1])
+            candidates = leader & ~p.interested & (dist < cfg.notice_distance)
+            flip_on = candidates & (u < 1.0 - math.exp(-on_rate * h))
+            if flip_on.any():
+                sees = line_of_sight(
+                    self._space.walkable,
+                    self._space.coarse_res,
+                    p.pos[flip_on],
+                    np.repeat(robot[None], int(flip_on.sum()), axis=0),
+                )
+                flip_on[np.flatnonzero(flip_on)[~sees]] = False
+            flip_off = (
+                leader
+                & p.interested
+                & ((u < 1.0 - math.exp(-off_rate * h)) | (dist > cfg.field_max_distance))
+            )
             lead_state = p.interested.copy()
             lead_state[flip_on] = True
             lead_state[flip_off] = False
@@ -692,152 +1018,134 @@ class Crowd:
             p.timer[stop] = 0.0
 
     def _choose_goals(self, who: NDArray[np.int64], rng: np.random.Generator) -> None:
-        """New goals for people whose dwell ended: an exhibit, or a point in view (group-wide)."""
+        """New goals for people whose dwell ended: leaders pick an exhibit or a point in view,
+        the members of a group follow their leader's goal (or wait for the leader to pick one)."""
         cfg = self.config
         p = self._people
-        for k in who.tolist():
-            lead = int(p.group[k])
-            if lead != k and p.mode[lead] == WALK:
-                # Follow the leader's goal, a little apart.
-                p.goal[k] = p.goal[lead] + rng.normal(0.0, 0.4, size=2)
-                p.goal_poi[k] = p.goal_poi[lead]
-                p.mode[k] = WALK
-                continue
-            if len(self._poi) and rng.random() < cfg.poi_probability:
-                j = int(rng.integers(0, len(self._poi)))
-                p.goal[k] = self._poi[j] + rng.normal(0.0, 0.7, size=2)
-                p.goal_poi[k] = j
-                p.mode[k] = WALK
-                continue
-            p.goal_poi[k] = -1
-            found = False
-            for _ in range(10):
-                dist = rng.uniform(*cfg.wander_distance)
-                ang = rng.uniform(-np.pi, np.pi)
-                cand = p.pos[k] + dist * np.array([math.cos(ang), math.sin(ang)])
-                if (
-                    self._space.is_walkable(cand[None])[0]
-                    and line_of_sight(
-                        self._space.walkable, self._space.coarse_res, p.pos[k][None], cand[None]
-                    )[0]
-                ):
-                    found = True
-                    break
-            if found:
-                p.goal[k] = cand
-                p.mode[k] = WALK
-            else:
-                p.mode[k] = DWELL
-                p.timer[k] = rng.uniform(0.5, 2.0)
+        sp = self._space
+        leaders = who[p.group[who] == who]
+        members = who[p.group[who] != who]
+        # Leaders: an exhibit...
+        to_poi = rng.random(len(leaders)) < (cfg.poi_probability if len(self._poi) else 0.0)
+        poi = leaders[to_poi]
+        if len(poi):
+            j = rng.integers(0, len(self._poi), size=len(poi))
+            p.goal[poi] = self._poi[j] + rng.normal(0.0, 0.7, size=(len(poi), 2))
+            p.goal_poi[poi] = j
+            p.mode[poi] = WALK
+        # ... or the first of a few random points in view.
+        wander = leaders[~to_poi]
+        if len(wander):
+            tries = 10
+            dist = rng.uniform(cfg.wander_distance[0], cfg.wander_distance[1], size=(len(wander), tries))
+            ang = rng.uniform(-np.pi, np.pi, size=(len(wander), tries))
+            cand = p.pos[wander][:, None, :] + dist[..., None] * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+            flat = cand.reshape(-1, 2)
+            ok = sp.is_walkable(flat) & line_of_sight(
+                sp.walkable, sp.coarse_res, np.repeat(p.pos[wander], tries, axis=0), flat
+            )
+            ok = ok.reshape(len(wander), tries)
+            found = ok.any(axis=1)
+            first = ok.argmax(axis=1)
+            go = wander[found]
+            p.goal[go] = cand[found, first[found]]
+            p.goal_poi[wander] = -1
+            p.mode[go] = WALK
+            stay = wander[~found]
+            p.timer[stay] = rng.uniform(0.5, 2.0, size=len(stay))
+        # Members.
+        lead = p.group[members]
+        follow = members[p.mode[lead] == WALK]
+        p.goal[follow] = p.goal[p.group[follow]] + rng.normal(0.0, 0.4, size=(len(follow), 2))
+        p.goal_poi[follow] = p.goal_poi[p.group[follow]]
+        p.mode[follow] = WALK
+        wait = members[p.mode[lead] != WALK]
+        p.timer[wait] = rng.uniform(1.0, 3.0, size=len(wait))
+
+    def _decide(self, elapsed: float, rng: np.random.Generator) -> None:
+        """The visitors' decisions, taken every ``decision_period`` seconds: interest in the robot,
+        new goals when a dwell ends, arrivals, and whether each one sees where they go."""
+        cfg = self.config
+        p = self._people
+        sp = self._space
+        self._update_interest(elapsed, rng)
+        # Dwelling people whose time is up pick a new goal.
+        p.timer = np.where(p.mode == DWELL, p.timer - elapsed, p.timer)
+        done = np.flatnonzero((p.mode == DWELL) & (p.timer <= 0.0))
+        if len(done):
+            self._choose_goals(done, rng)
+        target = self._targets()
+        dist = np.hypot(target[:, 0] - p.pos[:, 0], target[:, 1] - p.pos[:, 1])
+        # Arrivals: walkers start dwelling.
+        arrived = (p.mode == WALK) & (dist < 0.5)
+        if arrived.any():
+            p.mode[arrived] = DWELL
+            p.timer[arrived] = rng.uniform(cfg.dwell_time[0], cfg.dwell_time[1], size=int(arrived.sum()))
+        self._in_view = line_of_sight(sp.walkable, sp.coarse_res, p.pos, target)
+        # A wanderer pushed out of view of its goal picks another one at the next decision.
+        lost = (p.mode == WALK) & ~self._in_view & (p.goal_poi < 0)
+        p.mode[lost] = DWELL
+        p.timer[lost] = 0.0
+
+    def _refresh_robot_field(self) -> None:
+        """Recompute the field to the robot once it has moved a cell since the last one."""
+        robot = self._robot[:2]
+        if np.hypot(*(robot - self._field_robot_at)) >= self._space.coarse_res:
+            self._fields[0] = self._space.field_to(robot, self.config.field_max_distance)
+            self._field_robot_at = robot.copy()
+
+    def _targets(self) -> FloatArray:
+        """Where everyone heads: the goal, or the standing spot in front of the robot."""
+        p = self._people
+        rx, ry, rth = self._robot
+        spot_x = rx + p.stand[:, 0] * np.cos(rth + p.stand[:, 1])
+        spot_y = ry + p.stand[:, 0] * np.sin(rth + p.stand[:, 1])
+        at_robot = p.mode == ROBOT
+        return np.stack(
+            [np.where(at_robot, spot_x, p.goal[:, 0]), np.where(at_robot, spot_y, p.goal[:, 1])], axis=-1
+        )
 
     def _substep(self, h: float, rng: np.random.Generator) -> None:
         cfg = self.config
         p = self._people
         sp = self._space
+        if self.time >= self._next_decision:
+            self._decide(self.time - self._last_decision, rng)
+            self._last_decision = self.time
+            self._next_decision = self.time + cfg.decision_period
         self.time += h
-        self._update_interest(h, rng)
 
-        # Dwelling people whose time is up pick a new goal.
-        p.timer = np.where(p.mode == DWELL, p.timer - h, p.timer)
-        done = np.flatnonzero((p.mode == DWELL) & (p.timer <= 0.0))
-        if len(done):
-            self._choose_goals(done, rng)
-
-        # Targets: the goal, or the standing spot around the robot.
-        rx, ry, rth = self._robot
         at_robot = p.mode == ROBOT
-        spot = np.stack(
-            [
-                rx + p.stand[:, 0] * np.cos(rth + p.stand[:, 1]),
-                ry + p.stand[:, 0] * np.sin(rth + p.stand[:, 1]),
-            ],
-            axis=-1,
-        )
-        target = np.where(at_robot[:, None], spot, p.goal)
-        to_target = target - p.pos
-        dist = np.linalg.norm(to_target, axis=-1)
-
-        # Arrivals: walkers start dwelling; robot visitors stand.
-        arrived = (p.mode == WALK) & (dist < 0.5)
-        if arrived.any():
-            p.mode[arrived] = DWELL
-            p.timer[arrived] = rng.uniform(cfg.dwell_time[0], cfg.dwell_time[1], size=int(arrived.sum()))
+        target = self._targets()
+        dist = np.hypot(target[:, 0] - p.pos[:, 0], target[:, 1] - p.pos[:, 1])
         moving = (p.mode == WALK) | (at_robot & (dist > 0.15))
-
-        # Desired direction: straight if in view, else down a geodesic field around the walls.
-        direction = np.divide(
-            to_target, dist[:, None], out=np.zeros_like(to_target), where=dist[:, None] > 1e-9
-        )
-        in_view = line_of_sight(sp.walkable, sp.coarse_res, p.pos, target)
-        blind = moving & ~in_view
-        if blind.any():
-            blind_robot = blind & at_robot
-            if blind_robot.any():
-                if self._robot_field is None or self.time - self._robot_field_time >= cfg.field_period:
-                    self._robot_field = sp.field_to(self._robot[:2], cfg.field_max_distance)
-                    self._robot_field_time = self.time
-                d = _descend(self._robot_field, sp.coarse_res, p.pos, blind_robot)
-                direction[blind_robot] = d[blind_robot]
-            for j, poi_field in enumerate(self._poi_fields):
-                sel = blind & ~at_robot & (p.goal_poi == j)
-                if sel.any():
-                    direction[sel] = _descend(poi_field, sp.coarse_res, p.pos, sel)[sel]
-            lost = blind & ~at_robot & (p.goal_poi < 0)
-            if lost.any():
-                # A wanderer pushed out of view of its goal picks another one.
-                p.mode[lost] = DWELL
-                p.timer[lost] = 0.0
-                moving &= ~lost
-        # Slow down on arrival (arrive within ~tau), stand still when there.
-        want = np.minimum(p.speed, dist / (2.0 * cfg.tau))
-        desired = np.where(moving[:, None], direction * want[:, None], 0.0)
-
-        # Social forces (Helbing & Molnár 1995, Eq. 1-5, per unit mass).
-        radius = np.full(len(p.pos), cfg.person_radius)
-        acc = (desired - p.vel) / cfg.tau
-        acc += social_forces(p.pos, radius, cfg.social_strength, cfg.social_range)
-        wall_d, wall_n = sp.wall(p.pos)
-        acc += (cfg.wall_strength / cfg.wall_range * np.exp(-(wall_d - cfg.person_radius) / cfg.wall_range))[
-            :, None
-        ] * wall_n
-        rel = p.pos - self._robot[:2]
-        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
-        gap = rd - cfg.robot_radius - cfg.person_radius
-        acc += (cfg.robot_strength / cfg.robot_range * np.exp(-gap / cfg.robot_range) / rd)[:, None] * rel
-        # Group cohesion: keep near the leader while walking.
-        to_lead = p.pos[p.group] - p.pos
-        acc += cfg.group_cohesion * np.where(
-            np.linalg.norm(to_lead, axis=-1, keepdims=True) > 1.5, to_lead, 0.0
+        # Those who cannot see where they go walk down a geodesic field around the walls: to the
+        # robot (field 0, refreshed as the robot moves) or to their exhibit (fields 1..).
+        field_index = np.where(at_robot, 0, np.where(p.goal_poi >= 0, p.goal_poi + 1, -1))
+        if (moving & ~self._in_view & at_robot).any():
+            self._refresh_robot_field()
+        desired = steer(
+            p.pos, target, moving, self._in_view, field_index, self._fields, sp.coarse_res, p.speed, cfg.tau
         )
 
-        vel = p.vel + h * acc
-        speed = np.linalg.norm(vel, axis=-1)
+        # Social forces, integration, hard constraints and gait (Helbing & Molnár 1995, Eq. 1-5).
         cap = np.minimum(cfg.speed_max, 1.3 * p.speed)
-        vel *= np.minimum(1.0, cap / np.maximum(speed, 1e-9))[:, None]
-        pos = p.pos + h * vel
-
-        # Hard constraints: never into walls nor into the robot.
-        new_d, new_n = sp.wall(pos)
-        inside = new_d < 0.5 * cfg.person_radius
-        pos = np.where(inside[:, None], pos + (0.5 * cfg.person_radius - new_d)[:, None] * new_n, pos)
-        bad = ~sp.is_walkable(pos) & sp.is_walkable(p.pos)
-        pos[bad] = p.pos[bad]
-        vel[bad] = 0.0
-        rel = pos - self._robot[:2]
-        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
-        min_gap = cfg.robot_radius + 0.5 * cfg.person_radius
-        close = rd < min_gap
-        pos = np.where(close[:, None], self._robot[:2] + rel / rd[:, None] * min_gap, pos)
-
-        # Gait and heading.
-        speed = np.linalg.norm(vel, axis=-1)
-        p.phase = np.mod(p.phase + 2.0 * np.pi * speed * h / cfg.stride_length, 2.0 * np.pi)
-        walking = speed > 0.1
-        face_robot = np.arctan2(self._robot[1] - pos[:, 1], self._robot[0] - pos[:, 0])
-        p.heading = np.where(
-            walking,
-            np.arctan2(vel[:, 1], vel[:, 0]),
-            np.where(at_robot, face_robot, p.heading),
+        p.pos, p.vel, p.phase, p.heading = move_people(
+            p.pos,
+            p.vel,
+            desired,
+            cap,
+            p.group,
+            at_robot,
+            p.phase,
+            p.heading,
+            sp.wall_dist,
+            sp.wall_dir,
+            sp.res,
+            sp.walkable,
+            sp.coarse_res,
+            float(self._robot[0]),
+            float(self._robot[1]),
+            self._params,
+            h,
         )
-        p.pos = pos
-        p.vel = vel
