@@ -13,19 +13,22 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
 3. *perception* (Eq. 2): the weights are multiplied by the likelihood-field likelihood of the
    selected beams (:class:`tourbot.maps.likelihood_field.LikelihoodField`), tempered by
    ``likelihood_exponent`` because neighbouring beams are not independent;
-4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3): short-
-   and long-term averages of the per-beam measurement likelihood; when the short-term one falls
-   below ``recovery_ratio`` times the long-term one, a fraction
-   ``1 - w_fast / (recovery_ratio * w_slow)`` of the samples is replaced at the next resampling by
-   poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000): candidate poses,
-   half around the last estimate (most failures are local: a push, wheel slip, a kidnap by a
-   metre) and half over the whole free space, are scored against the scan and drawn by score.
-   The dead band ``recovery_ratio`` keeps the scan-to-scan ups and downs of the likelihood in a
-   crowd from resetting a filter that is tracking well. Because the
-   likelihood is measured on the *filtered* beams only, a crowd that hides the walls does not
-   trigger resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer
-   than expected are kept (Fox et al.: the novelty filter "forces the incorporation of very
-   unlikely sensor measurements (especially too long readings)") and do;
+4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with
+   sensor resetting (Lenser & Veloso 2000). The fit of a scan is how well the *best* sample
+   explains the integrated beams (the per-beam geometric mean of their likelihood): while tracking,
+   some sample always explains them, whatever the spread of the prediction; after a kidnap none
+   does. A short- and a long-term average of the fit are kept (``alpha_fast``, ``alpha_slow``);
+   when the short-term one falls below ``recovery_ratio`` times the long-term one, a fraction
+   ``1 - w_fast / (recovery_ratio * w_slow)`` (at most ``max_injection``) of the samples is
+   replaced by poses drawn from the current scan: candidate poses, half around the last estimate
+   (most failures are local: a push, wheel slip, a kidnap by a metre) and half over the whole free
+   space, scored against the scan and drawn by score. The dead band ``recovery_ratio`` and the
+   rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is no evidence
+   keep the ups and downs of a crowded museum from resetting a filter that tracks well. Because
+   the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
+   resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
+   expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
+   sensor measurements (especially too long readings)") and do;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -58,7 +61,7 @@ from tourbot.localization.beam_filters import (
     novelty_filter,
 )
 from tourbot.localization.estimate import LocalizationEstimate
-from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.localization.motion_model import OdometryMotionModel, _wrap
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
@@ -69,6 +72,8 @@ __all__ = [
     "LocalizationError",
     "MCLConfig",
     "MonteCarloLocalization",
+    "best_cluster_estimate",
+    "best_cluster_estimate_reference",
     "cluster_bins",
     "cluster_bins_reference",
     "kld_bounds",
@@ -116,10 +121,13 @@ class MCLConfig:
         ``alpha_slow`` / ``alpha_fast``: the averaging rates of augmented MCL (Probabilistic
         Robotics Table 8.3, Nav2 AMCL ``recovery_alpha_slow`` 0.001 / ``recovery_alpha_fast`` 0.1);
         per update, and AMCL updates every 0.25 m whereas a scan of the museum logs comes every
-        ~0.8 m, so ours are faster. ``recovery_ratio``: injection starts when the short-term
-        average falls below this fraction of the long-term one (1 in Probabilistic Robotics; 0.5
-        here, measured on the museum logs where the per-scan likelihood varies by 2x while
-        tracking). ``max_injection``: at most this fraction of the samples is replaced per update.
+        ~0.8 m, so ours are faster (``alpha_fast`` 1: the fit of the current scan itself).
+        ``recovery_ratio``: injection starts when the short-term average falls below this fraction
+        of the long-term one (1 in Probabilistic Robotics; 0.5 here: on the FHW log the best
+        sample's fit stays within 0.55-1 of its average while tracking and drops to about 0.1 at a
+        kidnap). ``recovery_min_used``: scans with fewer integrated beams than this fraction of
+        their returns leave the averages alone. ``max_injection``: at most this fraction of the
+        samples is replaced per update.
         ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
         around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
         over the free space, scored against the scan with every ``injection_beam_step``-th beam.
@@ -355,10 +363,7 @@ class MonteCarloLocalization:
     def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
-        cw = np.bincount(labels, weights=self.weights)
-        best = int(np.argmax(cw))
-        sel = labels == best
-        return (*_weighted_mean_cov(self.samples[sel], self.weights[sel]), float(cw[best]))
+        return best_cluster_estimate(self.samples, self.weights, labels)
 
     def _resample(
         self,
@@ -446,6 +451,84 @@ def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:
     ix -= ix.min()
     iy -= iy.min()
     return (ix * (int(iy.max()) + 1) + iy) * n_th + it
+
+
+def best_cluster_estimate(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """The heaviest cluster's weighted mean pose (circular mean of headings), covariance and weight.
+
+    A numba kernel; :func:`best_cluster_estimate_reference` is its plain-numpy reference.
+    """
+    n_labels = int(labels.max()) + 1 if labels.size else 0
+    pose = np.zeros(3)
+    cov = np.zeros((3, 3))
+    w = _best_cluster_kernel(
+        np.ascontiguousarray(samples, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(labels, dtype=np.int64),
+        n_labels,
+        pose,
+        cov,
+    )
+    return pose, cov, w
+
+
+@numba.njit(cache=True)
+def _best_cluster_kernel(
+    samples: FloatArray,
+    weights: FloatArray,
+    labels: IntArray,
+    n_labels: int,
+    pose: FloatArray,
+    cov: FloatArray,
+) -> float:
+    cw = np.zeros(n_labels)
+    for i in range(labels.shape[0]):
+        cw[labels[i]] += weights[i]
+    best = 0
+    for k in range(n_labels):
+        if cw[k] > cw[best]:
+            best = k
+    total = cw[best]
+    mx = 0.0
+    my = 0.0
+    sn = 0.0
+    cs = 0.0
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            mx += w * samples[i, 0]
+            my += w * samples[i, 1]
+            sn += w * math.sin(samples[i, 2])
+            cs += w * math.cos(samples[i, 2])
+    mth = math.atan2(sn, cs)
+    pose[0] = mx
+    pose[1] = my
+    pose[2] = mth
+    cov[:, :] = 0.0
+    d = np.empty(3)
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            d[0] = samples[i, 0] - mx
+            d[1] = samples[i, 1] - my
+            d[2] = _wrap(samples[i, 2] - mth)
+            for a in range(3):
+                for b in range(3):
+                    cov[a, b] += w * d[a] * d[b]
+    return total
+
+
+def best_cluster_estimate_reference(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """Plain-numpy reference of :func:`best_cluster_estimate`."""
+    cw = np.bincount(labels, weights=weights)
+    best = int(np.argmax(cw))
+    sel = labels == best
+    pose, cov = _weighted_mean_cov(samples[sel], weights[sel])
+    return pose, cov, float(cw[best])
 
 
 def _weighted_mean_cov(samples: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:

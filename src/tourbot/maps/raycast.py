@@ -70,6 +70,10 @@ def _rays_in_cells(grid: OccupancyGrid, poses: ArrayLike) -> tuple[FloatArray, F
     p = np.asarray(poses, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
         raise MapError(f"poses must be (N, 3), got shape {p.shape}")
+    if not np.isfinite(p).all():
+        raise MapError(
+            f"poses must be finite; rows {np.flatnonzero(~np.isfinite(p).all(axis=1))[:5]} are not"
+        )
     g = grid.world_to_grid(p)
     inv = 1.0 / grid.resolution
     return (
@@ -83,6 +87,8 @@ def _angles(angles: ArrayLike) -> FloatArray:
     a = np.ascontiguousarray(np.asarray(angles, dtype=np.float64))
     if a.ndim != 1:
         raise MapError(f"beam angles must be (B,), got shape {a.shape}")
+    if not np.isfinite(a).all():
+        raise MapError("beam angles must be finite")
     return a
 
 
@@ -406,7 +412,14 @@ def circle_ranges(
 
 
 class RayCaster:
-    """Common front of the casters: world poses and beam angles in, float32 metres out."""
+    """Common front of the casters: world poses and beam angles in, float32 metres out.
+
+    A caster snapshots the grid when it is built: after the grid changes (a door closes, the
+    mapper adds a wall) build a new one. :class:`DDACaster` builds in milliseconds;
+    :class:`DistanceCaster` needs a distance transform (about 0.5-0.9 s for the 1765 x 564 FHW map
+    at 5 cm on the shared machine) and is 4-5x faster per ray. Moving round things (legs,
+    visitors) go through :meth:`cast_with_circles`, not into the grid.
+    """
 
     table: NDArray[np.uint8]
     jump: bool = False

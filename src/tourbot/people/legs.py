@@ -40,12 +40,12 @@ class LegConfig:
     """Parameters of the leg detector.
 
     A leg is about 12 cm wide (``leg_width``); segments from ``min_width`` to ``max_width`` are
-    candidates (up to two legs seen as one blob). Consecutive points further apart than
-    ``cluster_distance`` start a new segment (13 cm, the ``leg_tracker`` project's clustering
-    distance). A segment must be at least ``min_contrast`` nearer than the beams beside it on one side
-    at least to be a local minimum (Burgard et al., Sec. 4: "legs ... appear as local minima in the
-    scans"), and the range must jump by as much on both sides (the other side may be an occluder in
-    front, such as the person's other leg).
+    candidates (up to two legs seen as one blob; thinner ones are chair or table legs).
+    Consecutive points further apart than ``cluster_distance`` start a new segment (13 cm, the
+    ``leg_tracker`` project's clustering distance). A segment must be at least ``min_contrast``
+    nearer than the beams beside it on one side at least to be a local minimum (Burgard et al.,
+    Sec. 4: "legs ... appear as local minima in the scans"), and the range must jump by as much on
+    both sides (the other side may be an occluder in front, such as the person's other leg).
     ``max_range`` ignores features too far away to be resolved as legs.
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
@@ -54,7 +54,7 @@ class LegConfig:
 
     leg_width: float = 0.12
     width_std: float = 0.07
-    min_width: float = 0.02
+    min_width: float = 0.05
     max_width: float = 0.35
     min_points: int = 2
     cluster_distance: float = 0.13

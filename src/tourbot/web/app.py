@@ -438,6 +438,23 @@ def create_app(
             "control_seconds": sum((b[3] or time.time()) - b[2] for b in bookings),
         }
 
+    @app.get("/api/admin/stream/{name}")
+    def admin_stream(_: Staff, name: str) -> dict[str, Any]:
+        """Server-side delay from sampling a state to handing its frame to each client's socket."""
+        delays = sorted(hub_for(name).send_delays)
+        if not delays:
+            return {"frames": 0}
+        return {
+            "frames": len(delays),
+            "p50_ms": 1000 * delays[len(delays) // 2],
+            "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
+        }
+
+    @app.delete("/api/admin/stream/{name}")
+    def admin_stream_reset(_: Staff, name: str) -> dict[str, bool]:
+        hub_for(name).send_delays.clear()
+        return {"ok": True}
+
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
@@ -551,6 +568,7 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         message = encoder.encode(scene)
         if message is not None:
             await ws.send_bytes(message)
+            hub.send_delays.append(time.time() - scene.t)
         now = time.time()
         slot = hub.arbiter.view(client.session, now).as_dict()
         status: dict[str, Any] = {"type": "status", "slot": slot, "nav": _nav_status(hub)}
