@@ -163,3 +163,57 @@ def test_negative_range_in_a_bag(tmp_path: Path) -> None:
     log = read_bag(path, lenient=True)
     assert len(log) == 2
     assert any("skipped 1 malformed scan" in w for w in log.warnings)
+
+
+def test_odometry_from_tf(tmp_path: Path) -> None:
+    """Without nav_msgs/Odometry, the odom -> base_link transforms on /tf are the odometry."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    t: Any = store.types
+    path = tmp_path / "tf"
+
+    def header(time: float, frame: str) -> Any:
+        stamp = t["builtin_interfaces/msg/Time"](sec=int(time), nanosec=round((time % 1) * 1e9))
+        return t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+    with Writer(path, version=8) as writer:
+        scan_conn = writer.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=store)
+        tf_conn = writer.add_connection("/tf", "tf2_msgs/msg/TFMessage", typestore=store)
+        for i in range(3):
+            time = 1.0 + i
+            transforms = []
+            for parent, child, x in (("odom", "base_link", float(i)), ("base_link", "laser", 0.2)):
+                transforms.append(
+                    t["geometry_msgs/msg/TransformStamped"](
+                        header=header(time, parent),
+                        child_frame_id=child,
+                        transform=t["geometry_msgs/msg/Transform"](
+                            translation=t["geometry_msgs/msg/Vector3"](x=x, y=0.0, z=0.0),
+                            rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+                        ),
+                    )
+                )
+            msg = t["tf2_msgs/msg/TFMessage"](transforms=transforms)
+            writer.write(tf_conn, int(time * 1e9), store.serialize_cdr(msg, "tf2_msgs/msg/TFMessage"))
+            if i < 2:
+                scan = t["sensor_msgs/msg/LaserScan"](
+                    header=header(time + 0.25, "laser"),
+                    angle_min=0.0,
+                    angle_max=0.0,
+                    angle_increment=0.1,
+                    time_increment=0.0,
+                    scan_time=0.1,
+                    range_min=0.1,
+                    range_max=8.0,
+                    ranges=np.array([1.0], dtype=np.float32),
+                    intensities=np.zeros(0, dtype=np.float32),
+                )
+                stamp_ns = int((time + 0.25) * 1e9)
+                writer.write(scan_conn, stamp_ns, store.serialize_cdr(scan, "sensor_msgs/msg/LaserScan"))
+    log = read_bag(path)
+    assert [o.pose for o in log.odometry] == [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
+    assert [s.odom for s in log.scans] == [pytest.approx((0.25, 0.0, 0.0)), pytest.approx((1.25, 0.0, 0.0))]
+    # the base_link -> laser transform is the laser's mount
+    assert log.scans[0].geometry.offset == (0.2, 0.0, 0.0)

@@ -67,23 +67,23 @@ def cases(draw: st.DrawFn) -> Case:
     )
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(cases())
 def test_scan_log_likelihood_matches_reference(c: Case) -> None:
     fast = gk.scan_log_likelihood(c.idx, *c.args, c.used, c.ll)
     ref = gk.scan_log_likelihood_reference(c.idx, *c.args, c.used, c.ll)
-    np.testing.assert_allclose(fast, ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(fast, ref, rtol=1e-6, atol=1e-5)  # float32 table
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(cases())
 def test_filter_statistics_match_the_project_beam_filters(c: Case) -> None:
     beams = np.flatnonzero(c.used)
     mult = np.random.default_rng(len(c.idx)).integers(1, 4, len(c.idx))
     dh, pn = gk.filter_statistics(c.idx, c.w, mult.astype(np.float64), *c.args, beams, c.ll, c.ps)
     dh_ref, pn_ref = gk.filter_statistics_reference(c.idx, c.w, mult, *c.args, beams, c.ll, c.ps)
-    np.testing.assert_allclose(dh[beams], dh_ref[beams], atol=1e-9)
-    np.testing.assert_allclose(pn[beams], pn_ref[beams], atol=1e-12)
+    np.testing.assert_allclose(dh[beams], dh_ref[beams], atol=1e-5)  # float32 tables
+    np.testing.assert_allclose(pn[beams], pn_ref[beams], atol=1e-6)
     assert np.all(np.isnan(dh[~c.used]))
     assert np.all(np.isnan(pn[~c.used]))
     assert np.all((pn[beams] >= -1e-12) & (pn[beams] <= 1 + 1e-12))
@@ -103,7 +103,7 @@ def motion_cases(draw: st.DrawFn) -> tuple[Case, np.ndarray, np.ndarray]:
     return c, weights, offsets
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(motion_cases())
 def test_motion_scatter_matches_reference(case: tuple[Case, np.ndarray, np.ndarray]) -> None:
     c, weights, offsets = case

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -22,7 +23,7 @@ from tourbot.localization.grid_markov import (
 from tourbot.localization.motion_model import OdometryMotionModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DistanceCaster
-from tourbot.records import LaserGeometry, Scan
+from tourbot.records import LaserGeometry, RobotLog, Scan
 
 RES = 0.05
 GEOMETRY = LaserGeometry(num_beams=180, angle_min=-math.pi / 2, angle_increment=math.pi / 180, max_range=20.0)
@@ -307,3 +308,57 @@ def test_plain_markov_localization_is_misled_by_people(room: OccupancyGrid, cast
         est = loc.update(odom[i], _scan(caster, pose, float(i), rng, people))
         errors.append(_errors(est.pose, pose)[0])
     assert max(errors) > 1.0
+
+
+@pytest.fixture(scope="module")
+def fhw_start(fhw_log_path: Path) -> tuple[RobotLog, GridMarkovLocalization]:
+    """The first 25 scans of the FHW museum log and a grid localizer on their reference map."""
+    from tourbot.io.carmen import read_carmen
+    from tourbot.maps.reference import build_reference_map
+
+    log = read_carmen(fhw_log_path)
+    log.scans = log.scans[:25]
+    # a smaller recovery sweep than the default keeps the test short; the tracking is the same
+    loc = GridMarkovLocalization(build_reference_map(log), GridMarkovConfig(sweep_poses=20_000))
+    loc.prepare(log.scans[0].geometry.max_range)
+    return log, loc
+
+
+def test_tracks_the_real_fhw_log(fhw_start: tuple[RobotLog, GridMarkovLocalization]) -> None:
+    log, loc = fhw_start
+    ref = log.reference_poses
+    loc.reset_tracking(ref[0], np.diag([0.1, 0.1, 0.05]) ** 2)
+    errors = []
+    for scan, truth in zip(log.scans, ref, strict=True):
+        est = loc.update(np.asarray(scan.odom), scan)
+        errors.append(_errors(est.pose, truth))
+        assert 0 < est.n_used_beams <= 180
+    d = np.array(errors)
+    assert d[:, 0].max() < 0.3, "the paper's failure threshold is 45 cm"
+    assert d[:, 0].mean() < 0.15
+    assert np.degrees(d[:, 1]).max() < 5.0
+
+
+def test_localizes_globally_on_the_real_fhw_log(fhw_start: tuple[RobotLog, GridMarkovLocalization]) -> None:
+    log, loc = fhw_start
+    ref = log.reference_poses
+    loc.reset_global()
+    for i in range(10, 14):
+        est = loc.update(np.asarray(log.scans[i].odom), log.scans[i])
+    assert _errors(est.pose, ref[13])[0] < 0.3
+
+
+def test_reset_tracking_defaults_to_the_tracking_std(room: OccupancyGrid) -> None:
+    loc = _localizer(room)
+    loc.reset_tracking([2.0, 1.0, 0.5])
+    poses, w = loc.belief()
+    mean = w @ poses[:, :2]
+    spread = np.sqrt(w @ (poses[:, :2] - mean) ** 2)
+    np.testing.assert_allclose(mean, [2.0, 1.0], atol=0.05)
+    assert np.all((spread > 0.07) & (spread < 0.15)), spread
+
+
+def test_grid_errors_are_localization_errors() -> None:
+    from tourbot.localization.mcl import LocalizationError
+
+    assert issubclass(GridMarkovError, LocalizationError)

@@ -14,6 +14,8 @@ from tourbot.localization.mcl import (
     LocalizationError,
     MCLConfig,
     MonteCarloLocalization,
+    best_cluster_estimate,
+    best_cluster_estimate_reference,
     cluster_bins,
     cluster_bins_reference,
     kld_bounds,
@@ -70,6 +72,21 @@ def test_clustering_matches_reference(p: np.ndarray) -> None:
     assert np.array_equal(
         cluster_bins(p, 0.5, math.radians(30)), cluster_bins_reference(p, 0.5, math.radians(30))
     )
+
+
+@settings(max_examples=60, deadline=None)
+@given(poses_strategy, st.integers(0, 2**31 - 1))
+def test_cluster_estimate_matches_reference(p: np.ndarray, seed: int) -> None:
+    p = p.copy()
+    p[:, 2] = wrap_angle(p[:, 2] * 1.6)
+    w = np.asarray(np.random.default_rng(seed).random(p.shape[0])) + 0.01
+    labels = cluster_bins(p, 0.5, math.radians(30))
+    pose, cov, weight = best_cluster_estimate(p, w, labels)
+    rpose, rcov, rweight = best_cluster_estimate_reference(p, w, labels)
+    np.testing.assert_allclose(pose[:2], rpose[:2], atol=1e-9)
+    assert abs(float(wrap_angle(pose[2] - rpose[2]))) < 1e-9
+    np.testing.assert_allclose(cov, rcov, atol=1e-9)
+    assert weight == pytest.approx(rweight)
 
 
 def test_clustering_separates_distant_groups_and_wraps_heading() -> None:

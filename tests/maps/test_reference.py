@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
+from collections.abc import Callable
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tourbot.io import read_carmen
 from tourbot.maps.grid import MapError
 from tourbot.maps.reference import (
     ReferenceMapParams,
@@ -23,7 +22,7 @@ from tourbot.records import LaserGeometry, RobotLog, Scan
 coord = st.floats(-3.0, 23.0, allow_nan=False)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(
     beams=st.lists(
         st.tuples(
@@ -132,10 +131,14 @@ def test_needs_poses() -> None:
 def test_params_resolution() -> None:
     grid = build_reference_map(_room_log(), 0.1, ReferenceMapParams(hit="endpoint"))
     assert grid.resolution == 0.1
+    assert build_reference_map(_room_log(), params=ReferenceMapParams(resolution=0.2)).resolution == 0.2
+    assert build_reference_map(_room_log()).resolution == 0.05
+    with pytest.raises(MapError, match="resolution must be positive"):
+        build_reference_map(_room_log(), 0.0)
 
 
-def test_fhw_map_shape(fhw_log_path: Path) -> None:
-    log = read_carmen(fhw_log_path)
+def test_fhw_map_shape(real_log: Callable[[str], RobotLog]) -> None:
+    log = real_log("fhw")
     grid = build_reference_map(log)
     assert grid.resolution == 0.05
     # the FHW hall is about 28 m x 88 m; the map is its bounding box plus 1 m margins
@@ -145,11 +148,11 @@ def test_fhw_map_shape(fhw_log_path: Path) -> None:
     assert grid.free().sum() > 10 * grid.occupied().sum()
 
 
-def test_fhw_map_quality_meets_the_target(fhw_log_path: Path) -> None:
+def test_fhw_map_quality_meets_the_target(real_log: Callable[[str], RobotLog]) -> None:
     """Issue target: median |ray cast - measured| <= 4 cm at 5 cm cells on the FHW log."""
     from tourbot.maps.reference import map_quality
 
-    log = read_carmen(fhw_log_path)
+    log = real_log("fhw")
     quality = map_quality(build_reference_map(log), log)
     assert quality["median_abs_error"] <= 0.04
     assert quality["beams"] > 80_000

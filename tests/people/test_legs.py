@@ -66,3 +66,19 @@ def test_kernel_matches_reference(seed: int, beams: int, holes: float) -> None:
         leg_segments(r, angles, valid, cfg), leg_segments_reference(r, angles, valid, cfg), strict=True
     ):
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_a_leg_partly_behind_the_other_is_still_a_leg() -> None:
+    # Seen from the origin the near leg hides part of the far one: the far leg's segment has a
+    # nearer neighbour on one side (an occluder, not a surface it belongs to) and the wall behind.
+    scan = scan_with_circles(0.0, (0.0, 0.0, 0.0), [(2.0, 0.0, 0.06), (2.25, 0.08, 0.06)])
+    legs = detect_legs(scan)
+    assert len(legs) == 2
+    assert np.all(legs.probability > 0.5)
+
+
+def test_a_bump_on_a_wall_is_not_a_leg() -> None:
+    # A 10 cm bump 5 cm proud of a wall: narrow, but no jump to either side.
+    circles = [(3.0, y, 0.06) for y in np.arange(-2.0, 2.0, 0.02)] + [(2.95, 0.0, 0.06)]
+    legs = detect_legs(scan_with_circles(0.0, (0.0, 0.0, 0.0), circles))
+    assert len(legs) == 0

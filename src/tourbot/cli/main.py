@@ -9,6 +9,7 @@ from types import ModuleType
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 import tourbot.bench
 import tourbot.cli
@@ -58,14 +59,15 @@ def main(argv: list[str] | None = None) -> None:
     try:
         app(args=argv, standalone_mode=False)
     except TourbotError as exc:
-        _err.print(f"[bold red]error:[/] {exc}", highlight=False, markup=True)
+        # the message is plain text (it may hold brackets); one line however wide the terminal
+        _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)
         sys.exit(2)
     except KeyboardInterrupt:
         _err.print("interrupted")
         sys.exit(130)
     except OSError as exc:
         # Missing or unreadable files are user errors: say which file, no traceback.
-        _err.print(f"[bold red]error:[/] {exc}", highlight=False)
+        _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
         sys.exit(2)
     except typer.Exit as exc:
         sys.exit(exc.exit_code)

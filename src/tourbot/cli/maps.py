@@ -99,6 +99,7 @@ def register(app: typer.Typer) -> None:
         lenient: LenientOpt = False,
     ) -> None:
         """Picture of a log: the map, the reference path and any trajectories, labelled."""
+        from tourbot.errors import TourbotError
         from tourbot.io import load_log
         from tourbot.io.mapserver import read_map
         from tourbot.io.tum import read_tum
@@ -117,8 +118,11 @@ def register(app: typer.Typer) -> None:
         elif robot_log.has_reference:
             grid = build_reference_map(robot_log)
             note = "map built from the reference poses"
+        elif all(s.odom is not None for s in robot_log.scans):
+            grid = build_reference_map(robot_log, use_reference=False)
+            note = "no reference poses: map built from the odometry (smeared by its drift)"
         else:
-            grid = None
+            raise TourbotError(f"{log}: nothing to draw (no reference or odometry poses); give --map")
         out = show_log(
             robot_log, output, grid=grid, trajectories=trajectories, odometry=odometry, map_note=note
         )

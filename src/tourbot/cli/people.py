@@ -36,6 +36,7 @@ def register(app: typer.Typer) -> None:
         ] = PoseSource.odom,
         tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
+        plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
     ) -> None:
         """Track people (SJPDAF, Burgard et al. Sec. 4); CSV: scan, time, id, x, y, vx, vy."""
         import csv
@@ -57,6 +58,7 @@ def register(app: typer.Typer) -> None:
         output.parent.mkdir(parents=True, exist_ok=True)
         rows = 0
         ids: set[int] = set()
+        paths: dict[int, list[tuple[float, float]]] = {}
         with output.open("w", newline="") as fh, Progress() as progress:
             writer = csv.writer(fh)
             writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
@@ -74,5 +76,30 @@ def register(app: typer.Typer) -> None:
                         )
                         rows += 1
                         ids.add(tr.id)
+                        paths.setdefault(tr.id, []).append(tr.position)
                 progress.advance(task)
         typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")
+        if plot is not None:
+            _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")
+            typer.echo(f"picture -> {plot}")
+
+
+def _plot_tracks(paths: dict[int, list[tuple[float, float]]], out: Path, title: str) -> None:
+    """Each track's path, one colour per id, in the world frame."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 7))
+    for tid, pts in sorted(paths.items()):
+        xy = list(zip(*pts, strict=True))
+        ax.plot(xy[0], xy[1], lw=1.0)
+        ax.annotate(str(tid), pts[-1], fontsize=6)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)

@@ -30,7 +30,6 @@ odometry reading that follows it in time has been read.
 
 from __future__ import annotations
 
-import bisect
 import gzip
 import math
 import re
@@ -43,7 +42,7 @@ from typing import IO, cast
 
 import numpy as np
 
-from tourbot.geometry import relative
+from tourbot.geometry import relative, wrap_angle
 from tourbot.io._interp import interpolate_pose
 from tourbot.io.errors import LogFormatError
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
@@ -124,6 +123,7 @@ class _RawScan:
     line_odom: Pose | None  # the odometry pose written on the line, if any
     odom: Pose | None = None
     resolved: bool = False
+    previous: Odometry | None = None  # the latest odometry reading read before this scan
 
 
 class _MalformedError(Exception):
@@ -203,7 +203,10 @@ def _timestamp(tokens: list[str], index: int, kind: str) -> float:
 
 
 def _pose(tokens: list[str], start: int, names: Sequence[str]) -> Pose:
+    """A pose from three fields, its angle wrapped to (-pi, pi] (left untouched when already in it)."""
     x, y, th = (_number(tokens[start + k], names[k]) for k in range(3))
+    if not -math.pi < th <= math.pi:
+        th = float(wrap_angle(th))
     return (x, y, th)
 
 
@@ -269,24 +272,22 @@ class CarmenReader:
     # -- lines ---------------------------------------------------------------------------------
 
     def _lines(self) -> Iterator[tuple[int, list[str]]]:
+        """Non-empty, non-comment lines as tokens, with their line numbers.
+
+        Each line is handed on only once the next one has been read, so that the last, cut-off
+        line of a truncated gzip file is reported as a truncation rather than as a short record.
+        """
         lineno = 0
+        held: bytes | None = None
         try:
             with _open_binary(self.path) as stream:
                 for raw in stream:
+                    if held is not None:
+                        tokens = self._tokens(held, lineno)
+                        if tokens:
+                            yield lineno, tokens
                     lineno += 1
-                    if raw.strip():
-                        self._content_lines += 1
-                    try:
-                        if b"\x00" in raw:
-                            raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
-                        text = raw.decode("utf-8")
-                    except UnicodeDecodeError:
-                        self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
-                        continue
-                    tokens = text.split()
-                    if not tokens or tokens[0].startswith("#"):
-                        continue
-                    yield lineno, tokens
+                    held = raw
         except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
             reason = (
                 "the gzip stream is truncated (the file was cut short)"
@@ -294,8 +295,30 @@ class CarmenReader:
                 else f"the gzip stream is corrupt ({exc})"
             )
             if not self.lenient:
-                raise LogFormatError(reason, path=self.path, line=lineno + 1) from None
-            self.warnings.append(f"{self.path}:{lineno + 1}: {reason}; kept the {lineno} lines before it")
+                raise LogFormatError(reason, path=self.path, line=max(lineno, 1)) from None
+            kept = max(lineno - 1, 0)
+            self.warnings.append(f"{self.path}:{max(lineno, 1)}: {reason}; kept the {kept} lines before it")
+            return
+        if held is not None:
+            tokens = self._tokens(held, lineno)
+            if tokens:
+                yield lineno, tokens
+
+    def _tokens(self, raw: bytes, lineno: int) -> list[str]:
+        if raw.strip():
+            self._content_lines += 1
+        if b"\x00" in raw:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        tokens = text.split()
+        if not tokens or tokens[0].startswith("#"):
+            return []
+        return tokens
 
     def _find_odometry_stream(self) -> bool:
         """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
@@ -568,6 +591,7 @@ class CarmenReader:
                     lineno, f"of {item.sensor} scans {what} ({last_scan!r} then {item.timestamp!r})"
                 )
             self._last_scan_time[item.sensor] = item.timestamp
+            item.previous = self._history[-1] if self._history else None
             item.resolved = not self._needs_stream(item)
         self._queue.append(item)
         yield from self._flush(final=False)
@@ -584,12 +608,14 @@ class CarmenReader:
         """Attach the odometry at the scan's time; False while the reading after it is unread."""
         history = self._history
         if self._record_order:
-            # the latest reading before the scan in the file: the readings queued after the scan
-            # are not in ``history`` order-wise before it, so look at what preceded it.
-            before = self._reading_before(scan)
-            if before is None and not final and not history:
-                return False
-            scan.odom = before.pose if before is not None else (history[0].pose if history else None)
+            # the latest reading before the scan in the file, else the first one after it
+            before = scan.previous
+            if before is None and not history:
+                if not final:
+                    return False
+                scan.odom = None
+            else:
+                scan.odom = before.pose if before is not None else history[0].pose
             scan.resolved = True
             return True
         if not history or history[-1].timestamp < scan.timestamp:
@@ -602,26 +628,16 @@ class CarmenReader:
         scan.resolved = True
         return True
 
-    def _reading_before(self, scan: _RawScan) -> Odometry | None:
-        """The latest odometry reading read before ``scan`` (the queue holds what came after)."""
-        after = 0
-        seen_scan = False
-        for item in self._queue:
-            if item is scan:
-                seen_scan = True
-            elif seen_scan and isinstance(item, Odometry):
-                after += 1
-        index = len(self._history) - 1 - after
-        return self._history[index] if index >= 0 else None
-
     def _drain(self) -> Iterator[Record]:
         yield from self._flush(final=True)
 
 
 def _interpolate(history: deque[Odometry], t: float) -> Pose:
     """Odometry pose at time ``t`` from the recent readings (their times strictly increase)."""
-    times = [o.timestamp for o in history]
-    i = bisect.bisect_left(times, t)
+    # scans come just before or after the latest readings: search back from the newest
+    i = len(history) - 1
+    while i > 0 and history[i - 1].timestamp >= t:
+        i -= 1
     if i == 0:
         return history[0].pose
     a, b = history[i - 1], history[i]
@@ -740,8 +756,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         )
     odom_policy = _policy([s.odom for s in log.scans], "odometry", path)
     ref_policy = _policy([s.reference for s in log.scans], "reference", path)
-    opener = gzip.open if path.name.endswith(".gz") else open
-    with opener(path, "wt", encoding="utf-8", newline="\n") as out:
+    with _open_for_writing(path) as out:
         out.write(f"# CARMEN log written by tourbot from {log.source}\n")
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
@@ -766,6 +781,12 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
             )
         for reading in odometry[k:]:
             _write_odom(out, reading)
+
+
+def _open_for_writing(path: Path) -> IO[str]:
+    if path.name.endswith(".gz"):
+        return cast(IO[str], gzip.open(path, "wt", encoding="utf-8", newline="\n", compresslevel=6))
+    return path.open("w", encoding="utf-8", newline="\n")
 
 
 def _write_odom(out: IO[str], o: Odometry) -> None:

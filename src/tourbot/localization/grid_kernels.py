@@ -110,7 +110,7 @@ def _scan_log_likelihood_kernel(
     table: BinArray,
     beam_cols: IntArray,
     beams: IntArray,
-    ll: FloatArray,
+    ll: NDArray[np.float32],
     out: FloatArray,
 ) -> None:
     for i in range(pose_idx.shape[0]):
@@ -139,11 +139,13 @@ def scan_log_likelihood(
     """``log p(s | l) = sum_{b used} ll[b, bin(l, b)]`` for every pose, ``(N,)`` (numba kernel).
 
     The log of the product of independent beam likelihoods that Eq. 2 multiplies the belief with.
+    The look-up table is read in float32 (sums are float64).
     """
     out = np.empty(pose_idx.shape[0], dtype=np.float64)
     beams = np.flatnonzero(used).astype(np.int64)
+    ll32 = np.ascontiguousarray(ll, dtype=np.float32)  # half the cache footprint of the look-ups
     _scan_log_likelihood_kernel(
-        pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols, beams, ll, out
+        pose_idx, n_free, free_rc, free_index, laser_shift, table, beam_cols, beams, ll32, out
     )
     return out
 
@@ -183,22 +185,22 @@ def _filter_statistics_kernel(
     table: BinArray,
     beam_cols: IntArray,
     beams: IntArray,
-    ll: FloatArray,
-    ll_max: FloatArray,
-    lik: FloatArray,
-    ps: FloatArray,
+    tab: NDArray[np.float32],
     z: FloatArray,
     s: FloatArray,
     pn: FloatArray,
 ) -> float:
+    # tab[b, bin] = (p, p log p, p_n, 0) with p = p(s_b | l) relative to the beam's best bin: one
+    # cache line per look-up.
     h0 = 0.0
     for i in range(pose_idx.shape[0]):
         wi = w[i]
         mi = mult[i]
         if wi <= 0.0 or mi <= 0.0:
             continue
+        mw = mi * wi
         logw = math.log(wi)
-        h0 -= mi * wi * logw
+        h0 -= mw * logw
         p = pose_idx[i]
         k = p // n_free
         f = p - k * n_free
@@ -206,11 +208,10 @@ def _filter_statistics_kernel(
         for j in range(beams.shape[0]):
             b = beams[j]
             d = table[g, beam_cols[k, b]]
-            q = wi * lik[b, d]
-            if q > 0.0:
-                z[b] += mi * q
-                s[b] += mi * q * (logw + ll[b, d] - ll_max[b])
-            pn[b] += mi * wi * ps[b, d]
+            lik = tab[b, d, 0]
+            z[b] += mw * lik
+            s[b] += mw * (lik * logw + tab[b, d, 1])
+            pn[b] += mw * tab[b, d, 2]
     return h0
 
 
@@ -242,14 +243,18 @@ def filter_statistics(
     n_beams = ll.shape[0]
     m = np.ascontiguousarray(mult, dtype=np.float64)
     wn = np.ascontiguousarray(w, dtype=np.float64) / float(np.sum(m * w))
-    ll_max = np.max(ll, axis=1)
-    lik = np.exp(ll - ll_max[:, None])  # p(s_b | l) relative to the beam's best bin, tabulated
+    lq = ll - np.max(ll, axis=1)[:, None]
+    lik = np.exp(lq)
+    tab = np.zeros((n_beams, ll.shape[1], 4), dtype=np.float32)
+    tab[:, :, 0] = lik
+    tab[:, :, 1] = np.where(lik > 0.0, lik * lq, 0.0)
+    tab[:, :, 2] = ps
     z = np.zeros(n_beams)
     s = np.zeros(n_beams)
     pn = np.zeros(n_beams)
     h0 = _filter_statistics_kernel(
         pose_idx, wn, m, n_free, free_rc, free_index, laser_shift, table, beam_cols,
-        np.ascontiguousarray(beams, dtype=np.int64), ll, ll_max, lik, ps, z, s, pn,
+        np.ascontiguousarray(beams, dtype=np.int64), tab, z, s, pn,
     )  # fmt: skip
     dh = np.full(n_beams, np.nan)
     pnov = np.full(n_beams, np.nan)

@@ -15,14 +15,23 @@ after each step the poses below ``prune_ratio`` times the largest belief are dro
 mixture cannot be held explicitly, so it is evaluated by a sweep: each update scores
 ``sweep_poses`` poses of a fixed pseudo-random tour of the whole grid with their share
 ``eps / |L|`` of prior, and those that explain the scan well enough join the held set. That is how
-a kidnapped robot recovers (Table 1, "Recovery").
+a kidnapped robot recovers (Table 1, "Recovery"). Swept poses are screened on a few beams first
+and only the most promising get the full product of Eq. 2; a uniform belief (global localization)
+is screened the same way down to ``max_active`` poses.
+
+The filters judge each beam against the belief *with* its uniform part (sampled from the sweep): a
+beam that only poses elsewhere explain (a person in front of the robot, seen by a pose next to a
+wall) moves mass to the uniform part, raises the entropy and fails the entropy filter; without
+this, a filtered-in reading would let the sweep pull the belief away from the truth.
 
 The expected range of every beam is a table look-up: the project's ray caster fills, once per map,
 the range from every free cell centre at every ``table_angle_step`` (1 degree by default, the
 laser's beam spacing), so a beam of a pose in heading layer ``k`` reads
 ``table[cell, (k * angle_step + laser_yaw + beam_angle) / table_angle_step]``. The beam model's
 ``p(s_b | l)`` and ``p_n(s_b | l)`` (Eq. 5) are tabulated per scan over range bins. The hot loops
-are the numba kernels of :mod:`tourbot.localization.grid_kernels`.
+are the numba kernels of :mod:`tourbot.localization.grid_kernels`. The table is built on the
+first update (seconds to a minute for a museum; :meth:`GridMarkovLocalization.prepare` builds it
+ahead, with progress, and :meth:`~GridMarkovLocalization.use_table` shares it between localizers).
 """
 
 from __future__ import annotations
@@ -31,16 +40,16 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.errors import TourbotError
 from tourbot.geometry import relative, wrap_angle
 from tourbot.localization import grid_kernels as gk
 from tourbot.localization.beam_filters import BeamFilter, BeamFilterConfig
 from tourbot.localization.estimate import LocalizationEstimate
+from tourbot.localization.mcl import LocalizationError
 from tourbot.localization.motion_model import OdometryMotionModel, decompose
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
@@ -61,7 +70,7 @@ IntArray = NDArray[np.int64]
 Progress = Callable[[int, int], None]
 
 
-class GridMarkovError(TourbotError):
+class GridMarkovError(LocalizationError):
     """A grid localizer used before it has a map, or given a map with no free space."""
 
 
@@ -89,13 +98,18 @@ class GridMarkovConfig:
 
     - ``table_angle_step``: angular step of the expected-range table (1 degree: the laser's beam
       spacing, so neighbouring beams do not share a ray).
-    - ``range_bin``: range resolution of the table and of the per-scan likelihood tables (m).
+    - ``range_bin``: range resolution of the table and of the per-scan likelihood tables (m; a
+      quarter of the beam model's ``sigma_hit``).
     - ``prune_ratio``: poses whose belief is below this fraction of the largest are dropped (the
       selective update); ``max_active`` caps how many are held.
-    - ``sweep_poses``: poses of the uniform mixture scored per update (recovery).
+    - ``sweep_poses``: poses of the uniform mixture scored per update (recovery). They are first
+      screened on ``screen_beams`` of the used beams (evenly spread); only the ``screen_keep``
+      best get the full Eq. 2 update, the rest count as negligible, like unswept poses.
+    - ``filter_sample``: how many swept poses stand for the mixture when the filters judge beams.
     - ``min_translation``, ``min_rotation``: odometry is accumulated until the robot has moved
       half a cell or half a heading step, so slow motion is not rounded away.
     - ``motion_sigmas``: width of the motion kernel's window in standard deviations.
+    - ``tracking_std``: the default spread of :meth:`GridMarkovLocalization.reset_tracking`.
     - ``mode_radius``, ``mode_angle``: the estimate is the belief's mean within this distance of
       its most probable pose.
     """
@@ -103,16 +117,20 @@ class GridMarkovConfig:
     cell_size: float = 0.15
     angle_step: float = math.radians(2.0)
     table_angle_step: float = math.radians(1.0)
-    range_bin: float = 0.02
+    range_bin: float = 0.05
     beam_filter: BeamFilter = BeamFilter.NOVELTY
     filters: BeamFilterConfig = field(default_factory=BeamFilterConfig)
     uniform_mixture: float = 0.01
     prune_ratio: float = 1e-6
     max_active: int = 300_000
     sweep_poses: int = 100_000
+    screen_beams: int = 24
+    screen_keep: int = 1_000
+    filter_sample: int = 2_000
     min_translation: float = 0.075
     min_rotation: float = math.radians(1.0)
     motion_sigmas: float = 3.0
+    tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
     mode_radius: float = 0.5
     mode_angle: float = math.radians(20.0)
 
@@ -292,6 +310,7 @@ class GridMarkovLocalization:
         motion_model: OdometryMotionModel | None = None,
         sensor_model: BeamModel | None = None,
         caster_factory: Callable[[OccupancyGrid, float], RangeCaster] = _default_caster,
+        table: ExpectedRangeTable | None = None,
     ) -> None:
         self.config = config or GridMarkovConfig()
         self.motion_model = motion_model or OdometryMotionModel()
@@ -309,6 +328,8 @@ class GridMarkovLocalization:
         self._sweep_stride = 1
         if grid is not None:
             self.set_map(grid)
+        if table is not None:
+            self.use_table(table)
 
     # -------------------------------------------------------------------------------- map, tables
 
@@ -334,6 +355,18 @@ class GridMarkovLocalization:
     def table(self) -> ExpectedRangeTable | None:
         """The expected-range table, once built."""
         return self._table
+
+    def use_table(self, table: ExpectedRangeTable) -> None:
+        """Reuse an expected-range table built for the same map and configuration (it is costly)."""
+        lat = self.lattice
+        if table.bins.shape[0] != lat.n_free or not math.isclose(table.range_bin, self.config.range_bin):
+            raise GridMarkovError(
+                f"the expected-range table ({table.bins.shape[0]} cells, {table.range_bin} m bins) does not "
+                f"fit this map's lattice ({lat.n_free} cells, {self.config.range_bin} m bins)"
+            )
+        if not math.isclose(table.angle_step, self.config.table_angle_step):
+            raise GridMarkovError("the expected-range table has another angular step than the configuration")
+        self._table = table
 
     def prepare(self, max_range: float, progress: Progress | None = None) -> ExpectedRangeTable:
         """Build (once per map and maximum range) the expected-range table by ray casting."""
@@ -373,9 +406,12 @@ class GridMarkovLocalization:
         self._uniform = True
         self._odom_ref = None
 
-    def reset_tracking(self, pose: ArrayLike, cov: ArrayLike, grid: OccupancyGrid | None = None) -> None:
+    def reset_tracking(
+        self, pose: ArrayLike, cov: ArrayLike | None = None, grid: OccupancyGrid | None = None
+    ) -> None:
         """Tracking: ``Bel(l)`` a Gaussian of covariance ``cov (3, 3)`` around the world ``pose``.
 
+        ``cov`` defaults to ``diag(tracking_std**2)`` (10 cm, 10 cm, 5 deg, as MCL's).
         Evaluated at cell centres within ``4`` standard deviations; the spread is floored at half
         a cell and half a heading step so the belief is never empty.
         """
@@ -383,7 +419,8 @@ class GridMarkovLocalization:
             self.set_map(grid)
         lat = self.lattice
         mu = np.asarray(pose, dtype=np.float64).reshape(3)
-        c = np.asarray(cov, dtype=np.float64).reshape(3, 3)
+        c = np.diag(np.square(self.config.tracking_std)) if cov is None else np.asarray(cov, np.float64)
+        c = c.reshape(3, 3)
         c = c + np.diag([(lat.cell_size / 2) ** 2, (lat.cell_size / 2) ** 2, (lat.angle_step / 2) ** 2])
         centres = lat.poses(np.arange(lat.n_free))[:, :2]
         reach = 4.0 * math.sqrt(max(c[0, 0], c[1, 1]))
@@ -475,13 +512,22 @@ class GridMarkovLocalization:
             self.config.motion_sigmas,
         )
 
-    def _sensor_tables(self, ranges: FloatArray, table: ExpectedRangeTable) -> tuple[FloatArray, FloatArray]:
-        """``log p(s_b | z*)`` and ``p_n(s_b | z*)`` (Eq. 5) for every beam and range bin, ``(B, n_bins)``."""
-        expected = np.arange(table.n_bins, dtype=np.float64) * table.range_bin
-        e = np.broadcast_to(expected[:, None].astype(np.float32), (table.n_bins, ranges.shape[0]))
-        p = self.sensor_model.probabilities(e, ranges, table.max_range)
-        ll = np.ascontiguousarray(np.log(np.maximum(p, 1e-300)).T)
-        ps = np.ascontiguousarray(self.sensor_model.prob_shorter(e, ranges, table.max_range).T)
+    def _sensor_tables(
+        self, ranges: FloatArray, valid: NDArray[np.bool_], table: ExpectedRangeTable
+    ) -> tuple[FloatArray, FloatArray]:
+        """``log p(s_b | z*)`` and ``p_n(s_b | z*)`` (Eq. 5) per beam and range bin, ``(B, n_bins)``.
+
+        From the project's beam model; rows of beams that are not ``valid`` are left at zero.
+        """
+        expected = (np.arange(table.n_bins, dtype=np.float64) * table.range_bin).astype(np.float32)
+        beams = np.flatnonzero(valid)
+        e = np.broadcast_to(expected[:, None], (table.n_bins, beams.size))
+        ll = np.zeros((ranges.shape[0], table.n_bins))
+        ps = np.zeros((ranges.shape[0], table.n_bins))
+        if beams.size:
+            p = self.sensor_model.probabilities(e, ranges[beams], table.max_range)
+            ll[beams] = np.log(np.maximum(p, 1e-300)).T
+            ps[beams] = self.sensor_model.prob_shorter(e, ranges[beams], table.max_range).T
         return ll, ps
 
     def _sensor_update(
@@ -494,7 +540,7 @@ class GridMarkovLocalization:
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         valid = np.isfinite(ranges) & (ranges >= geometry.min_range) & (ranges < geometry.max_range)
         ranges = np.where(np.isfinite(ranges), ranges, geometry.max_range)
-        ll, ps = self._sensor_tables(ranges, table)
+        ll, ps = self._sensor_tables(ranges, valid, table)
         args = (lat.n_free, lat.free_rc, lat.free_index, layout.laser_shift, table.bins, layout.beam_cols)
         info: dict[str, float] = {}
 
@@ -503,17 +549,22 @@ class GridMarkovLocalization:
         eps = cfg.uniform_mixture if not self._uniform else 0.0
         u = eps / lat.n_poses
         sweep = self._sweep_candidates() if eps > 0 else np.zeros(0, dtype=np.int64)
-        prior_a = (1.0 - eps) * self._w + u
-        stands_for = (lat.n_poses - self._idx.size) / sweep.size if sweep.size else 0.0
+        held, prior_a = self._idx, (1.0 - eps) * self._w + u
+        sample = _every(sweep, cfg.filter_sample)
+        stands_for = (lat.n_poses - held.size) / sample.size if sample.size else 0.0
+        # A uniform belief (global localization) is judged on a sample of itself.
+        judged = _every(np.arange(held.size), cfg.filter_sample) if self._uniform else np.arange(held.size)
 
         # Eq. 3-6: judge every beam against the current belief, uniform mixture included (so a
         # beam that only a pose elsewhere explains raises the entropy and fails the entropy filter).
         used = valid.copy()
         if cfg.beam_filter != BeamFilter.NONE and valid.any():
             dh, pn = gk.filter_statistics(
-                np.concatenate([self._idx, sweep]),
-                np.concatenate([prior_a, np.full(sweep.size, u)]),
-                np.concatenate([np.ones(self._idx.size), np.full(sweep.size, stands_for)]),
+                np.concatenate([held[judged], sample]),
+                np.concatenate([prior_a[judged], np.full(sample.size, u)]),
+                np.concatenate(
+                    [np.full(judged.size, held.size / judged.size), np.full(sample.size, stands_for)]
+                ),
                 *args,
                 np.flatnonzero(valid),
                 ll,
@@ -527,15 +578,22 @@ class GridMarkovLocalization:
         if not used.any():
             return used, info
 
-        # Eq. 2 on the held poses and the swept ones.
-        ll_a = gk.scan_log_likelihood(self._idx, *args, used, ll)
+        # Screen the swept poses (and a uniform belief's poses) on a few beams, keep the best;
+        # Eq. 2 on the held poses and the kept swept ones.
+        few = np.zeros_like(used)
+        few[_every(np.flatnonzero(used), cfg.screen_beams)] = True
+        sweep = self._screen(sweep, cfg.screen_keep, few, ll, args)
+        if self._uniform:
+            keep_held = self._screen(np.arange(held.size), cfg.max_active, few, ll, args, held)
+            held, prior_a = held[keep_held], prior_a[keep_held]
+        ll_a = gk.scan_log_likelihood(held, *args, used, ll)
         ll_s = gk.scan_log_likelihood(sweep, *args, used, ll)
         top = max(ll_a.max(), ll_s.max() if ll_s.size else -np.inf)
         post_a = prior_a * np.exp(ll_a - top)
         post_s = u * np.exp(ll_s - top)
         z = post_a.sum() + post_s.sum()
         info["sweep_mass"] = float(post_s.sum() / z)
-        idx = np.concatenate([self._idx, sweep])
+        idx = np.concatenate([held, sweep])
         w = np.concatenate([post_a, post_s]) / z
         keep = w >= cfg.prune_ratio * w.max()
         idx, w = idx[keep], w[keep]
@@ -547,21 +605,41 @@ class GridMarkovLocalization:
         info["swept"] = float(sweep.size)
         return used, info
 
+    @staticmethod
+    def _screen(
+        items: IntArray,
+        keep: int,
+        few: NDArray[np.bool_],
+        ll: FloatArray,
+        args: tuple[int, IntArray, IntArray, IntArray, NDArray[np.uint16], IntArray],
+        poses: IntArray | None = None,
+    ) -> IntArray:
+        """The ``keep`` items whose poses (``poses[items]``, or the items themselves) score best on
+        the beams ``few``, in increasing order; all of them when there are no more than ``keep``."""
+        if items.size <= keep:
+            return items
+        pose_idx = items if poses is None else poses[items]
+        partial = gk.scan_log_likelihood(pose_idx, *args, few, ll)
+        return np.sort(items[np.argpartition(partial, -keep)[-keep:]])
+
     def _sweep_candidates(self) -> IntArray:
-        """The next ``sweep_poses`` poses of a fixed pseudo-random tour of the grid, not held now."""
-        n = self.lattice.n_poses
+        """The next ``sweep_poses`` poses of a fixed pseudo-random tour of the grid, not held now.
+
+        The tour runs over ``cell * n_theta + heading`` so that, once sorted, consecutive poses read
+        the same rows of the range table.
+        """
+        lat = self.lattice
+        n = lat.n_poses
         m = min(self.config.sweep_poses, n)
         if m <= 0:
             return np.zeros(0, dtype=np.int64)
         steps = (self._sweep_next + np.arange(m, dtype=np.int64)) % n
         self._sweep_next = int((self._sweep_next + m) % n)
-        cand = (steps * self._sweep_stride) % n
-        self._dense[self._idx] = 1.0  # mark the held poses
-        fresh = cand[self._dense[cand] == 0.0]
-        self._dense[self._idx] = 0.0
-        # in cell order, so that consecutive poses read the same rows of the range table
-        n_free = self.lattice.n_free
-        return fresh[np.argsort(fresh % n_free, kind="stable")]
+        tour = np.sort((steps * self._sweep_stride) % n)
+        cand = (tour % lat.n_theta) * lat.n_free + tour // lat.n_theta
+        held = np.sort(self._idx)
+        at = np.minimum(np.searchsorted(held, cand), max(held.size - 1, 0))
+        return cand[held[at] != cand] if held.size else cand
 
     # -------------------------------------------------------------------------------- estimate
 
@@ -663,12 +741,19 @@ def layer_kernels(
         axis=-1,
     )  # (K, Kt, Kr, Kc, 3) offsets from the mean, in cells
     inv = np.linalg.inv(cov)
-    q = np.einsum("nabci,nij,nabcj->nabc", d, inv, d)
+    flat = d.reshape(n, -1, 3)
+    q = np.sum((flat @ inv) * flat, axis=-1).reshape(d.shape[:-1])  # Mahalanobis distances
     w = np.exp(-0.5 * q)
     inside = [np.arange(size[i])[None, :] <= (hi - lo)[:, i : i + 1] for i in range(3)]
     w *= inside[0][:, :, None, None] & inside[1][:, None, :, None] & inside[2][:, None, None, :]
     w /= w.sum(axis=(1, 2, 3), keepdims=True)
     return w, lo
+
+
+def _every(items: NDArray[Any], count: int) -> NDArray[Any]:
+    """About ``count`` items evenly spread over ``items`` (all of them if there are fewer)."""
+    step = max(1, -(-items.size // max(count, 1)))
+    return items[::step]
 
 
 def _coprime_stride(n: int) -> int:

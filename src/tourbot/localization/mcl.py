@@ -13,15 +13,22 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
 3. *perception* (Eq. 2): the weights are multiplied by the likelihood-field likelihood of the
    selected beams (:class:`tourbot.maps.likelihood_field.LikelihoodField`), tempered by
    ``likelihood_exponent`` because neighbouring beams are not independent;
-4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3): short-
-   and long-term averages of the per-beam measurement likelihood; when the short-term one falls
-   below the long-term one, a fraction ``1 - w_fast / w_slow`` of the samples is replaced at the
-   next resampling by poses drawn from the current scan (sensor resetting, Lenser & Veloso 2000):
-   candidate poses over the free space are scored against the scan and drawn by score. Because the
-   likelihood is measured on the *filtered* beams only, a crowd that hides the walls does not
-   trigger resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer
-   than expected are kept (Fox et al.: the novelty filter "forces the incorporation of very
-   unlikely sensor measurements (especially too long readings)") and do;
+4. *recovery*: augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with
+   sensor resetting (Lenser & Veloso 2000). The fit of a scan is how well the *best* sample
+   explains the integrated beams (the per-beam geometric mean of their likelihood): while tracking,
+   some sample always explains them, whatever the spread of the prediction; after a kidnap none
+   does. A short- and a long-term average of the fit are kept (``alpha_fast``, ``alpha_slow``);
+   when the short-term one falls below ``recovery_ratio`` times the long-term one, a fraction
+   ``1 - w_fast / (recovery_ratio * w_slow)`` (at most ``max_injection``) of the samples is
+   replaced by poses drawn from the current scan: candidate poses, half around the last estimate
+   (most failures are local: a push, wheel slip, a kidnap by a metre) and half over the whole free
+   space, scored against the scan and drawn by score. The dead band ``recovery_ratio`` and the
+   rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is no evidence
+   keep the ups and downs of a crowded museum from resetting a filter that tracks well. Because
+   the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
+   resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
+   expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
+   sensor measurements (especially too long readings)") and do;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -35,6 +42,7 @@ are numba kernels; each has a plain-numpy reference beside it (see the tests).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -53,7 +61,7 @@ from tourbot.localization.beam_filters import (
     novelty_filter,
 )
 from tourbot.localization.estimate import LocalizationEstimate
-from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.localization.motion_model import OdometryMotionModel, _wrap
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
@@ -64,6 +72,8 @@ __all__ = [
     "LocalizationError",
     "MCLConfig",
     "MonteCarloLocalization",
+    "best_cluster_estimate",
+    "best_cluster_estimate_reference",
     "cluster_bins",
     "cluster_bins_reference",
     "kld_bounds",
@@ -111,9 +121,16 @@ class MCLConfig:
         ``alpha_slow`` / ``alpha_fast``: the averaging rates of augmented MCL (Probabilistic
         Robotics Table 8.3, Nav2 AMCL ``recovery_alpha_slow`` 0.001 / ``recovery_alpha_fast`` 0.1);
         per update, and AMCL updates every 0.25 m whereas a scan of the museum logs comes every
-        ~0.8 m, so ours are faster. ``max_injection``: at most this fraction of the samples is
-        replaced per update. ``injection_candidates``: candidate poses (uniform over the free space)
-        scored against the scan with every ``injection_beam_step``-th beam.
+        ~0.8 m, so ours are faster (``alpha_fast`` 1: the fit of the current scan itself).
+        ``recovery_ratio``: injection starts when the short-term average falls below this fraction
+        of the long-term one (1 in Probabilistic Robotics; 0.5 here: on the FHW log the best
+        sample's fit stays within 0.55-1 of its average while tracking and drops to about 0.1 at a
+        kidnap). ``recovery_min_used``: scans with fewer integrated beams than this fraction of
+        their returns leave the averages alone. ``max_injection``: at most this fraction of the
+        samples is replaced per update.
+        ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
+        around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
+        over the free space, scored against the scan with every ``injection_beam_step``-th beam.
     """
 
     min_samples: int = 500
@@ -134,10 +151,14 @@ class MCLConfig:
     max_dist: float = 2.0
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     alpha_slow: float = 0.01
-    alpha_fast: float = 0.3
+    alpha_fast: float = 1.0
+    recovery_ratio: float = 0.5
+    recovery_min_used: float = 0.3
     max_injection: float = 0.5
     injection_candidates: int = 20000
-    injection_beam_step: int = 6
+    injection_local: float = 0.5
+    injection_local_std: float = 2.0
+    injection_beam_step: int = 4
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -167,6 +188,7 @@ class MonteCarloLocalization:
         free = grid.free()
         if not free.any():
             raise LocalizationError("the map has no free cell to localize in")
+        self._free = free
         self._free_cells = np.argwhere(free)
         self._field_params = LikelihoodFieldParams(
             sigma_hit=self.config.sigma_hit,
@@ -250,21 +272,24 @@ class MonteCarloLocalization:
         injected = 0
         if n_used:
             loglik = field_.log_likelihood(self.samples, ranges, geometry, beam_mask=used)
-            # Per-beam average likelihood of the scan under the belief (for augmented MCL).
+            # How well the best hypothesis explains the integrated beams (per-beam geometric mean).
             per_beam = loglik / n_used
-            w_avg = float(np.dot(self.weights, np.exp(per_beam - per_beam.max()))) * math.exp(per_beam.max())
+            w_best = math.exp(float(per_beam.max()))
             logw = np.log(np.maximum(self.weights, 1e-300)) + cfg.likelihood_exponent * loglik
             logw -= logw.max()
             w = np.exp(logw)
             self.weights = w / w.sum()
-            # 4. Recovery: augmented MCL's short- and long-term likelihood averages.
-            if self._w_slow == 0.0:
-                self._w_slow = self._w_fast = w_avg
+            # 4. Recovery: augmented MCL's short- and long-term averages of that fit.
+            if n_used < cfg.recovery_min_used * valid.sum():
+                pass  # too few beams to judge the fit (a crowd all around): no evidence either way
+            elif self._w_slow == 0.0:
+                self._w_slow = self._w_fast = w_best
             else:
-                self._w_slow += cfg.alpha_slow * (w_avg - self._w_slow)
-                self._w_fast += cfg.alpha_fast * (w_avg - self._w_fast)
-            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - self._w_fast / self._w_slow))
-            info["w_avg"] = w_avg
+                self._w_slow += cfg.alpha_slow * (w_best - self._w_slow)
+                self._w_fast += cfg.alpha_fast * (w_best - self._w_fast)
+            ratio = self._w_fast / (cfg.recovery_ratio * self._w_slow) if self._w_slow > 0 else 1.0
+            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - ratio))
+            info["w_best"] = w_best
             info["inject_fraction"] = inject_fraction
         else:
             inject_fraction = 0.0
@@ -277,7 +302,7 @@ class MonteCarloLocalization:
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if n_used and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0):
-            injected = self._resample(inject_fraction, ranges, geometry, field_, valid)
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose)
         info["injected"] = float(injected)
 
         est = LocalizationEstimate(
@@ -338,10 +363,7 @@ class MonteCarloLocalization:
     def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
-        cw = np.bincount(labels, weights=self.weights)
-        best = int(np.argmax(cw))
-        sel = labels == best
-        return (*_weighted_mean_cov(self.samples[sel], self.weights[sel]), float(cw[best]))
+        return best_cluster_estimate(self.samples, self.weights, labels)
 
     def _resample(
         self,
@@ -350,6 +372,7 @@ class MonteCarloLocalization:
         geometry: LaserGeometry,
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
+        estimate: FloatArray,
     ) -> int:
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
@@ -359,9 +382,7 @@ class MonteCarloLocalization:
         new = drawn[:n].copy()
         n_inject = round(inject_fraction * n)
         if n_inject:
-            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid)
-            # Injected samples are a new hypothesis: the averages start over from the present.
-            self._w_slow = self._w_fast
+            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         return n_inject
@@ -373,21 +394,41 @@ class MonteCarloLocalization:
         geometry: LaserGeometry,
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
+        estimate: FloatArray,
     ) -> FloatArray:
-        """Sensor resetting: candidate poses over the free space, drawn by their scan likelihood."""
+        """Sensor resetting: candidate poses near the estimate and over the free space, drawn by
+        their likelihood under the current scan (every returned beam: the filters judge beams by
+        the belief, and the belief is what is in doubt)."""
         cfg = self.config
-        cand = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+        m = cfg.injection_candidates
+        n_local = round(cfg.injection_local * m)
+        local = np.column_stack(
+            [
+                estimate[0] + cfg.injection_local_std * self.rng.standard_normal(n_local),
+                estimate[1] + cfg.injection_local_std * self.rng.standard_normal(n_local),
+                self.rng.uniform(-math.pi, math.pi, n_local),
+            ]
+        )
+        cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
         mask = np.zeros_like(valid)
         mask[:: max(1, cfg.injection_beam_step)] = True
         mask &= valid
         if not mask.any():
-            return cand[:n]
+            return cand[n_local:][:n]
         ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)
-        # Tempered as the main update, scaled up for the subsampled beams.
+        # Tempered as the main update, scaled up for the subsampled beams; not in free space: never.
         logw = cfg.likelihood_exponent * ll * (valid.sum() / mask.sum())
+        logw[~self._in_free_space(cand)] = -np.inf
         w = np.exp(logw - logw.max())
         idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
         return cand[idx]
+
+    def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
+        rc = self.grid.world_to_cell(poses[:, :2])
+        inside = self.grid.inside(rc)
+        out = np.zeros(poses.shape[0], dtype=bool)
+        out[inside] = self._free[rc[inside, 0], rc[inside, 1]]
+        return out
 
 
 # ---------------------------------------------------------------------- helpers
@@ -410,6 +451,84 @@ def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:
     ix -= ix.min()
     iy -= iy.min()
     return (ix * (int(iy.max()) + 1) + iy) * n_th + it
+
+
+def best_cluster_estimate(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """The heaviest cluster's weighted mean pose (circular mean of headings), covariance and weight.
+
+    A numba kernel; :func:`best_cluster_estimate_reference` is its plain-numpy reference.
+    """
+    n_labels = int(labels.max()) + 1 if labels.size else 0
+    pose = np.zeros(3)
+    cov = np.zeros((3, 3))
+    w = _best_cluster_kernel(
+        np.ascontiguousarray(samples, dtype=np.float64),
+        np.ascontiguousarray(weights, dtype=np.float64),
+        np.ascontiguousarray(labels, dtype=np.int64),
+        n_labels,
+        pose,
+        cov,
+    )
+    return pose, cov, w
+
+
+@numba.njit(cache=True)
+def _best_cluster_kernel(
+    samples: FloatArray,
+    weights: FloatArray,
+    labels: IntArray,
+    n_labels: int,
+    pose: FloatArray,
+    cov: FloatArray,
+) -> float:
+    cw = np.zeros(n_labels)
+    for i in range(labels.shape[0]):
+        cw[labels[i]] += weights[i]
+    best = 0
+    for k in range(n_labels):
+        if cw[k] > cw[best]:
+            best = k
+    total = cw[best]
+    mx = 0.0
+    my = 0.0
+    sn = 0.0
+    cs = 0.0
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            mx += w * samples[i, 0]
+            my += w * samples[i, 1]
+            sn += w * math.sin(samples[i, 2])
+            cs += w * math.cos(samples[i, 2])
+    mth = math.atan2(sn, cs)
+    pose[0] = mx
+    pose[1] = my
+    pose[2] = mth
+    cov[:, :] = 0.0
+    d = np.empty(3)
+    for i in range(labels.shape[0]):
+        if labels[i] == best:
+            w = weights[i] / total
+            d[0] = samples[i, 0] - mx
+            d[1] = samples[i, 1] - my
+            d[2] = _wrap(samples[i, 2] - mth)
+            for a in range(3):
+                for b in range(3):
+                    cov[a, b] += w * d[a] * d[b]
+    return total
+
+
+def best_cluster_estimate_reference(
+    samples: FloatArray, weights: FloatArray, labels: IntArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """Plain-numpy reference of :func:`best_cluster_estimate`."""
+    cw = np.bincount(labels, weights=weights)
+    best = int(np.argmax(cw))
+    sel = labels == best
+    pose, cov = _weighted_mean_cov(samples[sel], weights[sel])
+    return pose, cov, float(cw[best])
 
 
 def _weighted_mean_cov(samples: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -501,6 +620,11 @@ def kld_bounds(k_max: int, epsilon: float, quantile: float) -> IntArray:
     return np.where(k <= 1, 1, n).astype(np.int64)
 
 
+@functools.lru_cache(maxsize=8)
+def _kld_bounds_cached(k_max: int, epsilon: float, quantile: float) -> IntArray:
+    return kld_bounds(k_max, epsilon, quantile)
+
+
 @numba.njit(cache=True)
 def _kld_count_kernel(keys: IntArray, bounds: IntArray, n_min: int, n_max: int) -> int:
     seen = set()
@@ -535,7 +659,7 @@ def kld_sample_count(
     if n == 0:
         return 0
     keys, _, _ = _bin_keys(drawn, kld_bin[0], kld_bin[2])
-    bounds = kld_bounds(n + 1, epsilon, quantile)
+    bounds = _kld_bounds_cached(n + 1, epsilon, quantile)
     return int(min(_kld_count_kernel(keys, bounds, n_min, min(n, n_max)), n))
 
 

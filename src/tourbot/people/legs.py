@@ -40,10 +40,12 @@ class LegConfig:
     """Parameters of the leg detector.
 
     A leg is about 12 cm wide (``leg_width``); segments from ``min_width`` to ``max_width`` are
-    candidates (up to two legs seen as one blob). Consecutive points further apart than
-    ``cluster_distance`` start a new segment (13 cm, the ``leg_tracker`` project's clustering
-    distance). A segment must be at least ``min_contrast`` nearer than the beams beside it to be a
-    local minimum (Burgard et al., Sec. 4: "legs ... appear as local minima in the scans").
+    candidates (up to two legs seen as one blob; thinner ones are chair or table legs).
+    Consecutive points further apart than ``cluster_distance`` start a new segment (13 cm, the
+    ``leg_tracker`` project's clustering distance). A segment must be at least ``min_contrast``
+    nearer than the beams beside it on one side at least to be a local minimum (Burgard et al.,
+    Sec. 4: "legs ... appear as local minima in the scans"), and the range must jump by as much on
+    both sides (the other side may be an occluder in front, such as the person's other leg).
     ``max_range`` ignores features too far away to be resolved as legs.
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
@@ -52,7 +54,7 @@ class LegConfig:
 
     leg_width: float = 0.12
     width_std: float = 0.07
-    min_width: float = 0.02
+    min_width: float = 0.05
     max_width: float = 0.35
     min_points: int = 2
     cluster_distance: float = 0.13
@@ -143,16 +145,17 @@ def leg_segments_reference(
     width = np.linalg.norm(xy[ends] - xy[starts], axis=1)
     keep &= (width >= cfg.min_width) & (width <= cfg.max_width)
     mean_r = sr / np.maximum(count, 1.0)
-    # Contrast: how much nearer the segment is than the beams just outside it (no return = far).
-    left = np.where(starts > 0, rr[np.maximum(starts - 1, 0)], np.inf)
-    right = np.where(ends < B - 1, rr[np.minimum(ends + 1, B - 1)], np.inf)
-    contrast = np.minimum(left, right) - mean_r
-    # At the edges of the field of view only one side is known: use it.
-    contrast = np.where(starts == 0, right - mean_r, contrast)
-    contrast = np.where(ends == B - 1, left - mean_r, contrast)
+    # Contrast: the range jumps to the beams just outside the segment (no return or the edge of
+    # the field of view = far). Something must lie behind on one side at least, and both sides
+    # must jump (nearer there is an occluder, e.g. the other leg; no jump is a continuous surface).
+    left = np.where(starts > 0, rr[np.maximum(starts - 1, 0)], np.inf) - mean_r
+    right = np.where(ends < B - 1, rr[np.minimum(ends + 1, B - 1)], np.inf) - mean_r
+    behind = np.maximum(left, right)
+    jump = np.minimum(np.abs(left), np.abs(right))
     with np.errstate(over="ignore", invalid="ignore"):
-        p_contrast = 1.0 / (1.0 + np.exp(-(contrast - cfg.min_contrast) / cfg.contrast_scale))
-    p_contrast = np.nan_to_num(p_contrast, nan=1.0)
+        p_behind = 1.0 / (1.0 + np.exp(-(behind - cfg.min_contrast) / cfg.contrast_scale))
+        p_jump = 1.0 / (1.0 + np.exp(-(jump - cfg.min_contrast) / cfg.contrast_scale))
+    p_contrast = np.nan_to_num(p_behind, nan=1.0) * np.nan_to_num(p_jump, nan=1.0)
     excess = np.maximum(width - cfg.leg_width, 0.0)  # narrower than a leg: a leg seen edge-on
     p_width = np.exp(-0.5 * (excess / cfg.width_std) ** 2)
     prob = p_width * p_contrast
@@ -160,6 +163,14 @@ def leg_segments_reference(
     idx = np.flatnonzero(keep)
     pts = np.stack([sx[idx] / count[idx], sy[idx] / count[idx]], -1)
     return pts, width[idx], prob[idx]
+
+
+@numba.njit(cache=True)
+def _sigmoid(x: float, centre: float, scale: float) -> float:
+    if x == np.inf:
+        return 1.0
+    z = -(x - centre) / scale
+    return 0.0 if z > 700.0 else 1.0 / (1.0 + math.exp(z))
 
 
 @numba.njit(cache=True)
@@ -211,19 +222,11 @@ def _leg_segments_kernel(
             w = math.sqrt(wx * wx + wy * wy)
             if all_near and min_width <= w <= max_width:
                 mean_r = sr / cnt
-                left = np.inf if i == 0 or not valid[i - 1] else r[i - 1]
-                right = np.inf if j == B - 1 or not valid[j + 1] else r[j + 1]
-                if i == 0:
-                    contrast = right - mean_r
-                elif j == B - 1:
-                    contrast = left - mean_r
-                else:
-                    contrast = min(left, right) - mean_r
-                if contrast == np.inf:
-                    p_contrast = 1.0
-                else:
-                    z = -(contrast - min_contrast) / contrast_scale
-                    p_contrast = 0.0 if z > 700.0 else 1.0 / (1.0 + math.exp(z))
+                left = (np.inf if i == 0 or not valid[i - 1] else r[i - 1]) - mean_r
+                right = (np.inf if j == B - 1 or not valid[j + 1] else r[j + 1]) - mean_r
+                p_contrast = _sigmoid(max(left, right), min_contrast, contrast_scale) * _sigmoid(
+                    min(abs(left), abs(right)), min_contrast, contrast_scale
+                )
                 excess = max(w - leg_width, 0.0)
                 p = math.exp(-0.5 * (excess / width_std) ** 2) * p_contrast
                 if p >= min_probability:

@@ -299,6 +299,10 @@ def create_app(
     if modules is not None:
         app.mount("/vendor/three", StaticFiles(directory=modules / "three"), name="three")
 
+    @app.get("/favicon.ico")
+    def favicon() -> Response:
+        return Response(status_code=204)
+
     @app.get("/speech/{name}")
     def speech_file(name: str) -> FileResponse:
         if not _SPEECH_NAME.match(name) or not (cfg.speech_dir / name).is_file():
@@ -434,11 +438,28 @@ def create_app(
             "control_seconds": sum((b[3] or time.time()) - b[2] for b in bookings),
         }
 
+    @app.get("/api/admin/stream/{name}")
+    def admin_stream(_: Staff, name: str) -> dict[str, Any]:
+        """Server-side delay from sampling a state to handing its frame to each client's socket."""
+        delays = sorted(hub_for(name).send_delays)
+        if not delays:
+            return {"frames": 0}
+        return {
+            "frames": len(delays),
+            "p50_ms": 1000 * delays[len(delays) // 2],
+            "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
+        }
+
+    @app.delete("/api/admin/stream/{name}")
+    def admin_stream_reset(_: Staff, name: str) -> dict[str, bool]:
+        hub_for(name).send_delays.clear()
+        return {"ok": True}
+
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
         hub.arbiter.staff_stop()
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
         await hub.announce("Stopped by staff.")
         return {"ok": True}
 
@@ -510,14 +531,24 @@ def _nav_status(hub: RobotHub) -> dict[str, Any]:
     }
 
 
-def _path_points(hub: RobotHub) -> list[list[float]]:
+def _path_points(hub: RobotHub) -> list[tuple[float, float]]:
+    """The planned path, thinned to at most 40 points at 10 cm (the page trims what is travelled)."""
     view = hub.view
     if view is None or not view.nav.path:
         return []
     path = view.nav.path
-    step = max(1, math.ceil(len(path) / 60))
+    step = max(1, math.ceil(len(path) / 40))
     points = [*path[::step], path[-1]]
-    return [[round(x, 2), round(y, 2)] for x, y in points]
+    return [(round(x, 1), round(y, 1)) for x, y in points]
+
+
+def _path_moved(
+    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 0.5
+) -> bool:
+    """Whether a replanned path left the one the client has by more than ``tolerance`` (m)."""
+    if not old:
+        return bool(new)
+    return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
 
 
 async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConfig, onboard: bool) -> None:
@@ -525,7 +556,9 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
     encoder = StreamEncoder(cfg.stream)
     seen = -1
     last_status: dict[str, Any] | None = None
-    last_path: tuple[Any, float] = (None, 0.0)
+    sent_goal: Any = None
+    sent_path: list[tuple[float, float]] = []
+    path_checked = 0.0
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
         seen = await hub.wait_change(seen)
@@ -535,6 +568,7 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         message = encoder.encode(scene)
         if message is not None:
             await ws.send_bytes(message)
+            hub.send_delays.append(time.time() - scene.t)
         now = time.time()
         slot = hub.arbiter.view(client.session, now).as_dict()
         status: dict[str, Any] = {"type": "status", "slot": slot, "nav": _nav_status(hub)}
@@ -544,11 +578,14 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         if comparable != last_status:
             await ws.send_text(json.dumps(status, separators=(",", ":")))
             last_status = comparable
+        # The path goes out with a new goal, then only when a replan moved it (checked every 2 s).
         goal = status["nav"].get("goal")
-        if goal != last_path[0] or (goal is not None and now - last_path[1] > 5.0):
+        if goal != sent_goal or (goal is not None and now - path_checked > 2.0):
             points = _path_points(hub)
-            await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
-            last_path = (goal, now)
+            path_checked = now
+            if goal != sent_goal or _path_moved(points, sent_path):
+                await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
+                sent_goal, sent_path = goal, points
         for item in hub.announcements:
             if item.seq > said:
                 audio = None if item.audio is None else f"/speech/{item.audio}"
@@ -627,10 +664,10 @@ async def _execute(
         return await _understand(command.text, hub, client, db, now, phrasebook)
     if isinstance(command, GoTo):
         x, y, theta = command.x, command.y, command.theta
-        hub.command(lambda link: link.send_goal(x, y, theta))
+        await hub.command(lambda link: link.send_goal(x, y, theta))
     elif isinstance(command, GoToExhibit):
         exhibit = await asyncio.to_thread(db.exhibit, command.exhibit)
-        hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
+        await hub.command(lambda link: link.send_goal(exhibit.x, exhibit.y, exhibit.theta, exhibit.slug))
         await asyncio.to_thread(db.record_visit, exhibit.slug, hub.robot_id, source, now)
     elif isinstance(command, StartTour):
         tour = await asyncio.to_thread(db.tour, command.tour)
@@ -638,9 +675,9 @@ async def _execute(
         if not stops:
             raise CommandError(f"tour {tour.slug!r} has no exhibits")
         plan = [(e.slug, e.x, e.y, e.theta) for e in stops]
-        hub.command(lambda link: link.start_tour(tour.slug, plan))
+        await hub.command(lambda link: link.start_tour(tour.slug, plan))
     elif isinstance(command, Stop):
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.notify()
     return {"type": "ack", "command": command.type}
 
@@ -678,6 +715,6 @@ async def _understand(
         if tours:
             await _execute(StartTour(type="tour", tour=tours[0].slug), hub, client, db, now, book)
     elif reply.action == "stop":
-        hub.command(lambda link: link.stop())
+        await hub.command(lambda link: link.stop())
     await hub.announce(reply.text)
     return {"type": "heard", "intent": reply.intent, "text": reply.text}

@@ -14,6 +14,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -74,6 +75,7 @@ class RobotHub:
         self.scene: Scene | None = None
         self.version = 0
         self.announcements: list[Announcement] = []
+        self.send_delays: deque[float] = deque(maxlen=100_000)
         self.connections: dict[int, int] = {}
         self._bookings: dict[int, int] = {}
         self._stop = threading.Event()
@@ -134,8 +136,7 @@ class RobotHub:
     # --- state ------------------------------------------------------------------------------
     async def refresh(self) -> None:
         """Sample the robot, update the slots, announce arrivals, wake the connections."""
-        with self.lock:
-            view = self.link.view()
+        view = self.link.view()  # thread-safe by contract: never wait on the robot's step here
         now = time.time()
         self.view = view
         self.scene = scene_of(view, now)
@@ -240,6 +241,12 @@ class RobotHub:
         self.db.booking_ended(booking, now, reason)
 
     # --- commands (already authorised by the caller) ------------------------------------------
-    def command(self, action: Callable[[RobotLink], None]) -> None:
-        with self.lock:
-            action(self.link)
+    async def command(self, action: Callable[[RobotLink], None]) -> None:
+        """Run ``action`` on the link between two robot steps (in a worker thread: the event loop
+        never waits for a step)."""
+
+        def locked() -> None:
+            with self.lock:
+                action(self.link)
+
+        await asyncio.to_thread(locked)

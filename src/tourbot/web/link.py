@@ -63,7 +63,9 @@ class RobotLink(Protocol):
     """A robot (simulated or real) the server can watch and command.
 
     ``step`` advances the robot's own loop by one cycle; the server calls it from a worker thread
-    at ``period`` seconds when the link is not driven elsewhere.
+    at ``period`` seconds when the link is not driven elsewhere. Commands are never called during
+    a ``step``. ``view`` may be called at any time from another thread and must not block on a step
+    (return the latest finished state).
     """
 
     period: float

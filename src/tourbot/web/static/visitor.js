@@ -61,6 +61,19 @@ function onStatus(status) {
   if (nav.state === "arrived" && exhibit) showExhibit(exhibit);
 }
 
+// The server sends the planned path only when it changes: drop the part the robot has travelled.
+function trimPath(map, bodies) {
+  const robot = bodies.find((b) => b.id === 0);
+  if (!robot || map.path.length < 2) return;
+  let nearest = 1;
+  let best = Infinity;
+  for (let i = 1; i < map.path.length; i++) {
+    const d = Math.hypot(map.path[i][0] - robot.x, map.path[i][1] - robot.y);
+    if (d < best) { best = d; nearest = i; }
+  }
+  map.path = [[robot.x, robot.y], ...map.path.slice(nearest)];
+}
+
 async function start() {
   await getJSON("/api/session");
   const site = await getJSON("/api/site");
@@ -109,13 +122,19 @@ async function start() {
   } else {
     message("3D view unavailable: three.js is not installed on the server (npm ci).");
   }
+  // At most 20 drawings a second: smooth enough for walking people, and a slow (software) renderer
+  // never starves the page's heartbeat.
   let lastSlot = 0;
+  let lastDraw = 0;
   const frame = (now) => {
+    requestAnimationFrame(frame);
+    if (now - lastDraw < 50) return;
+    lastDraw = now;
     const bodies = state.live.scene();
+    trimPath(map, bodies);
     map.draw(bodies);
     if (state.view3d) state.view3d.update(bodies);
     if (now - lastSlot > 1000) { renderSlot(); lastSlot = now; }
-    requestAnimationFrame(frame);
   };
   requestAnimationFrame(frame);
   window.tourbot = state; // for tests and curious visitors

@@ -1,0 +1,215 @@
+"""``tourbot bench kernels``: speed of the range-sensing kernels on the real FHW map.
+
+Per-core figures: every kernel is a plain (non-parallel) numba function and numba is pinned to one
+thread; time is the CPU time of the calling thread (``time.thread_time``), best of ``--repeat``
+runs, so other jobs on the shared machine inflate the figures less than wall-clock time would.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["register"]
+
+TARGET_RAYS = 25e6  # rays/s/core for the accelerated caster (issue 2, section 4)
+TARGET_RATIO = 10.0  # accelerated caster vs the DDA, same run
+TARGET_LF = 500e6  # likelihood-field beam evaluations/s/core
+RANGE_LIBC = "range_libc (C++) publishes 2.6 M rays/s/core for Bresenham and ~23 M for its best CPU method"
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("kernels")
+    def kernels(
+        resolution: Annotated[float, typer.Option(help="Map resolution, metres.")] = 0.05,
+        particles: Annotated[int, typer.Option(help="Poses cast per run (x 180 beams).")] = 2000,
+        field_poses: Annotated[int, typer.Option(help="Poses scored per likelihood-field run.")] = 20000,
+        max_range: Annotated[
+            list[float] | None, typer.Option(help="Caster max ranges, metres (default 10 and the laser's).")
+        ] = None,
+        repeat: Annotated[int, typer.Option(help="Runs per figure; the best one counts.")] = 3,
+        seed: Annotated[int, typer.Option(help="Seed of the sampled poses.")] = 0,
+        output: Annotated[
+            Path | None, typer.Option(help="JSON output (default bench-results/kernels.json).")
+        ] = None,
+    ) -> None:
+        """Rays/s/core of each caster, beam evaluations/s/core of the likelihood field and the beam
+        model, build time and memory, on the FHW map built from the real log."""
+        from tourbot.errors import InputError
+
+        for name, value in (("--particles", particles), ("--field-poses", field_poses), ("--repeat", repeat)):
+            if value < 1:
+                raise InputError(f"{name} must be at least 1, got {value}", field=name)
+        if max_range is not None and min(max_range) <= 0:
+            raise InputError(f"--max-range must be positive, got {min(max_range)}", field="--max-range")
+        _run(resolution, particles, field_poses, max_range, repeat, seed, output)
+
+
+def _best_time(fn: object, repeat: int) -> float:
+    import time
+
+    assert callable(fn)
+    fn()  # compile / warm caches
+    best = float("inf")
+    for _ in range(max(1, repeat)):
+        t0 = time.thread_time()
+        fn()
+        best = min(best, time.thread_time() - t0)
+    return max(best, 1e-9)
+
+
+def _run(
+    resolution: float,
+    particles: int,
+    field_poses: int,
+    max_ranges: list[float] | None,
+    repeat: int,
+    seed: int,
+    output: Path | None,
+) -> None:
+    import os
+    import time
+
+    import numba
+    import numpy as np
+    from rich.console import Console
+    from rich.progress import Progress
+
+    from tourbot.bench._report import BenchReport
+    from tourbot.data import find_data
+    from tourbot.geometry import compose
+    from tourbot.io.carmen import read_carmen
+    from tourbot.maps.beam_model import BeamModel
+    from tourbot.maps.likelihood_field import LikelihoodField
+    from tourbot.maps.raycast import DDACaster, DistanceCaster, RayCaster
+    from tourbot.maps.reference import build_reference_map
+
+    numba.set_num_threads(1)
+    console = Console()
+    report = BenchReport(
+        name="kernels",
+        columns=["kernel", "max range m", "M evals/s/core", "vs DDA", "build s", "memory MB", "check"],
+    )
+    with Progress(console=console, transient=True) as progress:
+        task = progress.add_task("FHW map", total=None)
+        log = read_carmen(find_data("carmen/fhw-corrected.log.gz"))
+        t0 = time.perf_counter()
+        grid = build_reference_map(log, resolution)
+        map_s = time.perf_counter() - t0
+        progress.update(task, description="kernels")
+        geom = log.scans[0].geometry
+        rng = np.random.default_rng(seed)
+        ref = log.reference_poses
+        picks = rng.integers(0, len(log), particles)
+        # particles around the true poses, as a localizer would spread them
+        robot = ref[picks] + rng.normal(0.0, [0.2, 0.2, 0.1], (particles, 3))
+        lasers = compose(robot, np.asarray(geom.offset))
+        angles = geom.angles
+        n_rays = particles * geom.num_beams
+        ranges_list = max_ranges or [10.0, geom.max_range]
+        cast_for_model = None
+        for mr in ranges_list:
+            results: dict[str, tuple[float, np.ndarray]] = {}
+            for cls in (DDACaster, DistanceCaster):
+                t0 = time.perf_counter()
+                caster: RayCaster = cls(grid, mr)
+                build_s = time.perf_counter() - t0
+                out = caster.cast(lasers, angles)
+                secs = _best_time(lambda c=caster: c.cast(lasers, angles), repeat)
+                results[cls.__name__] = (n_rays / secs, out)
+                report.add(
+                    **{
+                        "kernel": f"cast {cls.__name__}",
+                        "max range m": mr,
+                        "M evals/s/core": n_rays / secs / 1e6,
+                        "build s": build_s,
+                        "memory MB": caster.nbytes / 1e6,
+                    }
+                )
+            dda_rate, dda_out = results["DDACaster"]
+            fast_rate, fast_out = results["DistanceCaster"]
+            diff = np.abs(fast_out.astype(np.float64) - dda_out)
+            within = float(np.mean(diff <= grid.resolution + 1e-6))
+            report.rows[-1]["vs DDA"] = fast_rate / dda_rate
+            report.rows[-1]["check"] = f"{100 * within:.2f}% within 1 cell of DDA, max {diff.max():.2g} m"
+            report.rows[-2]["vs DDA"] = 1.0
+            report.meta[f"cast_{mr:g}m"] = {
+                "dda_rays_per_s": dda_rate,
+                "distance_rays_per_s": fast_rate,
+                "ratio": fast_rate / dda_rate,
+                "within_one_cell": within,
+                "mean_range_m": float(dda_out.mean()),
+            }
+            cast_for_model = (mr, dda_out)
+
+        # likelihood field: one real scan scored from many poses
+        k = int(rng.integers(0, len(log)))
+        scan = log.scans[k].ranges
+        t0 = time.perf_counter()
+        field = LikelihoodField.from_grid(grid, max_range=geom.max_range)
+        lf_build = time.perf_counter() - t0
+        poses = ref[k] + rng.normal(0.0, [0.3, 0.3, 0.1], (field_poses, 3))
+        used = int(np.count_nonzero((scan < geom.max_range) & (scan >= geom.min_range)))
+        evals = field_poses * used
+        secs = _best_time(lambda: field.log_likelihood(poses, scan, geom), repeat)
+        report.add(
+            **{
+                "kernel": "likelihood field, scan sums",
+                "M evals/s/core": evals / secs / 1e6,
+                "build s": lf_build,
+                "memory MB": field.nbytes / 1e6,
+            }
+        )
+        lf_rate = evals / secs
+        secs = _best_time(lambda: field.beam_log_likelihoods(poses, scan, geom), repeat)
+        report.add(**{"kernel": "likelihood field, per beam (N, B)", "M evals/s/core": evals / secs / 1e6})
+
+        # beam model on the cast expected ranges
+        assert cast_for_model is not None
+        mr, expected = cast_for_model
+        model = BeamModel()
+        meas = log.scans[int(picks[0])].ranges
+        m_evals = expected.size
+        secs = _best_time(lambda: model.probabilities(expected, meas, mr), repeat)
+        report.add(
+            **{"kernel": "beam model mixture", "max range m": mr, "M evals/s/core": m_evals / secs / 1e6}
+        )
+        secs = _best_time(lambda: model.prob_shorter(expected, meas, mr), repeat)
+        report.add(
+            **{
+                "kernel": "beam model P(shorter), Fox Eq. 5",
+                "max range m": mr,
+                "M evals/s/core": m_evals / secs / 1e6,
+            }
+        )
+
+    rows, cols = grid.shape
+    report.meta.update(
+        {
+            "map": f"FHW, {rows} x {cols} cells at {resolution} m, built in {map_s:.1f} s",
+            "rays_per_run": n_rays,
+            "likelihood_field_evals_per_run": evals,
+            "numba_threads": 1,
+            "timing": "time.thread_time, best of repeat",
+            "load_average_1min": os.getloadavg()[0],
+        }
+    )
+    best_fast = max(v["distance_rays_per_s"] for key, v in report.meta.items() if key.startswith("cast_"))
+    worst_ratio = min(v["ratio"] for key, v in report.meta.items() if key.startswith("cast_"))
+    report.notes.append(
+        f"FHW map {rows} x {cols} at {resolution} m; {particles} poses (true poses + N(0, 0.2 m, 0.1 rad)) x "
+        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}; "
+        f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs (shared machine)."
+    )
+    report.notes.append(
+        f"target >= {TARGET_RAYS / 1e6:.0f} M rays/s/core: {'met' if best_fast >= TARGET_RAYS else 'MISSED'} "
+        f"(best {best_fast / 1e6:.1f} M); target >= {TARGET_RATIO:.0f}x DDA: "
+        f"{'met' if worst_ratio >= TARGET_RATIO else 'MISSED'} (worst {worst_ratio:.1f}x). {RANGE_LIBC}."
+    )
+    report.notes.append(
+        f"target >= {TARGET_LF / 1e6:.0f} M likelihood-field evals/s/core: "
+        f"{'met' if lf_rate >= TARGET_LF else 'MISSED'} ({lf_rate / 1e6:.0f} M)."
+    )
+    report.finish(output, Console(width=150))

@@ -1,0 +1,131 @@
+"""``tourbot log`` and bad input on the command line: one clear line, exit code 2, no traceback."""
+
+from __future__ import annotations
+
+import gzip
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tourbot.cli.main import main
+from tourbot.io import read_carmen
+from tourbot.io.tum import read_tum
+from tourbot.records import RobotLog
+
+
+def _run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_log_info(fhw_log_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(["log", "info", str(fhw_log_path)]) == 0
+    out = capsys.readouterr().out
+    for expected in ("488", "180", "2007.2 s", "405.5 m", "FLASER"):
+        assert expected in out
+
+
+def test_log_info_of_a_bag(shared_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bag = shared_data / "leg_tracker" / "positive_1.bag"
+    assert _run(["log", "info", str(bag)]) == 0
+    out = capsys.readouterr().out
+    assert "400" in out
+    assert "768" in out
+
+
+def test_convert_and_tum(fhw_log_path: Path, tmp_path: Path, real_log: Callable[[str], RobotLog]) -> None:
+    copy = tmp_path / "fhw.log.gz"
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(copy)]) == 0
+    assert len(read_carmen(copy)) == 488
+    traj = tmp_path / "ref.txt"
+    assert _run(["log", "tum", str(fhw_log_path), "-o", str(traj)]) == 0
+    times, poses = read_tum(traj)
+    log = real_log("fhw")
+    np.testing.assert_array_equal(times, log.times)
+    np.testing.assert_allclose(poses[:, :2], log.reference_poses[:, :2], atol=1e-12)
+    from tourbot.geometry import wrap_angle
+
+    np.testing.assert_allclose(wrap_angle(poses[:, 2] - log.reference_poses[:, 2]), 0.0, atol=1e-12)
+
+
+def _bad_inputs(tmp_path: Path, fhw: Path) -> dict[str, tuple[Path, str]]:
+    nan = tmp_path / "nan.log"
+    nan.write_text("FLASER 3 1.0 nan 2.0 0 0 0 0 0 0 1.0 h 1.0\n")
+    neg = tmp_path / "neg.log"
+    neg.write_text("FLASER 2 1.0 2.0 0 0 0 0 0 0 1.0 h 1.0\nFLASER 2 -1.0 2.0 0 0 0 0 0 0 2.0 h 2.0\n")
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(fhw.read_bytes()[:50_000])
+    empty = tmp_path / "empty.log"
+    empty.write_text("")
+    garbage = tmp_path / "garbage.log"
+    garbage.write_bytes(bytes(range(256)) * 16)
+    notgz = tmp_path / "bad.log.gz"
+    notgz.write_bytes(gzip.compress(b"ODOM 0 0 0 0 0 0 1 h 1\n")[:-12] + b"\xff" * 12)
+    return {
+        "nan": (nan, "nan.log:1 (field range[1]): FLASER range is nan (not a number)"),
+        "negative": (neg, "neg.log:2 (field range[0]): FLASER range is negative (-1.0)"),
+        "truncated gzip": (cut, "the gzip stream is truncated"),
+        "empty": (empty, "empty.log: empty file"),
+        "garbage": (garbage, "garbage.log:1: binary data"),
+        "corrupt gzip": (notgz, "gzip stream"),
+        "missing": (tmp_path / "missing.log", "missing.log: no such file"),
+    }
+
+
+@pytest.mark.parametrize(
+    "case", ["nan", "negative", "truncated gzip", "empty", "garbage", "corrupt gzip", "missing"]
+)
+def test_bad_logs_give_one_clear_line(
+    case: str, tmp_path: Path, fhw_log_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path, expected = _bad_inputs(tmp_path, fhw_log_path)[case]
+    assert _run(["log", "info", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert expected in " ".join(err.split())
+    assert "Traceback" not in err
+
+
+def test_lenient_skips_and_counts(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "some_bad.log"
+    path.write_text(
+        "FLASER 2 1.0 2.0 0 0 0 0 0 0 1.0 h 1.0\nFLASER 2 -1.0 2.0 0 0 0 0 0 0 2.0 h 2.0\n"
+        "FLASER 2 1.0 2.0 0 0 0 0 0 0 3.0 h 3.0\n"
+    )
+    assert _run(["log", "info", "--lenient", str(path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "skipped 1 malformed record(s) (first: line 2, field range[0]" in out
+
+
+def test_bag_without_laser_topics_on_the_command_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.io.test_rosbag import _write_ros2
+
+    path = tmp_path / "odom_only"
+    _write_ros2(path, scans=0, odoms=2)
+    assert _run(["log", "info", str(path)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert "no sensor_msgs/LaserScan topic in this bag (topics: /odom (nav_msgs/msg/Odometry))" in err
+
+
+def test_real_process_prints_no_traceback(tmp_path: Path) -> None:
+    path = tmp_path / "nan.log"
+    path.write_text("FLASER 3 1.0 nan 2.0 0 0 0 0 0 0 1.0 h 1.0\n")
+    proc = subprocess.run(
+        [sys.executable, "-m", "tourbot", "log", "info", str(path)],
+        capture_output=True,
+        text=True,
+        env={"PYTHONPATH": str(Path(__file__).parents[2] / "src"), "COLUMNS": "200"},
+        check=False,
+    )
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert "range[1]" in proc.stderr

@@ -1,0 +1,60 @@
+"""``tourbot map from-poses`` and ``tourbot show``: from a log to a map and a picture in two commands."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from tests.cli.test_logs import _run
+from tourbot.io.mapserver import read_map
+from tourbot.io.tum import write_tum
+from tourbot.records import RobotLog
+
+
+def test_from_log_to_map_and_picture_in_two_commands(
+    fhw_log_path: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    real_log: Callable[[str], RobotLog],
+) -> None:
+    map_yaml = tmp_path / "maps" / "fhw.yaml"
+    assert _run(["map", "from-poses", str(fhw_log_path), "-o", str(map_yaml), "--no-quality"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "wrote" in out
+    grid = read_map(map_yaml)
+    assert grid.resolution == 0.05
+    assert grid.occupied().sum() > 5000
+
+    traj = tmp_path / "shifted.txt"
+    log = real_log("fhw")
+    write_tum(traj, log.times, log.reference_poses + np.array([1.0, 0.0, 0.0]))
+    picture = tmp_path / "fhw.png"
+    args = ["show", str(fhw_log_path), "--map", str(map_yaml), "--trajectory", str(traj), "--odometry"]
+    assert _run([*args, "-o", str(picture)]) == 0
+    with Image.open(picture) as img:
+        width, height = img.size
+        pixels = np.asarray(img.convert("RGB"))
+    assert width > 500
+    assert height > 500
+    # the reference path is drawn in its blue, the trajectory in orange
+    assert (np.abs(pixels.astype(int) - [0, 114, 178]).sum(axis=2) < 40).sum() > 500
+    assert (np.abs(pixels.astype(int) - [213, 94, 0]).sum(axis=2) < 40).sum() > 500
+
+
+def test_map_needs_reference_poses(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = shared_data / "leg_tracker" / "positive_1.bag"
+    assert _run(["map", "from-poses", str(bag), "-o", str(tmp_path / "m.yaml")]) == 2
+    assert "no reference poses" in capsys.readouterr().err
+
+
+def test_map_info_and_bad_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "m.yaml"
+    bad.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\n")
+    assert _run(["map", "info", str(bad)]) == 2
+    assert "origin must be [x, y, yaw]" in capsys.readouterr().err
