@@ -337,17 +337,32 @@ def register(bench: typer.Typer) -> None:
         """Grid Markov localization on FHW: speed (real-time factor), accuracy, global, kidnap recovery."""
         from rich.progress import Progress
 
+        from tourbot.errors import InputError
+        from tourbot.localization.beam_filters import BeamFilter
+
         def split(text: str) -> list[str]:
             return [t.strip() for t in text.split(",") if t.strip()]
+
+        def numbers(text: str, field: str) -> list[int]:
+            try:
+                return [int(t) for t in split(text)]
+            except ValueError:
+                raise InputError(f"expected comma-separated integers, got {text!r}", field=field) from None
+
+        known = {f.value for f in BeamFilter}
+        for field, value in (("--filters", filters), ("--kidnap-filters", kidnap_filters)):
+            bad = [f for f in split(value) if f not in known]
+            if bad:
+                raise InputError(f"unknown beam filter {bad[0]!r} (choose from {sorted(known)})", field=field)
 
         with Progress() as progress:
             report = run_grid_bench(
                 log_name=log,
                 filters=split(filters),
                 scans=scans or None,
-                global_starts=[int(s) for s in split(global_starts)],
+                global_starts=numbers(global_starts, "--global-starts"),
                 kidnap_filters=split(kidnap_filters),
-                kidnap_seeds=[int(k) for k in split(kidnap_seeds)],
+                kidnap_seeds=numbers(kidnap_seeds, "--kidnap-seeds"),
                 progress=progress,
             )
         report.finish(output)
