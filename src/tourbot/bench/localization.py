@@ -260,6 +260,9 @@ def register(bench: typer.Typer) -> None:
         cache: Annotated[Path, typer.Option(help="Cache of maps and crowded logs.")] = Path(
             "bench-results/cache/localization"
         ),
+        kidnap_rate: Annotated[
+            float, typer.Option(help="Kidnaps per metre (the paper: 0.005; raise it for short runs).")
+        ] = 0.005,
         figure: Annotated[bool, typer.Option(help="Draw the Fig. 5-like picture.")] = True,
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
     ) -> None:
@@ -271,7 +274,7 @@ def register(bench: typer.Typer) -> None:
         from tourbot.data import data_dir
         from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
-        from tourbot.localization.kidnap import apply_kidnaps, plan_kidnaps
+        from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
         from tourbot.records import RobotLog
 
         console = Console()
@@ -313,6 +316,8 @@ def register(bench: typer.Typer) -> None:
             "seeds": n_seeds,
             "particles": particles,
             "global_scans": g_scans,
+            "scans": limit,
+            "kidnap_rate_per_m": kidnap_rate,
             "quick": quick,
             "crowd": {},
         }
@@ -334,7 +339,9 @@ def register(bench: typer.Typer) -> None:
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
                     progress.advance(task)
                     kid_rng = np.random.default_rng(KIDNAP_SEED_OFFSET + seed)
-                    kidnaps = plan_kidnaps(ref, base.times, kid_rng)
+                    kidnaps = plan_kidnaps(
+                        ref, base.times, kid_rng, KidnapConfig(probability_per_metre=kidnap_rate)
+                    )
                     data.append(
                         {
                             "sparse": sparse,
@@ -501,6 +508,10 @@ def _figure(runs: dict[str, tuple[RunResult, Any]], grid: Any, ref: FloatArray, 
         ax.plot(run.est[:, 0], run.est[:, 1], "b-", lw=0.8, label="estimate")
         err = np.hypot(*(run.est[:, :2] - ref[: len(run.est), :2]).T)
         ax.set_title(f"{method}: {100 * np.mean(err > FAIL_DISTANCE):.1f} % failures", fontsize=9)
+        lo = ref[: len(run.est), :2].min(axis=0) - 6.0
+        hi = ref[: len(run.est), :2].max(axis=0) + 6.0
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
         ax.tick_params(labelsize=6)
     for ax in axes.ravel()[n:]:
