@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.geometry import compose, relative
+from tourbot.geometry import compose
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 __all__ = [
     "PATH_COLORS",
     "Trajectory",
+    "align_rigid",
     "draw_map",
     "draw_path",
     "new_map_figure",
@@ -153,18 +154,33 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 150) -> Path:
     return out
 
 
-def odometry_in_reference_frame(log: RobotLog) -> NDArray[np.float64]:
-    """The odometry path moved so its first pose sits on the first reference pose (drift shows)."""
-    odom = log.odom_poses
-    ref = log.reference_poses
-    ok = ~(np.isnan(odom).any(axis=1) | np.isnan(ref).any(axis=1))
+def align_rigid(poses: ArrayLike, target: ArrayLike) -> NDArray[np.float64]:
+    """``poses`` ``(N, 3)`` moved by the rigid motion that best fits their positions onto ``target``.
+
+    Least squares over all positions (2D Kabsch/Umeyama without scale, as ``evo --align``); rows
+    with NaN in either are ignored for the fit and stay NaN.
+    """
+    p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    q = np.asarray(target, dtype=np.float64).reshape(-1, 3)
+    ok = ~(np.isnan(p).any(axis=1) | np.isnan(q).any(axis=1))
+    out = np.full_like(p, np.nan)
     if not ok.any():
-        return odom
-    k = int(np.argmax(ok))
-    moved = compose(ref[k], relative(odom[k], odom[ok]))
-    out = np.full_like(odom, np.nan)
-    out[ok] = moved
+        return out
+    a, b = p[ok, :2], q[ok, :2]
+    ca, cb = a.mean(axis=0), b.mean(axis=0)
+    da, db = a - ca, b - cb
+    angle = float(np.arctan2((da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]).sum(), (da * db).sum()))
+    c, s = np.cos(angle), np.sin(angle)
+    t = cb - np.array([c * ca[0] - s * ca[1], s * ca[0] + c * ca[1]])
+    motion = np.array([t[0], t[1], angle])
+    good = ~np.isnan(p).any(axis=1)
+    out[good] = compose(motion, p[good])
     return out
+
+
+def odometry_in_reference_frame(log: RobotLog) -> NDArray[np.float64]:
+    """The odometry path moved onto the reference path by the best rigid fit (its drift shows)."""
+    return align_rigid(log.odom_poses, log.reference_poses)
 
 
 def show_log(
@@ -195,7 +211,7 @@ def show_log(
             odometry = False
         if odometry and not np.isnan(log.odom_poses).all():
             moved = odometry_in_reference_frame(log)
-            draw_path(ax, moved, "raw odometry (from the first pose)", color=next(colors), linestyle="--")
+            draw_path(ax, moved, "odometry (best rigid fit)", color=next(colors), linestyle="--")
     for traj in trajectories:
         draw_path(ax, traj.poses, f"{traj.label} ({path_length(traj.poses):.0f} m)", color=next(colors, None))
     if ax.get_legend_handles_labels()[0]:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tourbot.io import LogFormatError, iter_carmen, load_log, read_carmen, write_carmen
@@ -370,3 +370,67 @@ def test_angles_are_wrapped(tmp_path: Path) -> None:
     scan = log.scans[0]
     assert scan.reference is not None
     assert scan.reference[2] == pytest.approx(2 * math.pi - 3.5)
+
+
+def test_a_scan_from_the_far_future_does_not_hold_the_stream(tmp_path: Path) -> None:
+    lines = [_odom((0.0, 0.0, 0.0), 1.0), _flaser([1.0], (0, 0, 0), 1e9)]
+    lines += [_odom((float(i), 0.0, 0.0), 1.0 + i) for i in range(1, 50)]
+    lines += [_flaser([1.0], (0, 0, 0), 30.5), _odom((99.0, 0.0, 0.0), 60.0)]
+    log = read_carmen(_write(tmp_path, lines))
+    assert len(log.warnings) == 1
+    assert "go backwards" in log.warnings[0]
+    # record order: each scan takes the latest reading before it in the file
+    assert [s.odom for s in log.scans] == [(0.0, 0.0, 0.0), (49.0, 0.0, 0.0)]
+
+
+@pytest.mark.parametrize("fraction", [0.3, 0.51, 0.77, 0.9])
+def test_truncation_anywhere_is_reported_as_truncation(tmp_path: Path, fraction: float) -> None:
+    rng = np.random.default_rng(1)
+    lines = []
+    for i in range(300):
+        lines.append(_odom((0.01 * i, 0.0, 0.0), 1.0 + i))
+        lines.append(_flaser(rng.uniform(0.5, 9.0, 90).round(3).tolist(), (0.01 * i, 0.0, 0.0), 1.5 + i))
+    whole = _write(tmp_path, lines, "whole.log.gz").read_bytes()
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(whole[: int(len(whole) * fraction)])
+    with pytest.raises(LogFormatError, match="truncated"):
+        read_carmen(cut)
+    kept = read_carmen(cut, lenient=True)
+    assert 0 < len(kept) < 300
+    assert not any("malformed" in w for w in kept.warnings)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    odom_steps=st.lists(st.floats(0.01, 2.0), min_size=2, max_size=30),
+    scan_steps=st.lists(st.floats(0.01, 2.0), min_size=1, max_size=20),
+    seed=st.integers(0, 1000),
+)
+def test_streaming_matches_whole_stream_interpolation(
+    odom_steps: list[float], scan_steps: list[float], seed: int
+) -> None:
+    """The streaming matcher gives what interpolating over the whole odometry stream gives."""
+    import tempfile
+
+    from tourbot.io._interp import interpolate_poses
+
+    rng = np.random.default_rng(seed)
+    odom_t = np.cumsum(odom_steps)
+    scan_t = np.cumsum(scan_steps) + rng.uniform(-1.0, 1.0)
+    scan_t = scan_t[scan_t > 0]
+    assume(len(scan_t) > 0)
+    poses = np.column_stack([rng.uniform(-5, 5, (len(odom_t), 2)), rng.uniform(-3.1, 3.1, len(odom_t))])
+    events = [(t, 0, i) for i, t in enumerate(odom_t)] + [(t, 1, i) for i, t in enumerate(scan_t)]
+    lines = []
+    for t, kind, i in sorted(events):
+        if kind == 0:
+            lines.append(_odom(tuple(poses[i]), float(t)))
+        else:
+            lines.append(_flaser([1.0], (9.0, 9.0, 0.0), float(t)))
+    with tempfile.TemporaryDirectory() as tmp:
+        log = read_carmen(_write(Path(tmp), lines))
+    assert log.warnings == []
+    expected = interpolate_poses(odom_t, poses, scan_t)
+    got = log.odom_poses
+    np.testing.assert_allclose(got[:, :2], expected[:, :2], atol=1e-9)
+    np.testing.assert_allclose(np.cos(got[:, 2] - expected[:, 2]), 1.0, atol=1e-9)

@@ -150,3 +150,16 @@ def test_trailing_bytes_are_rejected() -> None:
 def test_person_id_zero_is_refused() -> None:
     with pytest.raises(StreamError, match="person id"):
         StreamEncoder().encode(Scene(1.0, Body(0, 0.0, 0.0), (Body(0, 1.0, 1.0),)))
+
+
+def test_starting_and_stopping_are_sent_at_once() -> None:
+    encoder = StreamEncoder()
+    assert encoder.encode(Scene(0.0, Body(0, 1.0, 1.0))) is not None
+    assert encoder.encode(Scene(0.2, Body(0, 1.0, 1.0, 0.05, 0.0))) is None  # creeping: still "at rest"
+    started = encoder.encode(Scene(0.4, Body(0, 1.0, 1.0, 0.3, 0.0)))
+    assert started is not None
+    decoder = StreamDecoder()
+    decoder.feed(StreamEncoder().encode(Scene(0.4, Body(0, 1.0, 1.0, 0.3, 0.0))) or b"")
+    assert decoder.scene().robot.vx == pytest.approx(0.3)
+    assert encoder.encode(Scene(0.6, Body(0, 1.06, 1.0, 0.3, 0.0))) is None
+    assert encoder.encode(Scene(0.8, Body(0, 1.1, 1.0, 0.0, 0.0))) is not None  # stopped

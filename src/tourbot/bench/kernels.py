@@ -37,6 +37,13 @@ def register(bench: typer.Typer) -> None:
     ) -> None:
         """Rays/s/core of each caster, beam evaluations/s/core of the likelihood field and the beam
         model, build time and memory, on the FHW map built from the real log."""
+        from tourbot.errors import InputError
+
+        for name, value in (("--particles", particles), ("--field-poses", field_poses), ("--repeat", repeat)):
+            if value < 1:
+                raise InputError(f"{name} must be at least 1, got {value}", field=name)
+        if max_range is not None and min(max_range) <= 0:
+            raise InputError(f"--max-range must be positive, got {min(max_range)}", field="--max-range")
         _run(resolution, particles, field_poses, max_range, repeat, seed, output)
 
 
@@ -62,6 +69,7 @@ def _run(
     seed: int,
     output: Path | None,
 ) -> None:
+    import os
     import time
 
     import numba
@@ -185,13 +193,15 @@ def _run(
             "likelihood_field_evals_per_run": evals,
             "numba_threads": 1,
             "timing": "time.thread_time, best of repeat",
+            "load_average_1min": os.getloadavg()[0],
         }
     )
     best_fast = max(v["distance_rays_per_s"] for key, v in report.meta.items() if key.startswith("cast_"))
     worst_ratio = min(v["ratio"] for key, v in report.meta.items() if key.startswith("cast_"))
     report.notes.append(
         f"FHW map {rows} x {cols} at {resolution} m; {particles} poses (true poses + N(0, 0.2 m, 0.1 rad)) x "
-        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}."
+        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}; "
+        f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs (shared machine)."
     )
     report.notes.append(
         f"target >= {TARGET_RAYS / 1e6:.0f} M rays/s/core: {'met' if best_fast >= TARGET_RAYS else 'MISSED'} "

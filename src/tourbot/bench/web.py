@@ -20,6 +20,7 @@ import json
 import math
 import os
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -102,7 +103,12 @@ class _Viewer:
     """A visitor's page without the page: the WebSocket, the decoder, timings."""
 
     def __init__(
-        self, port: int, robot: str, stream: dict[str, float], origin_port: int | None = None
+        self,
+        port: int,
+        robot: str,
+        stream: dict[str, float],
+        origin_port: int | None = None,
+        naive: bool = False,
     ) -> None:
         from tourbot.web.stream import StreamConfig, StreamDecoder
 
@@ -110,7 +116,11 @@ class _Viewer:
         self.origin = f"http://127.0.0.1:{origin_port or port}"
         self.robot = robot
         self.decoder = StreamDecoder(StreamConfig(**{k: v for k, v in stream.items() if k != "rate_hz"}))
-        self.delays: list[float] = []
+        self.delays: list[tuple[float, float]] = []  # (received at, delay)
+        self.naive = naive
+        self.light = False
+        self._epoch = 0.0
+        self._ticks = 0
         self.binary = self.text = 0
         self.naive_json = 0
         self.frames = 0
@@ -128,6 +138,7 @@ class _Viewer:
             additional_headers={"Cookie": f"tourbot_session={token}"},
             proxy=None,
             max_queue=None,
+            close_timeout=2,
         )
 
     async def run(self, until: float) -> None:
@@ -137,20 +148,34 @@ class _Viewer:
             except TimeoutError:
                 break
             now = time.time()
+            if isinstance(message, bytes) and self.light:
+                self.delays.append((now, now - self._stamp(message)))
+                continue
             if isinstance(message, bytes):
                 self.binary += len(message)
                 self.decoder.feed(message)
                 self.frames += 1
-                self.delays.append(now - self.decoder.t)
-                scene = self.decoder.scene()
-                self.naive_json += len(_naive(scene))
+                self.delays.append((now, now - self.decoder.t))
+                if self.naive:
+                    self.naive_json += len(_naive(self.decoder.scene()))
                 if self.on_frame is not None:
-                    self.on_frame(scene, now)
+                    self.on_frame(self.decoder.scene(), now)
             else:
                 self.text += len(message)
                 data = json.loads(message)
                 if data.get("type") in ("ack", "error"):
                     self.replies.put_nowait(data)
+
+    def _stamp(self, message: bytes) -> float:
+        """Only the message's time (a many-viewer run must not measure its own decoding)."""
+        if message[0] == 1:
+            (self._epoch,) = struct.unpack_from("<d", message, 1)
+            ticks = struct.unpack_from("<H", message, 9)[0]
+            self._ticks = ticks
+        else:
+            ticks = struct.unpack_from("<H", message, 1)[0]
+            self._ticks += (ticks - self._ticks) % 65536
+        return self._epoch + self._ticks * 0.01
 
     async def send(self, command: dict[str, Any]) -> None:
         await self.ws.send(json.dumps(command))
@@ -206,7 +231,7 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
     site = await _site(server.base)
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
-    viewer = _Viewer(port, robot, site["stream"])  # as if the page came through the relay too
+    viewer = _Viewer(port, robot, site["stream"], naive=True)  # as if the page came through the relay
     driver = _Viewer(server.port, robot, site["stream"])
     await viewer.open(server.base)
     await driver.open(server.base)
@@ -228,6 +253,8 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
         "wire_bytes": wire,
         "kbit_s": 8 * wire / elapsed / 1000,
         "payload_kbit_s": 8 * (viewer.binary + viewer.text) / elapsed / 1000,
+        "binary_kbit_s": 8 * viewer.binary / elapsed / 1000,
+        "json_kbit_s": 8 * viewer.text / elapsed / 1000,
         "naive_json_kbit_s": 8 * viewer.naive_json / elapsed / 1000,
         "frames": viewer.frames,
         "people": people,
@@ -236,20 +263,30 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
 
 
 async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[str, Any]:
+    """``n`` viewers, each reading from the moment it connects; delays counted once all are in."""
     site = await _site(server.base)
     robot = site["robots"][0]
     viewers = [_Viewer(server.port, robot, site["stream"]) for _ in range(n)]
+    for v in viewers:
+        v.light = True
+    await _staff(server, "DELETE", robot)
+    horizon = time.monotonic() + 3600.0
+    readers = []
     for chunk in range(0, n, 20):
-        await asyncio.gather(*(v.open(server.base) for v in viewers[chunk : chunk + 20]))
-    await asyncio.sleep(1.0)  # keyframes out of the way
-    for v in viewers:
-        v.delays.clear()
-    cpu0, wall0 = _cpu_seconds(pid), time.monotonic()
-    await asyncio.gather(*(v.run(wall0 + seconds) for v in viewers))
+        group = viewers[chunk : chunk + 20]
+        await asyncio.gather(*(v.open(server.base) for v in group))
+        readers += [asyncio.create_task(v.run(horizon)) for v in group]
+    await asyncio.sleep(2.0)  # keyframes and joining out of the way
+    start, cpu0, wall0 = time.time(), _cpu_seconds(pid), time.monotonic()
+    await asyncio.sleep(seconds)
     cpu = (_cpu_seconds(pid) - cpu0) / (time.monotonic() - wall0)
-    delays = sorted(d for v in viewers for d in v.delays)
-    for v in viewers:
-        await v.close()
+    end = time.time()
+    for task in readers:
+        task.cancel()
+    await asyncio.gather(*readers, return_exceptions=True)
+    delays = sorted(d for v in viewers for (at, d) in v.delays if start <= at <= end)
+    at_server = await _staff(server, "GET", robot)
+    await asyncio.gather(*(v.close() for v in viewers))
     if not delays:
         return {"viewers": n, "frames": 0}
     return {
@@ -258,7 +295,19 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[st
         "p50_ms": 1000 * delays[len(delays) // 2],
         "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
         "server_cpu": cpu,
+        "server_p50_ms": at_server.get("p50_ms", math.nan),
+        "server_p99_ms": at_server.get("p99_ms", math.nan),
     }
+
+
+async def _staff(server: _Server, method: str, robot: str) -> dict[str, Any]:
+    """The server's own send-delay statistics (staff API)."""
+    import httpx
+
+    async with httpx.AsyncClient(base_url=server.base, trust_env=False) as client:
+        await client.post("/api/login", json={"username": "staff", "password": "bench-password"})
+        response = await client.request(method, f"/api/admin/stream/{robot}")
+        return dict(response.json())
 
 
 async def _latency(server: _Server, trials: int) -> dict[str, Any]:

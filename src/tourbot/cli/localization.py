@@ -197,6 +197,8 @@ def _make_localizer(
         beam_filter=kind,
         max_samples=particles,
         min_samples=min(base.min_samples, particles),
-        global_samples=max(base.global_samples, particles),
+        # Ten times the tracking budget to start lost (Nav2 AMCL: 500-2000 samples tracking, the
+        # global start as many as allowed), never more than the configured global count.
+        global_samples=max(particles, min(base.global_samples, 10 * particles)),
     )
     return MonteCarloLocalization(grid, cfg, seed=seed)

@@ -123,6 +123,7 @@ class _RawScan:
     line_odom: Pose | None  # the odometry pose written on the line, if any
     odom: Pose | None = None
     resolved: bool = False
+    previous: Odometry | None = None  # the latest odometry reading read before this scan
 
 
 class _MalformedError(Exception):
@@ -271,24 +272,22 @@ class CarmenReader:
     # -- lines ---------------------------------------------------------------------------------
 
     def _lines(self) -> Iterator[tuple[int, list[str]]]:
+        """Non-empty, non-comment lines as tokens, with their line numbers.
+
+        Each line is handed on only once the next one has been read, so that the last, cut-off
+        line of a truncated gzip file is reported as a truncation rather than as a short record.
+        """
         lineno = 0
+        held: bytes | None = None
         try:
             with _open_binary(self.path) as stream:
                 for raw in stream:
+                    if held is not None:
+                        tokens = self._tokens(held, lineno)
+                        if tokens:
+                            yield lineno, tokens
                     lineno += 1
-                    if raw.strip():
-                        self._content_lines += 1
-                    try:
-                        if b"\x00" in raw:
-                            raise UnicodeDecodeError("ascii", raw, 0, 1, "NUL byte")
-                        text = raw.decode("utf-8")
-                    except UnicodeDecodeError:
-                        self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
-                        continue
-                    tokens = text.split()
-                    if not tokens or tokens[0].startswith("#"):
-                        continue
-                    yield lineno, tokens
+                    held = raw
         except (EOFError, gzip.BadGzipFile, zlib.error) as exc:
             reason = (
                 "the gzip stream is truncated (the file was cut short)"
@@ -296,8 +295,30 @@ class CarmenReader:
                 else f"the gzip stream is corrupt ({exc})"
             )
             if not self.lenient:
-                raise LogFormatError(reason, path=self.path, line=lineno + 1) from None
-            self.warnings.append(f"{self.path}:{lineno + 1}: {reason}; kept the {lineno} lines before it")
+                raise LogFormatError(reason, path=self.path, line=max(lineno, 1)) from None
+            kept = max(lineno - 1, 0)
+            self.warnings.append(f"{self.path}:{max(lineno, 1)}: {reason}; kept the {kept} lines before it")
+            return
+        if held is not None:
+            tokens = self._tokens(held, lineno)
+            if tokens:
+                yield lineno, tokens
+
+    def _tokens(self, raw: bytes, lineno: int) -> list[str]:
+        if raw.strip():
+            self._content_lines += 1
+        if b"\x00" in raw:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            self._malformed(_MalformedError("binary data, not a line of CARMEN text"), lineno)
+            return []
+        tokens = text.split()
+        if not tokens or tokens[0].startswith("#"):
+            return []
+        return tokens
 
     def _find_odometry_stream(self) -> bool:
         """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
@@ -570,6 +591,7 @@ class CarmenReader:
                     lineno, f"of {item.sensor} scans {what} ({last_scan!r} then {item.timestamp!r})"
                 )
             self._last_scan_time[item.sensor] = item.timestamp
+            item.previous = self._history[-1] if self._history else None
             item.resolved = not self._needs_stream(item)
         self._queue.append(item)
         yield from self._flush(final=False)
@@ -586,12 +608,14 @@ class CarmenReader:
         """Attach the odometry at the scan's time; False while the reading after it is unread."""
         history = self._history
         if self._record_order:
-            # the latest reading before the scan in the file: the readings queued after the scan
-            # are not in ``history`` order-wise before it, so look at what preceded it.
-            before = self._reading_before(scan)
-            if before is None and not final and not history:
-                return False
-            scan.odom = before.pose if before is not None else (history[0].pose if history else None)
+            # the latest reading before the scan in the file, else the first one after it
+            before = scan.previous
+            if before is None and not history:
+                if not final:
+                    return False
+                scan.odom = None
+            else:
+                scan.odom = before.pose if before is not None else history[0].pose
             scan.resolved = True
             return True
         if not history or history[-1].timestamp < scan.timestamp:
@@ -603,18 +627,6 @@ class CarmenReader:
         scan.odom = _interpolate(history, scan.timestamp)
         scan.resolved = True
         return True
-
-    def _reading_before(self, scan: _RawScan) -> Odometry | None:
-        """The latest odometry reading read before ``scan`` (the queue holds what came after)."""
-        after = 0
-        seen_scan = False
-        for item in self._queue:
-            if item is scan:
-                seen_scan = True
-            elif seen_scan and isinstance(item, Odometry):
-                after += 1
-        index = len(self._history) - 1 - after
-        return self._history[index] if index >= 0 else None
 
     def _drain(self) -> Iterator[Record]:
         yield from self._flush(final=True)

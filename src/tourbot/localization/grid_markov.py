@@ -15,14 +15,23 @@ after each step the poses below ``prune_ratio`` times the largest belief are dro
 mixture cannot be held explicitly, so it is evaluated by a sweep: each update scores
 ``sweep_poses`` poses of a fixed pseudo-random tour of the whole grid with their share
 ``eps / |L|`` of prior, and those that explain the scan well enough join the held set. That is how
-a kidnapped robot recovers (Table 1, "Recovery").
+a kidnapped robot recovers (Table 1, "Recovery"). Swept poses are screened on a few beams first
+and only the most promising get the full product of Eq. 2; a uniform belief (global localization)
+is screened the same way down to ``max_active`` poses.
+
+The filters judge each beam against the belief *with* its uniform part (sampled from the sweep): a
+beam that only poses elsewhere explain (a person in front of the robot, seen by a pose next to a
+wall) moves mass to the uniform part, raises the entropy and fails the entropy filter; without
+this, a filtered-in reading would let the sweep pull the belief away from the truth.
 
 The expected range of every beam is a table look-up: the project's ray caster fills, once per map,
 the range from every free cell centre at every ``table_angle_step`` (1 degree by default, the
 laser's beam spacing), so a beam of a pose in heading layer ``k`` reads
 ``table[cell, (k * angle_step + laser_yaw + beam_angle) / table_angle_step]``. The beam model's
 ``p(s_b | l)`` and ``p_n(s_b | l)`` (Eq. 5) are tabulated per scan over range bins. The hot loops
-are the numba kernels of :mod:`tourbot.localization.grid_kernels`.
+are the numba kernels of :mod:`tourbot.localization.grid_kernels`. The table is built on the
+first update (seconds to a minute for a museum; :meth:`GridMarkovLocalization.prepare` builds it
+ahead, with progress, and :meth:`~GridMarkovLocalization.use_table` shares it between localizers).
 """
 
 from __future__ import annotations
@@ -36,11 +45,11 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.errors import TourbotError
 from tourbot.geometry import relative, wrap_angle
 from tourbot.localization import grid_kernels as gk
 from tourbot.localization.beam_filters import BeamFilter, BeamFilterConfig
 from tourbot.localization.estimate import LocalizationEstimate
+from tourbot.localization.mcl import LocalizationError
 from tourbot.localization.motion_model import OdometryMotionModel, decompose
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
@@ -61,7 +70,7 @@ IntArray = NDArray[np.int64]
 Progress = Callable[[int, int], None]
 
 
-class GridMarkovError(TourbotError):
+class GridMarkovError(LocalizationError):
     """A grid localizer used before it has a map, or given a map with no free space."""
 
 
@@ -72,9 +81,16 @@ class RangeCaster(Protocol):
 
 
 def _default_caster(grid: OccupancyGrid, max_range: float) -> RangeCaster:
+    """The project's fastest exact caster; unknown cells do not stop rays.
+
+    A map that went through a map_server PGM is trinary: its uncertain cells (people seen once,
+    glass) come back unknown, and as walls in the expected ranges they mislead the localizer (on
+    the first 40 FHW scans: 6 scans off by metres with them blocking, none without). Only
+    occupied cells block; a ray leaving the map reads the maximum range.
+    """
     from tourbot.maps.raycast import DistanceCaster
 
-    return DistanceCaster(grid, max_range)
+    return DistanceCaster(grid, max_range, unknown_blocks=False)
 
 
 @dataclass(frozen=True)
@@ -100,6 +116,7 @@ class GridMarkovConfig:
     - ``min_translation``, ``min_rotation``: odometry is accumulated until the robot has moved
       half a cell or half a heading step, so slow motion is not rounded away.
     - ``motion_sigmas``: width of the motion kernel's window in standard deviations.
+    - ``tracking_std``: the default spread of :meth:`GridMarkovLocalization.reset_tracking`.
     - ``mode_radius``, ``mode_angle``: the estimate is the belief's mean within this distance of
       its most probable pose.
     """
@@ -120,6 +137,7 @@ class GridMarkovConfig:
     min_translation: float = 0.075
     min_rotation: float = math.radians(1.0)
     motion_sigmas: float = 3.0
+    tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
     mode_radius: float = 0.5
     mode_angle: float = math.radians(20.0)
 
@@ -395,9 +413,12 @@ class GridMarkovLocalization:
         self._uniform = True
         self._odom_ref = None
 
-    def reset_tracking(self, pose: ArrayLike, cov: ArrayLike, grid: OccupancyGrid | None = None) -> None:
+    def reset_tracking(
+        self, pose: ArrayLike, cov: ArrayLike | None = None, grid: OccupancyGrid | None = None
+    ) -> None:
         """Tracking: ``Bel(l)`` a Gaussian of covariance ``cov (3, 3)`` around the world ``pose``.
 
+        ``cov`` defaults to ``diag(tracking_std**2)`` (10 cm, 10 cm, 5 deg, as MCL's).
         Evaluated at cell centres within ``4`` standard deviations; the spread is floored at half
         a cell and half a heading step so the belief is never empty.
         """
@@ -405,7 +426,8 @@ class GridMarkovLocalization:
             self.set_map(grid)
         lat = self.lattice
         mu = np.asarray(pose, dtype=np.float64).reshape(3)
-        c = np.asarray(cov, dtype=np.float64).reshape(3, 3)
+        c = np.diag(np.square(self.config.tracking_std)) if cov is None else np.asarray(cov, np.float64)
+        c = c.reshape(3, 3)
         c = c + np.diag([(lat.cell_size / 2) ** 2, (lat.cell_size / 2) ** 2, (lat.angle_step / 2) ** 2])
         centres = lat.poses(np.arange(lat.n_free))[:, :2]
         reach = 4.0 * math.sqrt(max(c[0, 0], c[1, 1]))

@@ -157,12 +157,13 @@ class CrowdConfig:
 
 # The paper's two datasets (Fox et al. 1998, Sec. "Experimental results", Fig. 4): "sparse" is the
 # museum closed (a few % of the beams corrupted), "peak" the most crowded day at peak hours (on
-# average >= 40 % corrupted, stretches above 50 % lasting minutes). The numbers of people and the
-# interest were calibrated on the FHW log with `tourbot crowd` (see docs/benchmarks.md).
+# average >= 40 % corrupted, stretches above 50 % lasting minutes). Densities and interest were
+# calibrated with `tourbot crowd` on the FHW log over its reference map (docs/benchmarks.md,
+# "localization"): sparse gives ~2-3 % of the beams corrupted, peak ~45 %.
 PRESETS: dict[str, CrowdConfig] = {
     "empty": CrowdConfig(num_people=0, robot_interest=0.0),
-    "sparse": CrowdConfig(density=0.01, robot_interest=0.1, interest_duration=30.0),
-    "peak": CrowdConfig(density=0.15, robot_interest=0.8, notice_distance=15.0, interest_duration=300.0),
+    "sparse": CrowdConfig(density=0.015, robot_interest=0.1, interest_duration=30.0),
+    "peak": CrowdConfig(density=0.25, robot_interest=0.85, notice_distance=15.0, interest_duration=300.0),
 }
 
 

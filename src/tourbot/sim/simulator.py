@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Odometry, Record, RobotLog, Scan
-from tourbot.runtime.snapshot import GroundTruth, PersonState
+from tourbot.runtime.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 from tourbot.sim.crowd import Crowd, CrowdConfig
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
@@ -96,8 +96,10 @@ class Simulator:
         self._occupied = self._world.occupied()
         self._invisible = site.invisible_mask(self.static)
         self._footprint = _disc_offsets(cfg.robot.radius, self.static.resolution)
+        # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
+        self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
         self.crowd: Crowd | None = None
-        if cfg.crowd is not None and cfg.crowd.num_people > 0:
+        if cfg.crowd is not None:
             crowd_cfg = cfg.crowd
             if not crowd_cfg.points_of_interest and site.exhibits:
                 from dataclasses import replace
@@ -114,6 +116,7 @@ class Simulator:
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
         self.people_history: list[NDArray[np.float64]] = []
+        self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
 
     # -- DrivableSource ---------------------------------------------------------------------------
 
@@ -129,8 +132,8 @@ class Simulator:
         dt = self.dt
         before = self.robot.pose
         self._move_robot(dt)
-        self._time += dt
         self._steps += 1
+        self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
         if self.crowd is not None:
             self.crowd.step(dt, self.robot.pose, self._rng_crowd)
@@ -151,6 +154,7 @@ class Simulator:
                 self.truth_times.append(self._time)
                 self.truth_poses.append(self.robot.pose)
                 self.people_history.append(self.people_positions())
+                self.objects_history.append((self.objects.door_states(), self.objects.furniture_states()))
         if self.config.record:
             self.records.extend(out)
         return out
@@ -215,8 +219,9 @@ class Simulator:
         )
         hit_static = hit_door or _covers(self._occupied, self.static, pose, self._footprint)
         hit_invisible = _covers(self._invisible, self.static, pose, self._footprint)
-        self._contact("static", hit_static)
-        self._contact("invisible", hit_invisible)
+        here = self.robot.pose
+        self._contact("static", hit_static, _covers(self._occupied, self.static, here, self._near))
+        self._contact("invisible", hit_invisible, _covers(self._invisible, self.static, here, self._near))
         if hit_static or hit_invisible:
             # a bump: the base stops where it was (its bumper halts it)
             self.robot.halt()
@@ -230,12 +235,14 @@ class Simulator:
         centres, radii = self._crowd_circles()
         x, y, _ = self.robot.pose
         d = np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radii
-        self._contact("person", bool(d.size and d.min() < self.config.robot.radius))
+        radius = self.config.robot.radius
+        self._contact("person", bool(d.size and d.min() < radius), bool(d.size and d.min() < radius + 0.05))
 
-    def _contact(self, kind: str, now: bool) -> None:
+    def _contact(self, kind: str, now: bool, near: bool = False) -> None:
+        """Count a collision when a contact starts; it lasts while touching or still ``near``."""
         if now and not self._in_contact[kind]:
             setattr(self.collisions, kind, getattr(self.collisions, kind) + 1)
-        self._in_contact[kind] = now
+        self._in_contact[kind] = now or (self._in_contact[kind] and near)
 
 
 def _disc_offsets(radius: float, resolution: float) -> NDArray[np.int64]:

@@ -19,6 +19,7 @@ import hashlib
 import io
 import json
 import math
+import os
 import re
 import time
 from collections.abc import AsyncIterator, Mapping
@@ -68,7 +69,11 @@ _IMPORTMAP = re.compile(r'<script type="importmap">(.*?)</script>', re.DOTALL)
 
 
 def find_node_modules(start: Path | None = None) -> Path | None:
-    """``node_modules`` of the checkout (holding three.js), searched upwards from ``start``."""
+    """``node_modules`` holding three.js: ``$TOURBOT_NODE_MODULES``, else the checkout's, searched
+    upwards from ``start`` (default the current folder) and from this package."""
+    env = os.environ.get("TOURBOT_NODE_MODULES")
+    if env:
+        return Path(env) if (Path(env) / "three" / "build" / "three.module.js").is_file() else None
     for base in (start or Path.cwd(), Path(__file__).resolve()):
         for parent in [base, *base.parents]:
             candidate = parent / "node_modules"
@@ -438,6 +443,23 @@ def create_app(
             "control_seconds": sum((b[3] or time.time()) - b[2] for b in bookings),
         }
 
+    @app.get("/api/admin/stream/{name}")
+    def admin_stream(_: Staff, name: str) -> dict[str, Any]:
+        """Server-side delay from sampling a state to handing its frame to each client's socket."""
+        delays = sorted(hub_for(name).send_delays)
+        if not delays:
+            return {"frames": 0}
+        return {
+            "frames": len(delays),
+            "p50_ms": 1000 * delays[len(delays) // 2],
+            "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
+        }
+
+    @app.delete("/api/admin/stream/{name}")
+    def admin_stream_reset(_: Staff, name: str) -> dict[str, bool]:
+        hub_for(name).send_delays.clear()
+        return {"ok": True}
+
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
@@ -551,6 +573,7 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         message = encoder.encode(scene)
         if message is not None:
             await ws.send_bytes(message)
+            hub.send_delays.append(time.time() - scene.t)
         now = time.time()
         slot = hub.arbiter.view(client.session, now).as_dict()
         status: dict[str, Any] = {"type": "status", "slot": slot, "nav": _nav_status(hub)}

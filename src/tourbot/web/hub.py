@@ -14,6 +14,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -74,6 +75,7 @@ class RobotHub:
         self.scene: Scene | None = None
         self.version = 0
         self.announcements: list[Announcement] = []
+        self.send_delays: deque[float] = deque(maxlen=100_000)
         self.connections: dict[int, int] = {}
         self._bookings: dict[int, int] = {}
         self._stop = threading.Event()

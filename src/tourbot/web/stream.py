@@ -77,6 +77,7 @@ class StreamConfig:
     position_tolerance: float = 0.05
     heading_tolerance: float = math.radians(3.0)
     refresh_period: float = 2.0
+    moving_speed: float = 0.1
 
 
 @dataclass(frozen=True)
@@ -230,6 +231,8 @@ class StreamEncoder:
     def _stale(self, held: _Held, body: Body, t: float) -> bool:
         c = self.config
         if t - held.t >= c.refresh_period:
+            return True
+        if (math.hypot(held.vx, held.vy) > c.moving_speed) != (math.hypot(body.vx, body.vy) > c.moving_speed):
             return True
         x, y, theta = held.at(t)
         if math.hypot(x - body.x, y - body.y) > c.position_tolerance:

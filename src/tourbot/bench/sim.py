@@ -1,0 +1,203 @@
+"""``tourbot bench sim``: simulator speed, and guided tours in sparse and peak crowds over seeds.
+
+Speed: steps per second and real-time factor of the simulator alone (robot, crowd, doors and
+furniture, odometry, 360-beam laser at 10 Hz) on the FHW site with 50, 100 and 200 visitors, and of
+the whole loop (simulator + MCL + navigator) during the tours. Tours: success rate (every exhibit
+visited, no collision with a person or an invisible obstacle), duration, collisions, time blocked,
+and the localization error along the way (mean, 99th percentile, share of time within 15 cm).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import typer
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    from tourbot.bench._report import BenchReport
+    from tourbot.site.model import Site
+
+__all__ = ["register"]
+
+TARGET_RTF = 20.0  # the issue's target: >= 20x real time with 100 people, 360 beams at 10 Hz
+TARGET_SUCCESS = 0.95
+TARGET_WITHIN = 0.99
+
+
+@dataclass
+class TourRun:
+    """One tour's outcome."""
+
+    seed: int
+    rtf: float
+    steps: float
+    success: bool
+    duration: float
+    collisions: int
+    static_bumps: int
+    blocked: float
+    visited: int
+    errors: NDArray[np.float64] = field(repr=False)
+
+    def summary(self) -> dict[str, object]:
+        d = asdict(self)
+        d.pop("errors")
+        d["within_15cm"] = float(np.mean(self.errors <= 0.15)) if self.errors.size else math.nan
+        return d
+
+
+def _sim_speed(site: Site, people: int, steps: int, seed: int = 0) -> tuple[float, float]:
+    """Steps per second of the simulator alone, after a warm-up; the robot drives slow arcs."""
+    from tourbot.runtime.simulated import crowd_config
+    from tourbot.sim.simulator import SimConfig, Simulator
+
+    start = site.exhibits[0].viewing_pose
+    sim = Simulator(site, SimConfig(crowd=crowd_config(people)), seed=seed, start=start)
+    sim.command(0.3, 0.15)
+    for _ in range(20):
+        sim.poll()
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        sim.poll()
+    wall = time.perf_counter() - t0
+    return steps / wall, steps * sim.dt / wall
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("sim")
+    def sim(
+        seeds: int = typer.Option(10, help="Seeds per crowd for the tours."),
+        tour: str = typer.Option("highlights", help="Tour of the FHW site to run."),
+        crowds: str = typer.Option("sparse,peak", help="Comma-separated crowds for the tours."),
+        max_time: float = typer.Option(900.0, help="Simulated seconds before a tour counts as failed."),
+        speed_steps: int = typer.Option(300, help="Simulator steps timed per crowd size."),
+        quick: bool = typer.Option(False, help="A small run for smoke tests: 1 seed, the 'short' tour."),
+        output: str = typer.Option("", help="JSON output (default bench-results/sim.json)."),
+    ) -> None:
+        """Simulator speed and tour success, collisions, blocked time and localization error."""
+        from dataclasses import replace
+
+        from rich.console import Console
+        from rich.progress import Progress
+
+        from tourbot.bench._report import BenchReport
+        from tourbot.cli._tour_view import start_pose_for
+        from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+        from tourbot.runtime.snapshot import NavMode
+        from tourbot.site.default import default_site
+
+        console = Console()
+        site = default_site()
+        if quick:
+            seeds, tour, speed_steps = 1, "short", 50
+        people_counts = (50,) if quick else (50, 100, 200)
+        crowd_list = [c.strip() for c in crowds.split(",") if c.strip()]
+        report = BenchReport(
+            "sim",
+            [
+                "case",
+                "runs",
+                "steps/s",
+                "real-time x",
+                "success %",
+                "duration s",
+                "collisions",
+                "blocked s",
+                "mean err cm",
+                "p99 err cm",
+                "within 15 cm %",
+            ],
+        )
+        report.meta.update(
+            {"site": site.name, "tour": tour, "seeds": seeds, "laser_beams": 360, "laser_hz": 10}
+        )
+        with Progress(console=console) as progress:
+            task = progress.add_task("simulator speed", total=len(people_counts))
+            for n in people_counts:
+                sps, rtf = _sim_speed(site, n, speed_steps)
+                report.add(
+                    **{"case": f"simulator, {n} people", "runs": 1, "steps/s": sps, "real-time x": rtf}
+                )
+                progress.advance(task)
+            total = seeds * len(crowd_list)
+            task = progress.add_task(f"tours ({tour})", total=total)
+            for crowd in crowd_list:
+                results: list[TourRun] = []
+                for seed in range(seeds):
+                    settings = SimulationSettings(crowd=crowd, seed=seed)
+                    settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=0.25))
+                    robot = simulated_runtime(site, settings, start=start_pose_for(site, tour), record=False)
+                    rt = robot.runtime
+                    rt.start_tour(tour)
+                    t0 = time.perf_counter()
+                    final = rt.run(
+                        max_time=max_time,
+                        until=lambda s: s.navigation.mode in (NavMode.FINISHED, NavMode.FAILED),
+                    )
+                    wall = time.perf_counter() - t0
+                    m = robot.metrics.metrics
+                    c = robot.simulator.collisions
+                    results.append(
+                        TourRun(
+                            seed=seed,
+                            rtf=final.time / wall if wall > 0 else math.nan,
+                            steps=final.step / wall if wall > 0 else math.nan,
+                            success=m.success,
+                            duration=m.duration,
+                            collisions=c.person + c.invisible,
+                            static_bumps=c.static,
+                            blocked=m.total_blocked_time,
+                            visited=len(m.visited),
+                            errors=np.asarray(m.errors, dtype=np.float64),
+                        )
+                    )
+                    progress.advance(task)
+                errs = np.concatenate([r.errors for r in results]) if results else np.zeros(0)
+                report.add(
+                    **{
+                        "case": f"tour '{tour}', {crowd} crowd",
+                        "runs": len(results),
+                        "steps/s": float(np.mean([r.steps for r in results])),
+                        "real-time x": float(np.mean([r.rtf for r in results])),
+                        "success %": 100.0 * float(np.mean([r.success for r in results])),
+                        "duration s": float(np.mean([r.duration for r in results])),
+                        "collisions": int(sum(r.collisions for r in results)),
+                        "blocked s": float(np.mean([r.blocked for r in results])),
+                        "mean err cm": 100.0 * float(errs.mean()) if errs.size else math.nan,
+                        "p99 err cm": 100.0 * float(np.quantile(errs, 0.99)) if errs.size else math.nan,
+                        "within 15 cm %": 100.0 * float(np.mean(errs <= 0.15)) if errs.size else math.nan,
+                    }
+                )
+                report.meta[f"runs_{crowd}"] = [r.summary() for r in results]
+        _verdicts(report, crowd_list)
+        report.finish(Path(output) if output else None, console)
+
+    def _verdicts(report: BenchReport, crowds: list[str]) -> None:
+        rows = report.rows
+        notes = report.notes
+        for row in rows:
+            if row["case"] == "simulator, 100 people":
+                ok = row["real-time x"] >= TARGET_RTF
+                notes.append(
+                    f"target simulator >= {TARGET_RTF:.0f}x real time with 100 people: "
+                    f"{'met' if ok else 'MISSED'} ({row['real-time x']:.1f}x)"
+                )
+            if "peak crowd" in row["case"]:
+                ok = row["success %"] >= 100 * TARGET_SUCCESS
+                notes.append(
+                    f"target peak-crowd tours >= {100 * TARGET_SUCCESS:.0f} % without collision: "
+                    f"{'met' if ok else 'MISSED'} ({row['success %']:.0f} % of {row['runs']} seeds)"
+                )
+                ok = row["within 15 cm %"] >= 100 * TARGET_WITHIN
+                notes.append(
+                    f"target estimate within 15 cm >= {100 * TARGET_WITHIN:.0f} % of the time: "
+                    f"{'met' if ok else 'MISSED'} ({row['within 15 cm %']:.1f} %)"
+                )
+        if crowds and any(r["runs"] < 10 for r in rows if "tour" in r["case"]):
+            notes.append("fewer than 10 seeds per crowd: the issue asks for >= 10")

@@ -1,0 +1,69 @@
+"""``tourbot crowd``: lay a crowd of museum visitors (and optionally kidnappings) over a real log."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tourbot.cli.logs import LenientOpt, LogArg
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("crowd")
+    def crowd(
+        log: LogArg,
+        map_yaml: Annotated[Path, typer.Option("--map", help="The building's map_server map (YAML).")],
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Crowded CARMEN log to write (.log or .log.gz).")
+        ],
+        preset: Annotated[
+            str, typer.Option(help="Crowd preset: sparse (museum closed) or peak (peak hours).")
+        ] = "peak",
+        seed: Annotated[int, typer.Option(help="Seed of the crowd, the range noise and the kidnaps.")] = 0,
+        kidnap: Annotated[
+            bool, typer.Option(help="Also kidnap the robot (0.005 per metre, Fox et al. 1998).")
+        ] = False,
+        lenient: LenientOpt = False,
+    ) -> None:
+        """Visitors walk through a corrected log; beams hitting them are shortened. Writes the new log
+        and, beside it, NAME.truth.json (corrupted beams per scan, kidnaps)."""
+        from rich.console import Console
+        from rich.progress import Progress
+
+        from tourbot.io import load_log, write_carmen
+        from tourbot.io.mapserver import read_map
+        from tourbot.sim.crowd import PRESETS
+        from tourbot.sim.overlay import OverlayConfig, OverlayError, overlay_crowd, truth_path, write_truth
+
+        if preset not in PRESETS:
+            raise OverlayError(f"unknown --preset {preset!r}; choose one of {', '.join(PRESETS)}")
+        console = Console()
+        with console.status(f"reading {log} and {map_yaml}"):
+            robot_log = load_log(log, lenient=lenient)
+            grid = read_map(map_yaml)
+        for warning in robot_log.warnings:
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+        config = OverlayConfig.preset(preset, kidnap=kidnap)
+        with Progress(console=console) as progress:
+            task = progress.add_task(f"{preset} crowd over {log.name}", total=len(robot_log.scans))
+            result = overlay_crowd(
+                robot_log,
+                grid,
+                config,
+                seed=seed,
+                preset=preset,
+                progress=lambda done, _total: progress.update(task, completed=done),
+            )
+        write_carmen(result.log, output)
+        truth = truth_path(output)
+        write_truth(result.truth, truth)
+        f = result.truth.fraction
+        console.print(
+            f"wrote {output} and {truth.name}: {result.truth.people} visitors; corrupted beams per scan "
+            f"mean {f.mean() * 100:.1f} %, median {float(sorted(f)[len(f) // 2]) * 100:.1f} %, "
+            f"{(f > 0.5).mean() * 100:.0f} % of scans above 50 % (longest stretch "
+            f"{result.truth.longest_above(0.5):.0f} s); {len(result.truth.kidnaps)} kidnaps",
+            highlight=False,
+        )

@@ -1,0 +1,74 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tourbot.cli.main import main
+from tourbot.io.carmen import write_carmen
+from tourbot.io.mapserver import write_map
+from tourbot.io.tum import read_tum
+from tourbot.records import RobotLog
+
+from ..localization.conftest import room_with_boxes, simulate, waypoints_path
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, np.ndarray]:
+    root = tmp_path_factory.mktemp("localize")
+    grid = room_with_boxes()
+    drive = simulate(grid, waypoints_path(20), seed=4)
+    log = RobotLog(source="synthetic", scans=drive.scans)
+    write_carmen(log, root / "drive.log")
+    write_map(grid, root / "room.yaml")
+    return root / "drive.log", root / "room.yaml", drive.truth
+
+
+def test_localize_writes_one_pose_per_scan(files: tuple[Path, Path, np.ndarray], tmp_path: Path) -> None:
+    log, room, truth = files
+    out = tmp_path / "traj.tum"
+    main(
+        [
+            "localize",
+            str(log),
+            "--map",
+            str(room),
+            "--start-from-reference",
+            "--particles",
+            "500",
+            "-o",
+            str(out),
+        ]
+    )
+    times, poses = read_tum(out)
+    assert len(times) == len(truth)
+    assert np.all(np.diff(times) > 0)
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).mean() < 0.1
+
+
+def test_localize_global(files: tuple[Path, Path, np.ndarray], tmp_path: Path) -> None:
+    log, room, truth = files
+    out = tmp_path / "traj.tum"
+    args = ["localize", str(log), "--map", str(room), "--global", "--seed", "3"]
+    main([*args, "--particles", "1000", "-o", str(out)])
+    times, poses = read_tum(out)
+    # Plumbing only (convergence of global localization is tested in tests/localization): one
+    # finite pose per scan, inside the room.
+    assert len(times) == len(truth)
+    assert np.isfinite(poses).all()
+    assert (np.abs(poses[:, :2] - [5.0, 2.5]) < 7.0).all()
+
+
+def test_localize_needs_exactly_one_start(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log, room, _ = files
+    with pytest.raises(SystemExit) as exc:
+        main(["localize", str(log), "--map", str(room), "-o", str(tmp_path / "t.tum")])
+    assert exc.value.code == 2
+    assert "--start-from-reference" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main(["localize", str(log), "--map", str(room), "--start", "1,2", "-o", str(tmp_path / "t.tum")])
+    assert exc.value.code == 2
+    assert "X,Y,THETA" in capsys.readouterr().err

@@ -1,0 +1,138 @@
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tourbot.records import Odometry, Scan
+from tourbot.sim.crowd import CrowdConfig
+from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
+from tourbot.sim.robot import DiffDrive, DiffDriveConfig, integrate_arc
+from tourbot.sim.simulator import SimConfig, Simulator
+from tourbot.site import Site
+
+
+def test_diff_drive_respects_limits_and_integrates_arcs() -> None:
+    cfg = DiffDriveConfig()
+    robot = DiffDrive(cfg, (0.0, 0.0, 0.0))
+    robot.command(5.0, 0.0)
+    assert robot.cmd_speed == cfg.max_speed
+    _, v, _ = robot.propose(0.1)
+    assert v == pytest.approx(cfg.max_accel * 0.1)
+    # a quarter circle of radius 1
+    x, y, th = integrate_arc((0.0, 0.0, 0.0), 1.0, 1.0, math.pi / 2)
+    assert (x, y, th) == pytest.approx((1.0, 1.0, math.pi / 2))
+
+
+def test_odometry_error_is_systematic_and_random() -> None:
+    rng = np.random.default_rng(0)
+    exact = OdometryError(
+        OdometryErrorConfig(
+            translation_scale=1.0, rotation_scale=1.0, drift=0.0, alpha1=0, alpha2=0, alpha3=0, alpha4=0
+        )
+    )
+    noisy = OdometryError(OdometryErrorConfig())
+    pose = (0.0, 0.0, 0.0)
+    for _ in range(100):  # 10 m straight
+        nxt = (pose[0] + 0.1, 0.0, 0.0)
+        exact.step(pose, nxt, rng)
+        noisy.step(pose, nxt, rng)
+        pose = nxt
+    assert exact.pose == pytest.approx((10.0, 0.0, 0.0), abs=1e-9)
+    # 1.5 % too long and a drift of half a degree per metre
+    assert noisy.pose[0] == pytest.approx(10.15, abs=0.1)
+    assert abs(noisy.pose[2]) > math.radians(2)
+
+
+def test_simulator_is_deterministic_for_a_seed(hall: Site) -> None:
+    def run(seed: int) -> tuple[np.ndarray, np.ndarray]:
+        sim = Simulator(hall, SimConfig(crowd=CrowdConfig(num_people=10)), seed=seed, start=(2.0, 6.0, 0.0))
+        sim.command(0.4, 0.1)
+        scans = []
+        for _ in range(30):
+            scans += [r for r in sim.poll() or [] if isinstance(r, Scan)]
+        return np.array([s.ranges for s in scans]), sim.people_positions()
+
+    a, pa = run(3)
+    b, pb = run(3)
+    c, _ = run(4)
+    assert np.array_equal(a, b)
+    assert np.array_equal(pa, pb)
+    assert not np.array_equal(a, c)
+
+
+def test_records_carry_odometry_and_truth(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(laser_rate=5.0), seed=0, start=(2.0, 6.0, 0.0))
+    sim.command(0.5, 0.0)
+    kinds = [[type(r) for r in sim.poll() or []] for _ in range(10)]
+    assert all(k[0] is Odometry for k in kinds)
+    assert sum(Scan in k for k in kinds) == 5  # 5 Hz laser, 10 Hz steps
+    truth = sim.truth()
+    assert truth.pose[0] > 2.0
+    assert sim.time == pytest.approx(1.0)
+
+
+def test_laser_sees_walls_and_legs_but_not_glass(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(dynamic_objects=False), seed=0, start=(11.0, 6.0, 0.0))
+    legs = np.array([[12.0, 6.05], [12.0, 5.95]])
+    ranges = sim.laser.scan((11.0, 6.0, 0.0), legs, np.array([0.06, 0.06]), np.random.default_rng(0))
+    g = sim.laser.geometry
+    ahead = int(np.argmin(np.abs(g.angles)))
+    assert ranges[ahead] == pytest.approx(1.0 - 0.06, abs=0.05)
+    # without the legs the beam passes the glass case (x = 13) and hits the far wall (x = 20)
+    ranges = sim.laser.scan((11.0, 6.0, 0.0), np.zeros((0, 2)), np.zeros(0), np.random.default_rng(0))
+    assert ranges[ahead] == pytest.approx(9.0, abs=0.1)
+
+
+def test_bumping_the_glass_case_counts_and_stops(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(dynamic_objects=False), seed=0, start=(12.0, 6.0, 0.0))
+    sim.command(0.5, 0.0)
+    for _ in range(40):
+        sim.poll()
+    assert sim.collisions.invisible == 1
+    assert sim.robot.pose[0] < 13.0 - 0.3 + 0.05
+    assert sim.truth().collisions == 1
+
+
+def test_doors_swing_and_furniture_moves(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(), seed=0, start=(2.0, 6.0, 0.0))
+    before_door = sim.truth().doors[0].open_fraction
+    before_bench = sim.truth().furniture[0]
+    for _ in range(45):  # the bench moves at 3 s
+        sim.poll()
+    assert sim.truth().furniture[0] != before_bench
+    assert sim.truth().doors[0].open_fraction == before_door
+    for _ in range(20):  # the door starts closing at 5 s
+        sim.poll()
+    assert sim.truth().doors[0].open_fraction < before_door
+    centres, radii = sim.objects.door_circles()
+    assert len(centres) == len(radii) > 10
+    # the bench is in the laser's world
+    assert sim.world.occupied().sum() > sim.static.occupied().sum()
+
+
+def test_people_collisions_are_counted(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(crowd=CrowdConfig(num_people=1)), seed=0, start=(2.0, 6.0, 0.0))
+    assert sim.crowd is not None
+    sim._legs = (np.array([[2.1, 6.0]]), np.array([0.06]))
+    sim._check_people()
+    assert sim.collisions.person == 1
+    sim._check_people()  # still the same contact
+    assert sim.collisions.person == 1
+
+
+def test_sensor_stream_round_trips_through_a_carmen_log(hall: Site, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from tourbot.io.carmen import read_carmen, write_carmen
+
+    sim = Simulator(hall, SimConfig(record=True), seed=0, start=(2.0, 6.0, 0.0))
+    sim.command(0.4, 0.2)
+    for _ in range(20):
+        sim.poll()
+    log = sim.to_robot_log()
+    path = tmp_path / "sim.log.gz"
+    write_carmen(log, path)
+    back = read_carmen(path)
+    assert len(back.scans) == len(log.scans) == 20
+    np.testing.assert_allclose(back.ranges, log.ranges, atol=1e-3)
+    np.testing.assert_allclose(back.reference_poses, log.reference_poses, atol=1e-4)
