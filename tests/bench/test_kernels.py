@@ -58,3 +58,13 @@ def test_cast_ranges_explain_real_scans(shared_data: Path) -> None:
     # most beams of a real scan end where the map says (people and glass make the rest)
     assert np.median(err) < 0.15
     assert np.mean(err < 0.3) > 0.7
+
+
+def test_bad_options_are_one_line_errors(capsys: pytest.CaptureFixture[str]) -> None:
+    for args, field in ((["--particles", "0"], "--particles"), (["--max-range", "-1"], "--max-range")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["bench", "kernels", *args])
+        assert exit_info.value.code == 2
+        err = capsys.readouterr().err
+        assert field in err
+        assert "Traceback" not in err

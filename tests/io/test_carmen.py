@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from tourbot.io import LogFormatError, iter_carmen, load_log, read_carmen, write_carmen
@@ -398,3 +398,39 @@ def test_truncation_anywhere_is_reported_as_truncation(tmp_path: Path, fraction:
     kept = read_carmen(cut, lenient=True)
     assert 0 < len(kept) < 300
     assert not any("malformed" in w for w in kept.warnings)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    odom_steps=st.lists(st.floats(0.01, 2.0), min_size=2, max_size=30),
+    scan_steps=st.lists(st.floats(0.01, 2.0), min_size=1, max_size=20),
+    seed=st.integers(0, 1000),
+)
+def test_streaming_matches_whole_stream_interpolation(
+    odom_steps: list[float], scan_steps: list[float], seed: int
+) -> None:
+    """The streaming matcher gives what interpolating over the whole odometry stream gives."""
+    import tempfile
+
+    from tourbot.io._interp import interpolate_poses
+
+    rng = np.random.default_rng(seed)
+    odom_t = np.cumsum(odom_steps)
+    scan_t = np.cumsum(scan_steps) + rng.uniform(-1.0, 1.0)
+    scan_t = scan_t[scan_t > 0]
+    assume(len(scan_t) > 0)
+    poses = np.column_stack([rng.uniform(-5, 5, (len(odom_t), 2)), rng.uniform(-3.1, 3.1, len(odom_t))])
+    events = [(t, 0, i) for i, t in enumerate(odom_t)] + [(t, 1, i) for i, t in enumerate(scan_t)]
+    lines = []
+    for t, kind, i in sorted(events):
+        if kind == 0:
+            lines.append(_odom(tuple(poses[i]), float(t)))
+        else:
+            lines.append(_flaser([1.0], (9.0, 9.0, 0.0), float(t)))
+    with tempfile.TemporaryDirectory() as tmp:
+        log = read_carmen(_write(Path(tmp), lines))
+    assert log.warnings == []
+    expected = interpolate_poses(odom_t, poses, scan_t)
+    got = log.odom_poses
+    np.testing.assert_allclose(got[:, :2], expected[:, :2], atol=1e-9)
+    np.testing.assert_allclose(np.cos(got[:, 2] - expected[:, 2]), 1.0, atol=1e-9)

@@ -215,3 +215,5 @@ def test_odometry_from_tf(tmp_path: Path) -> None:
     log = read_bag(path)
     assert [o.pose for o in log.odometry] == [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0)]
     assert [s.odom for s in log.scans] == [pytest.approx((0.25, 0.0, 0.0)), pytest.approx((1.25, 0.0, 0.0))]
+    # the base_link -> laser transform is the laser's mount
+    assert log.scans[0].geometry.offset == (0.2, 0.0, 0.0)

@@ -131,6 +131,10 @@ def test_needs_poses() -> None:
 def test_params_resolution() -> None:
     grid = build_reference_map(_room_log(), 0.1, ReferenceMapParams(hit="endpoint"))
     assert grid.resolution == 0.1
+    assert build_reference_map(_room_log(), params=ReferenceMapParams(resolution=0.2)).resolution == 0.2
+    assert build_reference_map(_room_log()).resolution == 0.05
+    with pytest.raises(MapError, match="resolution must be positive"):
+        build_reference_map(_room_log(), 0.0)
 
 
 def test_fhw_map_shape(real_log: Callable[[str], RobotLog]) -> None:

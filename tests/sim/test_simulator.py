@@ -28,7 +28,9 @@ def test_diff_drive_respects_limits_and_integrates_arcs() -> None:
 def test_odometry_error_is_systematic_and_random() -> None:
     rng = np.random.default_rng(0)
     exact = OdometryError(
-        OdometryErrorConfig(translation_scale=1.0, rotation_scale=1.0, drift=0.0, alpha1=0, alpha2=0, alpha3=0, alpha4=0)
+        OdometryErrorConfig(
+            translation_scale=1.0, rotation_scale=1.0, drift=0.0, alpha1=0, alpha2=0, alpha3=0, alpha4=0
+        )
     )
     noisy = OdometryError(OdometryErrorConfig())
     pose = (0.0, 0.0, 0.0)

@@ -37,6 +37,13 @@ def register(bench: typer.Typer) -> None:
     ) -> None:
         """Rays/s/core of each caster, beam evaluations/s/core of the likelihood field and the beam
         model, build time and memory, on the FHW map built from the real log."""
+        from tourbot.errors import InputError
+
+        for name, value in (("--particles", particles), ("--field-poses", field_poses), ("--repeat", repeat)):
+            if value < 1:
+                raise InputError(f"{name} must be at least 1, got {value}", field=name)
+        if max_range is not None and min(max_range) <= 0:
+            raise InputError(f"--max-range must be positive, got {min(max_range)}", field="--max-range")
         _run(resolution, particles, field_poses, max_range, repeat, seed, output)
 
 

@@ -22,7 +22,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.table import Table
 
-        from tourbot.io import load_log
+        from tourbot.io import load_log, log_kind
         from tourbot.plotting import path_length
 
         console = Console()
@@ -36,6 +36,7 @@ def register(app: typer.Typer) -> None:
         beams = sorted({s.geometry.num_beams for s in scans})
         g = scans[0].geometry
         times = robot_log.times
+        table.add_row("format", "ROS bag" if log_kind(log) == "rosbag" else "CARMEN log")
         table.add_row("laser", ", ".join(sensors))
         table.add_row("scans", str(len(scans)))
         table.add_row("beams per scan", ", ".join(map(str, beams)))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -108,6 +109,7 @@ def read_bag(
     Without ``scan_topic`` the LaserScan topic with the most messages is read (the others are named
     in a warning). Odometry comes from ``odom_topic`` or the first ``nav_msgs/Odometry`` topic, else
     from ``/tf`` (``odom`` -> ``base_link``/``base_footprint``); without any, scans have no odometry.
+    A ``base_link`` -> laser-frame transform on ``/tf`` or ``/tf_static`` sets the laser's offset.
     A malformed scan (negative range, beam count not matching the angles) raises :class:`BagError`,
     or is skipped and counted with ``lenient=True``.
     """
@@ -121,7 +123,7 @@ def read_bag(
     if others:
         warnings.append(f"{p}: read {scan_t}; also holds LaserScan topics {', '.join(sorted(others))}")
     odom_t = _pick(topics, ODOMETRY, odom_topic, p, "Odometry")
-    tf_t = None if odom_t is not None else next((t for t, (k, _) in topics.items() if k == TF), None)
+    tf_topics = {t for t, (k, _) in topics.items() if k == TF}  # /tf and /tf_static
 
     scans: list[Scan] = []
     odometry: list[Odometry] = []
@@ -129,8 +131,10 @@ def read_bag(
     geometries: dict[tuple[object, ...], LaserGeometry] = {}
     skipped = 0
     first_skip = ""
+    mounts: dict[str, tuple[float, float, float]] = {}  # child frame -> its pose on the robot base
+    frames: list[str] = []  # the laser's frame
     with _open(p) as reader:
-        wanted = [c for c in reader.connections if c.topic in {scan_t, odom_t, tf_t}]
+        wanted = [c for c in reader.connections if c.topic in {scan_t, odom_t, *tf_topics}]
         for index, (conn, bag_ns, raw) in enumerate(reader.messages(connections=wanted)):
             msg = reader.deserialize(raw, conn.msgtype)
             if conn.topic == scan_t:
@@ -144,6 +148,8 @@ def read_bag(
                     continue
                 order.append((1, len(scans)))
                 scans.append(scan)
+                if not frames:
+                    frames.append(msg.header.frame_id.lstrip("/"))
             elif conn.topic == odom_t:
                 pose = msg.pose.pose
                 twist = msg.twist.twist
@@ -160,15 +166,22 @@ def read_bag(
                 for tf in msg.transforms:
                     parent = tf.header.frame_id.lstrip("/")
                     child = tf.child_frame_id.lstrip("/")
-                    if parent == "odom" and child in _BASE_FRAMES:
-                        tr = tf.transform.translation
-                        pose3 = (float(tr.x), float(tr.y), _yaw(tf.transform.rotation))
+                    tr = tf.transform.translation
+                    pose3 = (float(tr.x), float(tr.y), _yaw(tf.transform.rotation))
+                    if parent == "odom" and child in _BASE_FRAMES and odom_t is None:
                         odometry.append(Odometry(timestamp=_stamp(tf.header, bag_ns), pose=pose3))
                         order.append((0, len(odometry) - 1))
+                    elif parent in _BASE_FRAMES:
+                        mounts.setdefault(child, pose3)
     if skipped:
         warnings.append(f"{p}: skipped {skipped} malformed scan(s) (first: {first_skip})")
     if not scans:
         raise BagError(f"no readable scans on {scan_t}", path=p)
+    if frames and frames[0] in mounts:
+        # the laser's mount on the robot (a base_link -> laser transform) is its geometry's offset
+        offset = mounts[frames[0]]
+        fixed = {g: replace(g, offset=offset) for g in {s.geometry for s in scans}}
+        scans = [replace(s, geometry=fixed[s.geometry]) for s in scans]
     if odometry:
         scans = _attach_odometry(scans, odometry, order, warnings, p)
     return RobotLog(source=str(p), scans=scans, odometry=odometry, warnings=warnings)

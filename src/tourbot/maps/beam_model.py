@@ -141,6 +141,11 @@ def beam_probabilities_kernel(
     n, nb = expected.shape
     c_gauss = 1.0 / (sigma_hit * math.sqrt(2.0 * math.pi))
     p_r = 1.0 / max_range
+    inv_s = 1.0 / sigma_hit
+    # the reading's own factor of p_short, once per beam rather than per pose
+    short_z = np.empty(nb)
+    for b in range(nb):
+        short_z[b] = w_short * lambda_short * math.exp(-lambda_short * measured[b])
     for i in range(n):
         for b in range(nb):
             e = float(expected[i, b])
@@ -154,14 +159,15 @@ def beam_probabilities_kernel(
             else:
                 p += w_rand * p_r
             if z <= max_range:
-                mass = _ndtr((max_range - e) / sigma_hit) - _ndtr(-e / sigma_hit)
-                if mass > 0.0:
-                    u = (z - e) / sigma_hit
-                    p += w_hit * c_gauss * math.exp(-0.5 * u * u) / mass
+                u = (z - e) * inv_s
+                if abs(u) < 40.0:  # beyond, exp(-u^2 / 2) is 0 in double precision
+                    mass = _ndtr((max_range - e) * inv_s) - _ndtr(-e * inv_s)
+                    if mass > 0.0:
+                        p += w_hit * c_gauss * math.exp(-0.5 * u * u) / mass
             if z <= e:
                 norm = -math.expm1(-lambda_short * e)
                 if norm > 0.0:
-                    p += w_short * lambda_short * math.exp(-lambda_short * z) / norm
+                    p += short_z[b] / norm
             out[i, b] = p
 
 

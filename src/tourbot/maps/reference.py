@@ -1,9 +1,9 @@
 """The reference map of a corrected log: a log-odds occupancy grid built from the reference poses.
 
 Occupancy grid mapping with known poses (Moravec and Elfes 1985, the grid maps of Burgard et al.
-Sec. 2.1; Thrun, Burgard and Fox, *Probabilistic Robotics*, Table 9.1): every cell keeps the log
-odds ``l = n_hit * l_occ + n_miss * l_free`` of the beams that ended in it (hits) and passed
-through it (misses), and its probability is ``1 - 1 / (1 + exp(l))`` (Eq. 9.7 with a 0.5 prior).
+Sec. 2.1; Thrun, Burgard and Fox, *Probabilistic Robotics*, Ch. 9, Table 9.1): every cell keeps
+the log odds ``l = n_hit * l_occ + n_miss * l_free`` of the beams that ended in it (hits) and
+passed through it (misses), and its probability is ``1 - 1 / (1 + exp(l))`` (a 0.5 prior).
 Clearing free space along every beam removes what moved: the visitors' legs that polluted the
 FHW log are hit a few times and passed through many more times.
 
@@ -24,7 +24,7 @@ Which cell a beam hits
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numba
@@ -305,19 +305,20 @@ def beam_rays(
 
 def build_reference_map(
     log: RobotLog,
-    resolution: float = 0.05,
+    resolution: float | None = None,
     params: ReferenceMapParams | None = None,
     *,
     use_reference: bool = True,
 ) -> OccupancyGrid:
     """The log-odds occupancy grid of ``log`` from its reference poses (see the module docstring).
 
-    Cells no beam reached are unknown (-1). ``use_reference=False`` maps with the odometry poses
-    instead (to see how much the raw odometry smears a map).
+    ``resolution`` (metres) overrides ``params.resolution``; by default 0.05 m. Cells no beam
+    reached are unknown (-1). ``use_reference=False`` maps with the odometry poses instead (to see
+    how much the odometry smears a map).
     """
-    p = params or ReferenceMapParams(resolution=resolution)
-    if params is not None and resolution != p.resolution:
-        p = ReferenceMapParams(**{**p.__dict__, "resolution": resolution})
+    p = params or ReferenceMapParams()
+    if resolution is not None and resolution != p.resolution:
+        p = replace(p, resolution=resolution)
     if not p.resolution > 0:
         raise MapError(f"resolution must be positive, got {p.resolution}")
     x, y, th, r, is_hit = beam_rays(log, use_reference=use_reference)

@@ -52,6 +52,8 @@ def animate(
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from tourbot.plotting import draw_map
+
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     if not snapshots:
@@ -65,9 +67,7 @@ def animate(
     width = 6.0
     height = min(10.0, max(3.0, width * (y1 - y0) / max(x1 - x0, 1e-6)))
     fig, ax = plt.subplots(figsize=(width, height), dpi=70)
-    img = np.where(grid.prob < 0, 0.75, 1.0 - np.clip(grid.prob, 0, 1))
-    ext = (grid.origin[0], grid.origin[0] + grid.width, grid.origin[1], grid.origin[1] + grid.height)
-    ax.imshow(img, origin="lower", extent=ext, cmap="gray", vmin=0, vmax=1, interpolation="nearest")
+    draw_map(ax, grid)  # the project's one map drawing (tourbot.plotting)
     for name, ex, ey in exhibits:
         ax.plot(ex, ey, marker="*", color="goldenrod", ms=8)
         ax.annotate(name, (ex, ey), fontsize=5, color="saddlebrown")

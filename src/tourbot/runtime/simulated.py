@@ -25,9 +25,10 @@ def crowd_config(crowd: str | int) -> CrowdConfig | None:
     """A crowd preset by name (``empty``, ``sparse``, ``peak``) or a number of visitors."""
     if isinstance(crowd, int) or str(crowd).isdigit():
         n = int(crowd)
-        return None if n == 0 else replace(CrowdConfig.preset("sparse"), num_people=n)
+        return None if n == 0 else replace(CrowdConfig.preset("sparse"), num_people=n, density=None)
     cfg = CrowdConfig.preset(str(crowd))
-    return None if cfg.num_people == 0 else cfg
+    empty = (cfg.density is None and cfg.num_people == 0) or cfg.density == 0
+    return None if empty else cfg
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ class SimulationSettings:
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     speedup: float | None = None
-    record_every: int = 1
+    record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
 @dataclass

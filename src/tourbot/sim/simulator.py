@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Odometry, Record, RobotLog, Scan
-from tourbot.runtime.snapshot import GroundTruth, PersonState
+from tourbot.runtime.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 from tourbot.sim.crowd import Crowd, CrowdConfig
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
@@ -99,7 +99,7 @@ class Simulator:
         # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
         self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
         self.crowd: Crowd | None = None
-        if cfg.crowd is not None and cfg.crowd.num_people > 0:
+        if cfg.crowd is not None:
             crowd_cfg = cfg.crowd
             if not crowd_cfg.points_of_interest and site.exhibits:
                 from dataclasses import replace
@@ -116,6 +116,7 @@ class Simulator:
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
         self.people_history: list[NDArray[np.float64]] = []
+        self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
 
     # -- DrivableSource ---------------------------------------------------------------------------
 
@@ -131,8 +132,8 @@ class Simulator:
         dt = self.dt
         before = self.robot.pose
         self._move_robot(dt)
-        self._time += dt
         self._steps += 1
+        self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
         if self.crowd is not None:
             self.crowd.step(dt, self.robot.pose, self._rng_crowd)
@@ -153,6 +154,7 @@ class Simulator:
                 self.truth_times.append(self._time)
                 self.truth_poses.append(self.robot.pose)
                 self.people_history.append(self.people_positions())
+                self.objects_history.append((self.objects.door_states(), self.objects.furniture_states()))
         if self.config.record:
             self.records.extend(out)
         return out

@@ -1,0 +1,276 @@
+"""``tourbot bench mapping``: incremental scan matching on real logs, and people filtering on FHW.
+
+For each log: the mean relative translational and rotational error between consecutive scan poses
+against the corrected reference (Kummerle et al. 2009 style; raw odometry given for comparison),
+how well the map agrees with the reference map built from the corrected poses, the time per scan
+and the real-time factor. Then, on FHW with the peak crowd overlay: the occupied cells caused by
+people in maps built with and without people filtering (Burgard et al. Fig. 10), with a picture.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from numpy.typing import NDArray
+from rich.console import Console
+from scipy import ndimage
+
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.records import RobotLog
+
+__all__ = ["map_agreement", "people_cells", "register"]
+
+LOGS = ("intel", "aces", "freiburg-079", "fhw")
+
+
+def _occupied_distance(reference: OccupancyGrid) -> NDArray[np.float64]:
+    """Distance (m) from each cell of ``reference`` to its nearest occupied cell."""
+    return np.asarray(ndimage.distance_transform_edt(~reference.occupied()) * reference.resolution)
+
+
+def _distance_at(
+    reference: OccupancyGrid, dist: NDArray[np.float64], points: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    cells = reference.world_to_cell(points)
+    inside = reference.inside(cells)
+    out = np.full(len(points), np.inf)
+    out[inside] = dist[cells[inside, 0], cells[inside, 1]]
+    return out
+
+
+def map_agreement(grid: OccupancyGrid, reference: OccupancyGrid, tolerance: float = 0.1) -> dict[str, float]:
+    """Precision and recall of ``grid``'s occupied cells against ``reference``'s, within ``tolerance`` m.
+
+    Both maps must be in the same world frame. Precision: the fraction of ``grid``'s occupied cells
+    within ``tolerance`` of an occupied reference cell; recall: the converse.
+    """
+    mine = grid.cell_to_world(np.argwhere(grid.occupied()))
+    theirs = reference.cell_to_world(np.argwhere(reference.occupied()))
+    precision = float(np.mean(_distance_at(reference, _occupied_distance(reference), mine) <= tolerance))
+    recall = float(np.mean(_distance_at(grid, _occupied_distance(grid), theirs) <= tolerance))
+    return {"precision": precision, "recall": recall}
+
+
+def people_cells(
+    grid: OccupancyGrid, static: OccupancyGrid, person_cells: NDArray[np.bool_], tolerance: float = 0.05
+) -> dict[str, int]:
+    """Occupied cells of ``grid`` caused by people, and the static map's occupied cells it keeps.
+
+    All three on the same cells. ``person_cells`` marks the cells where a beam that really hit a
+    visitor ended (the crowd overlay's ground truth); those of them that ``grid`` has occupied and
+    that are farther than ``tolerance`` from the static map's occupied cells were caused by people.
+    A static occupied cell is kept when ``grid`` has it occupied too.
+    """
+    far = _occupied_distance(static) > tolerance
+    occupied = grid.occupied()
+    return {
+        "people": int(np.sum(occupied & person_cells & far)),
+        "static_kept": int(np.sum(occupied & static.occupied())),
+        "static": int(np.sum(static.occupied())),
+    }
+
+
+def _person_cells(log: RobotLog, corrupted: NDArray[np.bool_], like: OccupancyGrid) -> NDArray[np.bool_]:
+    """Cells of ``like`` where beams that hit a visitor ended (at the reference poses)."""
+    from tourbot.mapping.people_filter import beam_endpoints
+
+    mask = np.zeros(like.prob.shape, dtype=bool)
+    for scan, pose, bad in zip(log.scans, log.reference_poses, corrupted, strict=True):
+        pts, hit = beam_endpoints(scan, pose)
+        cells = like.world_to_cell(pts[hit & bad])
+        cells = cells[like.inside(cells)]
+        mask[cells[:, 0], cells[:, 1]] = True
+    return mask
+
+
+@dataclass
+class _Run:
+    poses: NDArray[np.float64]
+    grid: OccupancyGrid
+    seconds: float
+
+
+def _read(name: str, max_scans: int | None) -> RobotLog:
+    from tourbot.data import find_data
+    from tourbot.io.carmen import read_carmen
+
+    log = read_carmen(find_data(f"carmen/{name}-corrected.log.gz"))
+    if max_scans is not None:
+        log.scans = log.scans[:max_scans]
+    return log
+
+
+def _slam(log: RobotLog) -> _Run:
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    # the reference's first pose only fixes the map's frame, so that maps can be compared
+    mapper = IncrementalMapper(start=log.reference_poses[0])
+    t0 = time.perf_counter()
+    for scan in log.scans:
+        mapper.add_scan(scan)
+    seconds = time.perf_counter() - t0
+    return _Run(np.asarray(mapper.poses), mapper.grid(), seconds)
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("mapping")
+    def mapping(
+        logs: Annotated[
+            str,
+            typer.Option(help="Comma-separated logs of ../shared/data/carmen (without -corrected.log.gz)."),
+        ] = ",".join(LOGS),
+        people: Annotated[
+            bool, typer.Option(help="Also measure people filtering on FHW with the peak crowd.")
+        ] = True,
+        max_scans: Annotated[
+            int | None, typer.Option(help="Only the first N scans of each log (quick runs).")
+        ] = None,
+        seed: Annotated[int, typer.Option(help="Seed of the crowd and the people tracker.")] = 0,
+        output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
+        picture: Annotated[
+            Path, typer.Option(help="Picture of the maps with and without people filtering.")
+        ] = Path("bench-results/mapping-people.png"),
+    ) -> None:
+        """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
+        from tourbot.bench._report import BenchReport
+        from tourbot.mapping.metrics import relative_pose_error
+        from tourbot.maps.reference import build_reference_map
+
+        console = Console()
+        report = BenchReport(
+            "mapping",
+            ["log", "scans", "trans err (m)", "rot err (deg)", "odom trans (m)", "odom rot (deg)",
+             "precision", "recall", "ms/scan", "x real time"],
+        )  # fmt: skip
+        for name in [n.strip() for n in logs.split(",") if n.strip()]:
+            console.print(f"mapping {name} ...")
+            log_obj = _read(name, max_scans)
+            run = _slam(log_obj)
+            ref = log_obj.reference_poses
+            err = relative_pose_error(run.poses, ref)
+            odo = relative_pose_error(log_obj.odom_poses, ref)
+            agree = map_agreement(run.grid, build_reference_map(log_obj))
+            duration = float(log_obj.times[-1] - log_obj.times[0])
+            report.add(
+                **{
+                    "log": name,
+                    "scans": len(log_obj),
+                    "trans err (m)": err.trans_mean,
+                    "rot err (deg)": float(np.degrees(err.rot_mean)),
+                    "odom trans (m)": odo.trans_mean,
+                    "odom rot (deg)": float(np.degrees(odo.rot_mean)),
+                    "precision": agree["precision"],
+                    "recall": agree["recall"],
+                    "ms/scan": 1000.0 * run.seconds / len(log_obj),
+                    "x real time": duration / run.seconds,
+                    "trans err std (m)": err.trans_std,
+                    "rot err std (deg)": float(np.degrees(err.rot_std)),
+                }
+            )
+        report.notes.append(
+            "errors: mean relative error between consecutive scan poses vs the corrected reference "
+            "(Kummerle et al. 2009 report 0.220 m scan matching / 0.070 m RBPF on Intel); "
+            "precision/recall: occupied cells within 10 cm of those of the reference map "
+            "(built from the corrected poses)"
+        )
+        if people:
+            report.meta["people_filter"] = _people_experiment(seed, max_scans, picture, console)
+        report.finish(output, console)
+
+
+def _known_pose_maps(log: RobotLog, seed: int) -> tuple[OccupancyGrid, OccupancyGrid, int]:
+    """Maps of ``log`` at its reference poses, without and with people filtering; beams removed."""
+    from tourbot.mapping.incremental import IncrementalMapper
+    from tourbot.mapping.people_filter import PeopleFilteredMapper
+
+    ref = log.reference_poses
+    plain = IncrementalMapper(start=ref[0])
+    filtered = PeopleFilteredMapper.create(start=ref[0], seed=seed)
+    for scan, pose in zip(log.scans, ref, strict=True):
+        plain.integrate(scan, pose)
+        filtered.add_scan(scan, pose=pose)
+    filtered.finish()
+    return plain.grid(), filtered.mapper.grid(), filtered.removed_beams
+
+
+def _align_to(grid: OccupancyGrid, like: OccupancyGrid) -> OccupancyGrid:
+    """``grid`` resampled onto ``like``'s cells (same resolution, origins on the same lattice)."""
+    res = like.resolution
+    dr = round((like.origin[1] - grid.origin[1]) / res)
+    dc = round((like.origin[0] - grid.origin[0]) / res)
+    out = np.full(like.prob.shape, -1.0, np.float32)
+    rows, cols = like.prob.shape
+    r0, c0 = max(dr, 0), max(dc, 0)
+    r1, c1 = min(dr + rows, grid.prob.shape[0]), min(dc + cols, grid.prob.shape[1])
+    if r1 > r0 and c1 > c0:
+        out[r0 - dr : r1 - dr, c0 - dc : c1 - dc] = grid.prob[r0:r1, c0:c1]
+    return OccupancyGrid(out, res, like.origin, like.occupied_thresh, like.free_thresh)
+
+
+def _people_experiment(seed: int, max_scans: int | None, picture: Path, console: Console) -> dict[str, float]:
+    """Burgard et al. Fig. 10 on FHW with the peak crowd: people cells with and without filtering."""
+    from tourbot.maps.reference import build_reference_map
+    from tourbot.sim.overlay import OverlayConfig, overlay_crowd
+
+    log = _read("fhw", max_scans)
+    console.print("people filtering: laying the peak crowd over FHW ...")
+    peak = OverlayConfig.preset("peak")
+    crowded = overlay_crowd(log, build_reference_map(log), peak, seed=seed, preset="peak")
+    corrupted = float(crowded.truth.fraction.mean())
+    console.print("people filtering: maps at the reference poses ...")
+    clean, _, _ = _known_pose_maps(log, seed)
+    plain, filtered, removed = _known_pose_maps(crowded.log, seed)
+    plain, filtered = _align_to(plain, clean), _align_to(filtered, clean)
+    truth = _person_cells(crowded.log, crowded.truth.corrupted, clean)
+    before = people_cells(plain, clean, truth)
+    after = people_cells(filtered, clean, truth)
+    result: dict[str, float] = {
+        "corrupted_beams": corrupted,
+        "beams_removed": removed,
+        "people_cells_unfiltered": before["people"],
+        "people_cells_filtered": after["people"],
+        "people_cells_removed": 1.0 - after["people"] / max(before["people"], 1),
+        "static_cells": after["static"],
+        "static_kept_unfiltered": before["static_kept"] / max(before["static"], 1),
+        "static_kept_filtered": after["static_kept"] / max(after["static"], 1),
+        # the target: of the static cells the crowded map still has, how many filtering keeps
+        "static_kept": after["static_kept"] / max(before["static_kept"], 1),
+    }
+    _draw_people_maps(plain, filtered, clean, truth, picture)
+    console.print(
+        f"people filtering (FHW, peak crowd, {100 * corrupted:.0f} % of beams corrupted): people cells "
+        f"{before['people']} -> {after['people']} ({100 * result['people_cells_removed']:.1f} % removed, "
+        f"target >= 95 %); static cells kept {100 * result['static_kept']:.2f} % (target >= 99 %); "
+        f"picture: {picture}"
+    )
+    return result
+
+
+def _draw_people_maps(
+    plain: OccupancyGrid, filtered: OccupancyGrid, clean: OccupancyGrid, truth: NDArray[np.bool_], path: Path
+) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tourbot.plotting import draw_map
+
+    far = _occupied_distance(clean) > 0.05
+    fig, axes = plt.subplots(1, 2, figsize=(12, 7), constrained_layout=True)
+    panels = ((axes[0], plain, "without people filtering"), (axes[1], filtered, "with people filtering"))
+    for ax, grid, title in panels:
+        draw_map(ax, grid)
+        people = grid.occupied() & truth & far
+        pts = grid.cell_to_world(np.argwhere(people))
+        ax.plot(pts[:, 0], pts[:, 1], ".", color="crimson", ms=2, label=f"cells caused by people: {len(pts)}")
+        ax.set_title(f"FHW, peak crowd: {title}")
+        ax.legend(loc="upper right")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

@@ -1,0 +1,74 @@
+"""``tourbot slam``: a map and the robot's path from a log, by incremental scan matching."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["register"]
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("slam")
+    def slam(
+        log: Annotated[Path, typer.Argument(help="A CARMEN log (.log, .log.gz) or a ROS bag with odometry.")],
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="The map to write (ROS map_server YAML).")
+        ],
+        trajectory: Annotated[
+            Path | None, typer.Option("--trajectory", help="Also write the path as a TUM trajectory.")
+        ] = None,
+        people_filter: Annotated[
+            bool,
+            typer.Option(
+                "--people-filter/--no-people-filter",
+                help="Track people and leave them out of the alignment and the map (Burgard et al. Sec. 5).",
+            ),
+        ] = False,
+        resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
+        lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
+        seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
+    ) -> None:
+        """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
+
+        Uses only the raw odometry and the scans; the path starts at the first odometry pose.
+        """
+        import numpy as np
+        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+        from tourbot.io import load_log
+        from tourbot.io.mapserver import write_map
+        from tourbot.io.tum import write_tum
+        from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
+        from tourbot.mapping.people_filter import PeopleFilteredMapper
+
+        if not resolution > 0:
+            raise MappingError(f"--resolution must be positive, got {resolution}")
+        robot_log = load_log(log, lenient=lenient)
+        for warning in robot_log.warnings:
+            typer.echo(f"warning: {warning}", err=True)
+        if not robot_log.scans:
+            raise MappingError(f"{log}: the log has no laser scans")
+        params = MapperParams(resolution=resolution)
+        filtered = PeopleFilteredMapper.create(params, seed=seed) if people_filter else None
+        mapper = filtered.mapper if filtered is not None else IncrementalMapper(params)
+        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
+        with Progress(*columns, TimeRemainingColumn()) as progress:
+            task = progress.add_task(f"mapping {log.name}", total=len(robot_log.scans))
+            for scan in robot_log.scans:
+                if filtered is not None:
+                    filtered.add_scan(scan)
+                else:
+                    mapper.add_scan(scan)
+                progress.advance(task)
+        if filtered is not None:
+            filtered.finish()
+        write_map(mapper.grid(), output)
+        typer.echo(f"map: {output}")
+        if filtered is not None:
+            typer.echo(f"beams left out as people: {filtered.removed_beams}")
+        if trajectory is not None:
+            write_tum(trajectory, robot_log.times, np.asarray(mapper.poses))
+            typer.echo(f"trajectory: {trajectory}")

@@ -1,0 +1,424 @@
+"""Incremental grid mapping by scan matching (Burgard et al., Sec. 2.1, Eq. 1-2).
+
+At each scan the robot predicts its pose from odometry, aligns the scan to the map built so far
+(:mod:`tourbot.mapping.scan_matching`) and extends the map with the scan at the aligned pose. The
+map keeps hit and miss counts per cell (beams traced with :func:`tourbot.maps.reference.
+trace_beams`), from which the log-odds occupancy follows; for alignment, the occupied cells are
+blurred with Gaussians of a few widths (coarse to fine), kept up to date by stamping a Gaussian at
+each cell whose state a scan changed.
+
+People filtering (Sec. 5) enters through two per-beam inputs of :meth:`IncrementalMapper.add_scan`:
+``match_weights`` (Eq. 12: ``1 - P(hit a person)``) scale each beam during alignment, and
+``integrate`` says which beams are written into the map (beams ending on a person are left out).
+"""
+
+from __future__ import annotations
+
+import collections
+import functools
+import math
+import time
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.errors import TourbotError
+from tourbot.geometry import compose, relative, wrap_angle
+from tourbot.mapping.scan_matching import MatchParams, hill_climb
+from tourbot.maps.grid import UNKNOWN, OccupancyGrid
+from tourbot.maps.reference import ReferenceMapParams, trace_beams
+from tourbot.records import Scan
+
+__all__ = ["IncrementalMapper", "MapperParams", "MapperStep", "MappingError"]
+
+FloatArray = NDArray[np.float64]
+
+
+class MappingError(TourbotError):
+    """A log that cannot be mapped (no odometry, no scans)."""
+
+
+@dataclass(frozen=True)
+class MapperParams:
+    """Parameters of incremental mapping.
+
+    ``smoothing`` are the standard deviations (m) of the pose errors integrated into the map for
+    alignment, coarse to fine (Sec. 2.1: "we integrate over small Gaussian errors in the robot
+    pose"). ``max_match_range`` caps the beams used for alignment; ``max_free_range`` how far free
+    space is cleared along "no return" beams. ``beam_step`` uses every k-th beam for alignment.
+    """
+
+    resolution: float = 0.05
+    smoothing: tuple[float, ...] = (0.25, 0.1, 0.05)
+    max_match_range: float = 25.0
+    max_free_range: float = 10.0
+    beam_step: int = 1
+    unknown_level: float = 0.25
+    window: int | None = 150
+    initial_size: float = 40.0
+    grow_margin: float = 15.0
+    match: MatchParams = field(default_factory=MatchParams)
+    cells: ReferenceMapParams = field(default_factory=lambda: ReferenceMapParams(hit="endpoint"))
+
+
+@dataclass(frozen=True)
+class MapperStep:
+    """What one scan did: its aligned pose, the odometry prediction and the time it took."""
+
+    pose: tuple[float, float, float]
+    predicted: tuple[float, float, float]
+    score: float
+    seconds: float
+
+
+class IncrementalMapper:
+    """Builds a grid map and the robot's path from scans and odometry, one scan at a time."""
+
+    def __init__(self, params: MapperParams | None = None, start: FloatArray | None = None) -> None:
+        self.params = params or MapperParams()
+        self._start = None if start is None else np.asarray(start, dtype=np.float64)
+        self._pose: FloatArray | None = None
+        self._odom: FloatArray | None = None
+        res = self.params.resolution
+        n = _PAD_UNIT * math.ceil(self.params.initial_size / res / _PAD_UNIT)
+        self._hits = np.zeros((n, n), np.int32)  # every scan: the map that is returned
+        self._misses = np.zeros((n, n), np.int32)
+        self._near_hits = np.zeros((n, n), np.int32)  # the last ``window`` scans: aligned against
+        self._near_misses = np.zeros((n, n), np.int32)
+        self._recent: collections.deque[_Footprint] = collections.deque()
+        # each smoothed field lives on cells ``factor`` times coarser, so that a wide Gaussian stays
+        # a small stamp (a coarse-to-fine pyramid)
+        self._factors = [_factor(sig, self.params.resolution) for sig in self.params.smoothing]
+        self._fields = [np.full((n // f, n // f), self.params.unknown_level) for f in self._factors]
+        self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
+        self.poses: list[tuple[float, float, float]] = []
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def pose(self) -> FloatArray | None:
+        """The latest aligned pose, or None before the first scan."""
+        return None if self._pose is None else self._pose.copy()
+
+    def add_scan(
+        self,
+        scan: Scan,
+        *,
+        match_weights: FloatArray | None = None,
+        integrate: NDArray[np.bool_] | None = None,
+    ) -> MapperStep:
+        """Align ``scan`` to the map so far and add it to the map; returns the step's result."""
+        step = self.match(scan, match_weights=match_weights)
+        self.integrate(scan, np.asarray(step.pose), keep=integrate)
+        return step
+
+    def predict(self, scan: Scan) -> FloatArray:
+        """The pose of ``scan`` predicted from the last aligned pose and odometry."""
+        odom = self._odom_of(scan)
+        if self._pose is None or self._odom is None:
+            return np.asarray(self._start if self._start is not None else odom, dtype=np.float64).copy()
+        return compose(self._pose, relative(self._odom, odom))
+
+    def match(self, scan: Scan, *, match_weights: FloatArray | None = None) -> MapperStep:
+        """Align ``scan`` to the map so far (Eq. 1, with beam weights of Eq. 12); the map is unchanged.
+
+        ``match_weights`` (per beam, in [0, 1]) scale each beam's log likelihood: people-filtered
+        mapping gives ``1 - P(hit a person)``.
+        """
+        t0 = time.perf_counter()
+        odom = self._odom_of(scan)
+        predicted = self.predict(scan)
+        if self._pose is None or self._odom is None:
+            self._centre_on(predicted)
+            best, val = predicted.copy(), 0.0
+        else:
+            best, val = self._align(scan, predicted, relative(self._odom, odom), match_weights)
+        self._pose = best
+        self._odom = odom
+        pose = (float(best[0]), float(best[1]), float(best[2]))
+        self.poses.append(pose)
+        return MapperStep(
+            pose=pose,
+            predicted=(float(predicted[0]), float(predicted[1]), float(predicted[2])),
+            score=val,
+            seconds=time.perf_counter() - t0,
+        )
+
+    @staticmethod
+    def _odom_of(scan: Scan) -> FloatArray:
+        if scan.odom is None:
+            raise MappingError("incremental mapping needs the odometry pose of every scan")
+        return np.asarray(scan.odom, dtype=np.float64)
+
+    def evidence(self, points: FloatArray) -> FloatArray:
+        """Log-odds of occupancy (every scan so far) at world ``points`` ``(B, 2)``; 0 outside."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        out = np.zeros(len(pts))
+        if math.isnan(self._x0) or len(pts) == 0:
+            return out
+        res = self.params.resolution
+        cols = np.floor((pts[:, 0] - self._x0) / res).astype(np.int64)
+        rows = np.floor((pts[:, 1] - self._y0) / res).astype(np.int64)
+        ok = (rows >= 0) & (rows < self._hits.shape[0]) & (cols >= 0) & (cols < self._hits.shape[1])
+        c = self.params.cells
+        out[ok] = self._hits[rows[ok], cols[ok]] * c.l_occ + self._misses[rows[ok], cols[ok]] * c.l_free
+        return out
+
+    def grid(self) -> OccupancyGrid:
+        """The map so far as an occupancy grid (cells no beam reached are unknown)."""
+        c = self.params.cells
+        logodds = self._hits * c.l_occ + self._misses * c.l_free
+        prob = (1.0 - 1.0 / (1.0 + np.exp(np.clip(logodds, -50.0, 50.0)))).astype(np.float32)
+        prob[(self._hits == 0) & (self._misses == 0)] = UNKNOWN
+        return OccupancyGrid(
+            prob=prob,
+            resolution=self.params.resolution,
+            origin=(self._x0, self._y0, 0.0),
+            occupied_thresh=c.occupied_thresh,
+            free_thresh=c.free_thresh,
+        )
+
+    # ------------------------------------------------------------------------------------------
+    def _centre_on(self, pose: FloatArray) -> None:
+        half = self._hits.shape[0] * self.params.resolution / 2.0
+        res = self.params.resolution
+        self._x0 = math.floor((pose[0] - half) / res) * res
+        self._y0 = math.floor((pose[1] - half) / res) * res
+
+    def _endpoints(self, scan: Scan, cap: float) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+        """Beam endpoints in the robot frame, which beams returned, and the beams' headings."""
+        g = scan.geometry
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        hit = (ranges < g.max_range) & (ranges > g.min_range) & (ranges < cap)
+        ang = g.offset[2] + g.angles
+        ex = g.offset[0] + ranges * np.cos(ang)
+        ey = g.offset[1] + ranges * np.sin(ang)
+        return np.stack([ex, ey], axis=1), hit, ang
+
+    def _align(
+        self, scan: Scan, predicted: FloatArray, delta: FloatArray, match_weights: FloatArray | None
+    ) -> tuple[FloatArray, float]:
+        p = self.params
+        m = p.match
+        pts, hit, _ = self._endpoints(scan, p.max_match_range)
+        w = np.full(len(pts), m.beam_weight)
+        if match_weights is not None:
+            w = w * np.asarray(match_weights, dtype=np.float64)
+        sel = np.zeros(len(pts), bool)
+        sel[:: p.beam_step] = True
+        sel &= hit & (w > 0)
+        if sel.sum() < 10:
+            return predicted, 0.0
+        trans = float(np.hypot(delta[0], delta[1]))
+        rot = abs(float(wrap_angle(delta[2])))
+        sigma_xy = m.sigma_xy + m.k_xy * trans
+        sigma = np.array([sigma_xy, sigma_xy, m.sigma_theta + m.k_theta * rot + m.k_theta_xy * trans])
+        origin = np.array([self._x0, self._y0, 0.0])
+        prior = predicted - origin
+        best = prior.copy()
+        val = 0.0
+        for level, (fieldk, factor) in enumerate(zip(self._fields, self._factors, strict=True)):
+            scale = 1.0 / (2**level)
+            res = p.resolution * factor
+            best, val = hill_climb(fieldk, res, best, pts[sel], w[sel], prior, sigma, m, scale)
+        best = best + origin
+        best[2] = float(wrap_angle(best[2]))
+        return best, val
+
+    def integrate(self, scan: Scan, pose: FloatArray, *, keep: NDArray[np.bool_] | None = None) -> None:
+        """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given."""
+        if math.isnan(self._x0):
+            self._centre_on(np.asarray(pose, dtype=np.float64))
+        p = self.params
+        g = scan.geometry
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        is_hit = (ranges < g.max_range) & (ranges > g.min_range)
+        use = is_hit | (ranges >= g.max_range)
+        if keep is not None:
+            use &= np.asarray(keep, dtype=bool)
+        keep = use
+        if not keep.any():
+            return
+        laser = compose(pose, g.offset)
+        th = laser[2] + g.angles[keep]
+        length = np.where(is_hit[keep], ranges[keep], np.minimum(ranges[keep], p.max_free_range))
+        ex = laser[0] + length * np.cos(th)
+        ey = laser[1] + length * np.sin(th)
+        margin = 3.0 * max(p.smoothing) + 2 * p.resolution
+        xmin, xmax = min(ex.min(), laser[0]) - margin, max(ex.max(), laser[0]) + margin
+        ymin, ymax = min(ey.min(), laser[1]) - margin, max(ey.max(), laser[1]) + margin
+        self._ensure(xmin, ymin, xmax, ymax)
+        res = p.resolution
+        c0 = math.floor((xmin - self._x0) / res)
+        r0 = math.floor((ymin - self._y0) / res)
+        c1 = math.ceil((xmax - self._x0) / res)
+        r1 = math.ceil((ymax - self._y0) / res)
+        bx, by = self._x0 + c0 * res, self._y0 + r0 * res
+        inv = 1.0 / res
+        hits, misses = trace_beams(
+            np.full(th.shape, (laser[0] - bx) * inv),
+            np.full(th.shape, (laser[1] - by) * inv),
+            th,
+            length * inv,
+            is_hit[keep],
+            (r1 - r0, c1 - c0),
+            crossing=p.cells.hit == "crossing",
+        )
+        self._hits[r0:r1, c0:c1] += hits
+        self._misses[r0:r1, c0:c1] += misses
+        lr, lc = np.nonzero((hits != 0) | (misses != 0))
+        self._change(r0 + lr, c0 + lc, hits[lr, lc], misses[lr, lc])
+        if p.window is not None:
+            self._recent.append(_Footprint.of(bx, by, hits, misses))
+            if len(self._recent) > p.window:
+                self._forget(self._recent.popleft())
+
+    def _forget(self, old: _Footprint) -> None:
+        """Take an old scan out of the map that scans are aligned against."""
+        res = self.params.resolution
+        r0 = round((old.y0 - self._y0) / res)
+        c0 = round((old.x0 - self._x0) / res)
+        self._change(r0 + old.rows, c0 + old.cols, -old.hits, -old.misses)
+
+    def _category(self, rr: NDArray[np.int64], cc: NDArray[np.int64]) -> NDArray[np.int8]:
+        """0 free, 1 occupied, 2 unexplored: what the aligned-against map says of these cells."""
+        c = self.params.cells
+        h = self._near_hits[rr, cc]
+        m = self._near_misses[rr, cc]
+        occupied = (h > 0) & (h * c.l_occ + m * c.l_free > 0)
+        return np.where((h == 0) & (m == 0), 2, occupied.astype(np.int8)).astype(np.int8)
+
+    def _change(
+        self,
+        rr: NDArray[np.int64],
+        cc: NDArray[np.int64],
+        d_hits: NDArray[np.int32],
+        d_misses: NDArray[np.int32],
+    ) -> None:
+        """Add count changes to the aligned-against map and update the smoothed fields.
+
+        Each field is the sum over cells of the cell's value (1 occupied, ``unknown_level`` scaled
+        unexplored, 0 free) times a Gaussian stamp normalised so that a wall reads 1; only the cells
+        whose category changed are stamped again (their new value minus their old one).
+        """
+        before = self._category(rr, cc)
+        self._near_hits[rr, cc] += d_hits
+        self._near_misses[rr, cc] += d_misses
+        after = self._category(rr, cc)
+        changed = before != after
+        if not changed.any():
+            return
+        rows, cols, b, a = rr[changed], cc[changed], before[changed], after[changed]
+        levels = zip(self.params.smoothing, self._factors, self._fields, strict=True)
+        for sigma, factor, fieldk in levels:
+            stamp, unknown = _stamp_of(
+                sigma / (self.params.resolution * factor), factor, self.params.unknown_level
+            )
+            value = np.array([0.0, 1.0, unknown]) / (factor * factor)
+            _stamp_cells(fieldk, rows // factor, cols // factor, value[a] - value[b], stamp)
+
+    def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
+        """Grow the grid so that the world box fits, with a margin."""
+        res = self.params.resolution
+        rows, cols = self._hits.shape
+        grow = math.ceil(self.params.grow_margin / res)
+        left = max(0, math.ceil((self._x0 - xmin) / res))
+        bottom = max(0, math.ceil((self._y0 - ymin) / res))
+        right = max(0, math.ceil((xmax - (self._x0 + cols * res)) / res))
+        top = max(0, math.ceil((ymax - (self._y0 + rows * res)) / res))
+        if not (left or bottom or right or top):
+            return
+
+        def up(n: int) -> int:  # whole coarse cells, so that the pyramid stays aligned
+            return _PAD_UNIT * math.ceil((n + grow) / _PAD_UNIT) if n else 0
+
+        pad = ((up(bottom), up(top)), (up(left), up(right)))
+        self._hits = np.pad(self._hits, pad)
+        self._misses = np.pad(self._misses, pad)
+        self._near_hits = np.pad(self._near_hits, pad)
+        self._near_misses = np.pad(self._near_misses, pad)
+        self._fields = [
+            np.pad(fk, [(a // f, b // f) for a, b in pad], constant_values=self.params.unknown_level)
+            for fk, f in zip(self._fields, self._factors, strict=True)
+        ]
+        self._x0 -= pad[1][0] * res
+        self._y0 -= pad[0][0] * res
+
+
+_PAD_UNIT = 12  # the grid grows by whole cells of every pyramid level (factors 1, 2, 3, 4)
+
+
+def _factor(sigma: float, resolution: float) -> int:
+    """How much coarser than the map the field smoothed with ``sigma`` can be (1 to 4)."""
+    return int(min(4, max(1, math.floor(sigma / (1.5 * resolution)))))
+
+
+@functools.cache
+def _stamp_of(s: float, factor: int, unknown_level: float) -> tuple[NDArray[np.float64], float]:
+    """The Gaussian stamp of width ``s`` field cells, for map cells ``factor`` times finer.
+
+    A map cell adds ``value / factor**2`` times the stamp at its field cell; the stamp is scaled
+    so that a straight wall one map cell thick reads 1 at its middle, and the returned value of an
+    unexplored map cell makes unexplored space read ``unknown_level``.
+    """
+    radius = math.ceil(3.0 * s)
+    k = np.arange(-radius, radius + 1, dtype=np.float64)
+    g = np.exp(-0.5 * (k / s) ** 2)
+    kernel = np.outer(g, g)
+    kernel /= kernel.sum()
+    wall = float(kernel[:, radius].sum())
+    return factor * kernel / wall, unknown_level * wall / factor
+
+
+@numba.njit(cache=True)
+def _stamp_cells(
+    field: np.ndarray, rows: np.ndarray, cols: np.ndarray, weights: np.ndarray, stamp: np.ndarray
+) -> None:
+    """Add ``weights[i] * stamp`` centred on each cell ``(rows[i], cols[i])`` of ``field``."""
+    radius = stamp.shape[0] // 2
+    height, width = field.shape
+    for i in range(rows.shape[0]):
+        w = weights[i]
+        for a in range(-radius, radius + 1):
+            r = rows[i] + a
+            if r < 0 or r >= height:
+                continue
+            for b in range(-radius, radius + 1):
+                c = cols[i] + b
+                if 0 <= c < width:
+                    field[r, c] += w * stamp[a + radius, b + radius]
+
+
+def _stamp_cells_reference(
+    field: NDArray[np.float64],
+    rows: NDArray[np.int64],
+    cols: NDArray[np.int64],
+    weights: NDArray[np.float64],
+    stamp: NDArray[np.float64],
+) -> None:
+    """Plain-numpy twin of :func:`_stamp_cells`."""
+    radius = stamp.shape[0] // 2
+    padded = np.zeros((field.shape[0] + 2 * radius, field.shape[1] + 2 * radius))
+    for r, c, w in zip(rows, cols, weights, strict=True):
+        padded[r : r + 2 * radius + 1, c : c + 2 * radius + 1] += w * stamp
+    field += padded[radius : radius + field.shape[0], radius : radius + field.shape[1]]
+
+
+@dataclass(frozen=True)
+class _Footprint:
+    """What one scan added to the map: sparse hit and miss counts in a box anchored in the world."""
+
+    x0: float
+    y0: float
+    shape: tuple[int, int]
+    rows: NDArray[np.int64]
+    cols: NDArray[np.int64]
+    hits: NDArray[np.int32]
+    misses: NDArray[np.int32]
+
+    @staticmethod
+    def of(x0: float, y0: float, hits: NDArray[np.int32], misses: NDArray[np.int32]) -> _Footprint:
+        rows, cols = np.nonzero((hits != 0) | (misses != 0))
+        shape = (int(hits.shape[0]), int(hits.shape[1]))
+        return _Footprint(x0, y0, shape, rows, cols, hits[rows, cols], misses[rows, cols])

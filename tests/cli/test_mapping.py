@@ -1,0 +1,36 @@
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.mapping.conftest import building, drive
+from tourbot.cli.main import main
+from tourbot.io.carmen import write_carmen
+from tourbot.io.mapserver import read_map
+from tourbot.io.tum import read_tum
+
+
+def test_slam_writes_map_and_trajectory(tmp_path: Path) -> None:
+    log = drive(building(), n=30)
+    log.odometry = []  # the scans carry their odometry poses
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "out" / "map.yaml"
+    traj = tmp_path / "out" / "path.tum"
+    main(["slam", str(path), "-o", str(out), "--trajectory", str(traj)])
+    grid = read_map(out)
+    assert grid.occupied().sum() > 100
+    times, poses = read_tum(traj)
+    assert len(times) == 30
+    assert np.all(np.isfinite(poses))
+
+
+def test_slam_missing_log_is_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(tmp_path / "nope.log"), "-o", str(tmp_path / "m.yaml")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "nope.log" in err
+    assert "Traceback" not in err

@@ -1,0 +1,134 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.mapping.incremental import (
+    IncrementalMapper,
+    MapperParams,
+    MappingError,
+    _stamp_cells,
+    _stamp_cells_reference,
+)
+from tourbot.mapping.metrics import relative_pose_error
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.records import LaserGeometry, RobotLog, Scan
+
+
+def test_scan_matching_beats_odometry_on_a_synthetic_hall(hall: OccupancyGrid, hall_log: RobotLog) -> None:
+    mapper = IncrementalMapper(start=hall_log.reference_poses[0])
+    for scan in hall_log.scans:
+        mapper.add_scan(scan)
+    ref = hall_log.reference_poses
+    slam = relative_pose_error(np.asarray(mapper.poses), ref)
+    odom = relative_pose_error(hall_log.odom_poses, ref)
+    assert slam.trans_mean < 0.5 * odom.trans_mean
+    assert slam.rot_mean < 0.5 * odom.rot_mean
+    # the map holds the hall's walls where they are
+    grid = mapper.grid()
+    walls = hall.cell_to_world(np.argwhere(hall.occupied()))
+    cells = grid.world_to_cell(walls)
+    seen = grid.inside(cells)
+    hit = grid.occupied()[cells[seen, 0], cells[seen, 1]]
+    assert hit.mean() > 0.3  # walls the robot saw are mostly mapped
+
+
+def test_window_forgets_old_scans(hall_log: RobotLog) -> None:
+    mapper = IncrementalMapper(MapperParams(window=5), start=hall_log.reference_poses[0])
+    for scan in hall_log.scans[:12]:
+        mapper.add_scan(scan)
+    assert len(mapper._recent) == 5
+    # the aligned-against counts are exactly those of the last five scans
+    last5 = IncrementalMapper(MapperParams(window=None), start=hall_log.reference_poses[0])
+    total = int(mapper._near_hits.sum())
+    for scan, pose in zip(hall_log.scans[7:12], mapper.poses[7:12], strict=True):
+        last5.integrate(scan, np.asarray(pose))
+    assert total == int(last5._hits.sum())
+    assert mapper._near_hits.min() >= 0
+    assert mapper._near_misses.min() >= 0
+
+
+def test_grid_grows_to_fit(hall_log: RobotLog) -> None:
+    mapper = IncrementalMapper(MapperParams(initial_size=4.0), start=hall_log.reference_poses[0])
+    for scan in hall_log.scans[:5]:
+        mapper.add_scan(scan)
+    grid = mapper.grid()
+    assert grid.width > 15.0
+
+
+def test_scan_without_odometry_is_an_error() -> None:
+    geom = LaserGeometry(3, -0.1, 0.1, 10.0)
+    with pytest.raises(MappingError, match="odometry"):
+        IncrementalMapper().add_scan(Scan(0.0, np.ones(3), geom))
+
+
+@pytest.mark.slow
+def test_real_intel_log_start(shared_data: object) -> None:
+    from pathlib import Path
+
+    from tourbot.io.carmen import read_carmen
+
+    assert isinstance(shared_data, Path)
+    log = read_carmen(shared_data / "carmen" / "intel-corrected.log.gz")
+    scans = log.scans[:150]
+    mapper = IncrementalMapper(start=log.reference_poses[0])
+    for scan in scans:
+        mapper.add_scan(scan)
+    ref = log.reference_poses[:150]
+    slam = relative_pose_error(np.asarray(mapper.poses), ref)
+    odom = relative_pose_error(log.odom_poses[:150], ref)
+    assert slam.trans_mean < odom.trans_mean
+    assert slam.rot_mean < 0.5 * odom.rot_mean
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(0, 30), radius=st.integers(0, 5))
+def test_stamp_kernel_matches_numpy_reference(seed: int, n: int, radius: int) -> None:
+    rng = np.random.default_rng(seed)
+    field = rng.random((20, 25))
+    rows = rng.integers(0, 20, n)
+    cols = rng.integers(0, 25, n)
+    weights = rng.normal(size=n)
+    stamp = rng.random((2 * radius + 1, 2 * radius + 1))
+    fast, slow = field.copy(), field.copy()
+    _stamp_cells(fast, rows, cols, weights, stamp)
+    _stamp_cells_reference(slow, rows, cols, weights, stamp)
+    assert np.allclose(fast, slow)
+
+
+def test_fields_after_forgetting_equal_fields_built_afresh(hall_log: RobotLog) -> None:
+    """Stamping changes incrementally (adding and forgetting scans) gives the fields of the final map."""
+    start = hall_log.reference_poses[0]
+    mapper = IncrementalMapper(MapperParams(window=4), start=start)
+    for scan in hall_log.scans[:10]:
+        mapper.add_scan(scan)
+    fresh = IncrementalMapper(MapperParams(window=None), start=start)
+    fresh._centre_on(start)
+    assert (fresh._x0, fresh._y0) == (mapper._x0, mapper._y0)
+    rr, cc = np.nonzero((mapper._near_hits != 0) | (mapper._near_misses != 0))
+    fresh._change(rr, cc, mapper._near_hits[rr, cc], mapper._near_misses[rr, cc])
+    for a, b in zip(mapper._fields, fresh._fields, strict=True):
+        assert np.allclose(a, b, atol=1e-9)
+
+
+def test_a_wall_reads_one_and_unexplored_space_its_level() -> None:
+    params = MapperParams(window=None)
+    mapper = IncrementalMapper(params, start=np.zeros(3))
+    mapper._centre_on(np.zeros(3))
+    n = mapper._hits.shape[0]
+    rows = np.arange(n // 4, 3 * n // 4)
+    cols = np.full(len(rows), n // 2)
+    ones = np.ones(len(rows), np.int32)
+    # free space on the left of the wall, the wall, unexplored on the right
+    free_r, free_c = np.meshgrid(np.arange(n // 4, 3 * n // 4), np.arange(n // 4, n // 2), indexing="ij")
+    mapper._change(
+        free_r.ravel(), free_c.ravel(), np.zeros(free_r.size, np.int32), np.ones(free_r.size, np.int32)
+    )
+    mapper._change(rows, cols, 5 * ones, 0 * ones)
+    for field, factor in zip(mapper._fields, mapper._factors, strict=True):
+        mid = n // 2 // factor
+        assert field[mid, mid] == pytest.approx(1.0, abs=0.15)  # on the wall
+        assert field[mid, (n // 4 + 8) // factor + 6] == pytest.approx(0.0, abs=0.05)  # free space
+        assert field[mid, -3] == pytest.approx(params.unknown_level, abs=1e-6)  # never seen

@@ -1,0 +1,87 @@
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tourbot.mapping.incremental import IncrementalMapper
+from tourbot.mapping.people_filter import PeopleFilteredMapper, hit_probability, in_boxes
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.raycast import DDACaster
+from tourbot.records import LaserGeometry, RobotLog, Scan
+
+
+def test_hit_probability_of_one_person() -> None:
+    rng = np.random.default_rng(0)
+    samples = rng.normal([2.0, 3.0], 0.03, (300, 2))
+    p = hit_probability([samples], np.array([[2.0, 3.0], [2.2, 3.0], [3.0, 3.0]]))
+    assert p[0] > 0.95
+    assert p[1] > 0.5
+    assert p[2] == 0.0
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), people=st.integers(0, 4))
+def test_hit_probability_combines_people_as_eq_10(seed: int, people: int) -> None:
+    rng = np.random.default_rng(seed)
+    sets = [
+        np.c_[rng.normal(rng.uniform(0, 3, 2), rng.uniform(0.02, 0.3), (50, 2)), np.zeros((50, 2))]
+        for _ in range(people)
+    ]
+    pts = rng.uniform(-0.5, 3.5, (40, 2))
+    both = hit_probability(sets, pts)
+    assert np.all((both >= 0) & (both <= 1))
+    each = [hit_probability([s], pts) for s in sets]
+    expected = 1.0 - np.prod([1.0 - e for e in each], axis=0) if each else np.zeros(len(pts))
+    assert np.allclose(both, expected)
+
+
+def test_in_boxes() -> None:
+    pts = np.array([[0.0, 0.0], [1.0, 1.0], [0.44, -0.44]])
+    assert in_boxes(pts, np.array([[0.0, 0.0]]), 0.45).tolist() == [True, False, True]
+    assert not in_boxes(pts, np.zeros((0, 2)), 0.45).any()
+
+
+def _walker_log(hall: OccupancyGrid, n: int = 70) -> tuple[RobotLog, np.ndarray]:
+    """The robot stands still while a visitor walks up, stands a while in view, and walks on."""
+    geom = LaserGeometry(361, -np.pi / 2, np.pi / 360, 30.0)
+    caster = DDACaster(hall, geom.max_range)
+    robot = np.array([10.5, 8.0, -np.pi / 2])
+    scans, people = [], []
+    for i in range(n):
+        walked = min(i, 20) + max(i - 50, 0)  # stands still from scan 20 to 50
+        centre = np.array([13.0 - 0.08 * walked, 6.0])
+        swing = 0.12 * np.sin(0.8 * walked)
+        legs = np.array([[centre[0] + swing, centre[1] + 0.1], [centre[0] - swing, centre[1] - 0.1]])
+        ranges = caster.cast_with_circles(robot[None], geom.angles, legs, np.full(2, 0.06))[0]
+        scans.append(
+            Scan(0.1 * i, ranges.astype(np.float64), geom, odom=tuple(robot), reference=tuple(robot))
+        )
+        people.append(centre)
+    return RobotLog("walker", scans), np.array(people)
+
+
+def test_people_are_left_out_of_the_map(hall: OccupancyGrid) -> None:
+    log, people = _walker_log(hall)
+    robot = log.reference_poses[0]
+    plain = IncrementalMapper(start=robot)
+    filtered = PeopleFilteredMapper.create(start=robot, seed=1)
+    for scan in log.scans:
+        plain.integrate(scan, robot)
+        filtered.add_scan(scan, pose=robot)
+    filtered.finish()
+    assert filtered.removed_beams > 0
+
+    walls = hall.cell_to_world(np.argwhere(hall.occupied()))
+
+    def occupied_near_path(grid: OccupancyGrid) -> int:
+        """Occupied cells near the walker's path and away from the hall's walls."""
+        pts = grid.cell_to_world(np.argwhere(grid.occupied()))
+        d = np.min(np.linalg.norm(pts[:, None, :] - people[None, :, :], axis=2), axis=1)
+        w = np.min(np.linalg.norm(pts[:, None, :] - walls[None, ::4, :], axis=2), axis=1)
+        return int(np.sum((d < 0.3) & (w > 0.15)))
+
+    before = occupied_near_path(plain.grid())
+    after = occupied_near_path(filtered.mapper.grid())
+    assert before > 0
+    assert after < 0.5 * before

@@ -1,0 +1,80 @@
+"""The wired simulated runtime: simulator -> MCL -> navigator, on a small hall (a short tour leg)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from tourbot.runtime import NavMode, RuntimeControlError
+from tourbot.runtime.animation import animate
+from tourbot.runtime.simulated import SimulationSettings, crowd_config, simulated_runtime
+from tourbot.runtime.sinks import Recorder
+from tourbot.site import Site, SiteError, site_from_dict
+
+HALL = json.loads((Path(__file__).parent / "hall.json").read_text())
+
+
+@pytest.fixture(scope="module")
+def hall() -> Site:
+    return site_from_dict(HALL, base_dir=Path("."))
+
+
+def test_crowd_config_by_name_or_number() -> None:
+    assert crowd_config("empty") is None
+    assert crowd_config(0) is None
+    peak = crowd_config("peak")
+    assert peak is not None
+    sparse = crowd_config("sparse")
+    assert sparse is not None
+    assert (peak.density or 0.0) > (sparse.density or 0.0)
+    twelve = crowd_config("12")
+    assert twelve is not None
+    assert twelve.num_people == 12
+
+
+def test_a_short_tour_completes_on_the_estimate(hall: Site, tmp_path: Path) -> None:
+    robot = simulated_runtime(hall, SimulationSettings(crowd=5, seed=1, particles=300), start=(2.0, 6.0, 0.0))
+    rt = robot.runtime
+    with pytest.raises(SiteError, match="no tour named"):
+        rt.start_tour("nope")
+    rt.start_tour("one")
+    final = rt.run(max_time=60.0, until=lambda s: s.navigation.mode == NavMode.FINISHED)
+    m = robot.metrics.metrics
+    assert final.navigation.mode == NavMode.FINISHED
+    assert m.visited == ("a",)
+    assert m.success
+    assert m.errors
+    assert m.fraction_within(0.15) > 0.9
+    # the robot stopped at the viewing pose, facing the exhibit
+    x, y, th = final.truth.pose if final.truth else (0.0, 0.0, 0.0)
+    assert abs(x - 3.2) < 0.4
+    assert abs(y - 2.0) < 0.4
+    assert abs(math.remainder(th - math.pi, 2 * math.pi)) < 0.4
+    assert final.samples is not None
+    assert final.samples.count >= 300
+    # the recording reads back, and animates
+    assert robot.recorder is not None
+    robot.recorder.path = tmp_path / "rec.jsonl.gz"
+    robot.recorder.close()
+    back = Recorder.read(robot.recorder.path)
+    assert back[-1] == robot.recorder.snapshots[-1]
+    gif = animate(back, hall.grid, tmp_path / "tour.gif", frame_every=5.0)
+    assert gif.stat().st_size > 1000
+
+
+def test_goal_and_stop(hall: Site) -> None:
+    robot = simulated_runtime(hall, SimulationSettings(crowd="empty", particles=200), start=(2.0, 6.0, 0.0))
+    rt = robot.runtime
+    rt.send_goal(4.0, 6.0, 0.0)
+    for _ in range(30):
+        rt.step()
+    assert rt.snapshot().navigation.mode == NavMode.NAVIGATING
+    rt.stop()
+    rt.step()
+    assert rt.snapshot().navigation.mode == NavMode.IDLE
+    assert robot.simulator.robot.cmd_speed == 0.0
+    with pytest.raises(RuntimeControlError):
+        type(rt)(robot.simulator).send_goal(1.0, 1.0)
