@@ -32,7 +32,8 @@ def test_a_file_that_is_no_database_is_one_line(tmp_path: Path, capsys: pytest.C
     junk.write_bytes(bytes(range(256)) * 8)
     assert _run(["site", "list", "--database", f"sqlite:///{junk}"]) == 2
     err = capsys.readouterr().err
-    assert "junk.db" in err and "file is not a database" in err
+    assert "junk.db" in err
+    assert "file is not a database" in err
     assert len(err.strip().splitlines()) == 1
     assert "Traceback" not in err
     assert junk.read_bytes() == bytes(range(256)) * 8  # left as it was
@@ -61,4 +62,5 @@ def test_import_keeps_what_the_user_added_and_edited(
     out = capsys.readouterr().out
     assert "my-thing" in out
     row = next(line for line in out.splitlines() if "marathon-runner" in line)
-    assert "3.50" in row and "4.50" in row
+    assert "3.50" in row
+    assert "4.50" in row
