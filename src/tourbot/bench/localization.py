@@ -49,6 +49,7 @@ STAY = 10.0  # s, "smaller than 45cm for more than 10 seconds"
 KIDNAP_SEED_OFFSET = 10_000
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
 LOGS = {"fhw": "fhw-corrected.log.gz", "intel": "intel-corrected.log.gz"}
+_GRIDS: dict[int, Any] = {}
 
 
 class Localizer(Protocol):
@@ -168,7 +169,11 @@ def _factory(
     if kind == "grid":
         from tourbot.localization.grid_markov import GridMarkovConfig, GridMarkovLocalization
 
-        shared = GridMarkovLocalization(grid, replace(GridMarkovConfig(), beam_filter=BeamFilter(filt)))
+        # One lattice and expected-range table for the three filters (it is the costly part).
+        shared = _GRIDS.get(id(grid))
+        if shared is None:
+            shared = _GRIDS[id(grid)] = GridMarkovLocalization(grid)
+        shared.config = replace(GridMarkovConfig(), beam_filter=BeamFilter(filt))
 
         def make_grid(start: str, pose: Any, seed: int) -> Localizer:  # noqa: ARG001 (deterministic)
             if start == "global":
@@ -217,6 +222,7 @@ def _map(log: Any, name: str, cache: Path) -> Any:
 
 
 def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path) -> tuple[Any, Any]:
+    name = f"{name}{len(log.scans)}"
     from tourbot.io import read_carmen, write_carmen
     from tourbot.sim.overlay import OverlayConfig, overlay_crowd, read_truth, truth_path, write_truth
 
@@ -248,9 +254,15 @@ def register(bench: typer.Typer) -> None:
         global_scans: Annotated[int, typer.Option(help="Scans of the global-localization runs.")] = 60,
         speed_scans: Annotated[int, typer.Option(help="Scans timed at 5000 samples and all beams.")] = 30,
         quick: Annotated[bool, typer.Option(help="A small run for smoke tests: 1 seed, 25 scans.")] = False,
+        scans: Annotated[
+            int | None, typer.Option(help="Use only the first SCANS scans of each log (a shorter tour).")
+        ] = None,
         cache: Annotated[Path, typer.Option(help="Cache of maps and crowded logs.")] = Path(
             "bench-results/cache/localization"
         ),
+        kidnap_rate: Annotated[
+            float, typer.Option(help="Kidnaps per metre (the paper: 0.005; raise it for short runs).")
+        ] = 0.005,
         figure: Annotated[bool, typer.Option(help="Draw the Fig. 5-like picture.")] = True,
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
     ) -> None:
@@ -262,7 +274,7 @@ def register(bench: typer.Typer) -> None:
         from tourbot.data import data_dir
         from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
-        from tourbot.localization.kidnap import apply_kidnaps, plan_kidnaps
+        from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
         from tourbot.records import RobotLog
 
         console = Console()
@@ -278,7 +290,7 @@ def register(bench: typer.Typer) -> None:
             console.print("[yellow]amcl not installed: Nav2 AMCL left out (pip install amcl)[/]")
             chosen.remove("amcl")
         n_seeds = 1 if quick else seeds
-        limit = 25 if quick else None
+        limit = 25 if quick else scans
         g_scans = min(global_scans, 25) if quick else global_scans
         cache.mkdir(parents=True, exist_ok=True)
 
@@ -304,6 +316,8 @@ def register(bench: typer.Typer) -> None:
             "seeds": n_seeds,
             "particles": particles,
             "global_scans": g_scans,
+            "scans": limit,
+            "kidnap_rate_per_m": kidnap_rate,
             "quick": quick,
             "crowd": {},
         }
@@ -311,9 +325,9 @@ def register(bench: typer.Typer) -> None:
         with Progress(console=console) as progress:
             for name in names:
                 base = read_carmen(root / "carmen" / LOGS[name])
+                grid = _map(base, name, cache)  # the whole log's reference map
                 if limit:
                     base = RobotLog(base.source, base.scans[:limit], base.odometry, base.warnings)
-                grid = _map(base, name, cache)
                 duration = float(base.times[-1] - base.times[0])
                 ref = base.reference_poses
                 path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
@@ -325,7 +339,9 @@ def register(bench: typer.Typer) -> None:
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
                     progress.advance(task)
                     kid_rng = np.random.default_rng(KIDNAP_SEED_OFFSET + seed)
-                    kidnaps = plan_kidnaps(ref, base.times, kid_rng)
+                    kidnaps = plan_kidnaps(
+                        ref, base.times, kid_rng, KidnapConfig(probability_per_metre=kidnap_rate)
+                    )
                     data.append(
                         {
                             "sparse": sparse,
@@ -492,6 +508,10 @@ def _figure(runs: dict[str, tuple[RunResult, Any]], grid: Any, ref: FloatArray, 
         ax.plot(run.est[:, 0], run.est[:, 1], "b-", lw=0.8, label="estimate")
         err = np.hypot(*(run.est[:, :2] - ref[: len(run.est), :2]).T)
         ax.set_title(f"{method}: {100 * np.mean(err > FAIL_DISTANCE):.1f} % failures", fontsize=9)
+        lo = ref[: len(run.est), :2].min(axis=0) - 6.0
+        hi = ref[: len(run.est), :2].max(axis=0) + 6.0
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
         ax.tick_params(labelsize=6)
     for ax in axes.ravel()[n:]:
