@@ -30,7 +30,7 @@ import numpy as np
 import typer
 from numpy.typing import NDArray
 
-from tourbot.bench._report import BenchReport
+from tourbot.bench._report import BenchReport, default_output
 
 __all__ = [
     "FAILURE_DISTANCE",
@@ -60,6 +60,7 @@ class LogRun:
     cpu_seconds: FloatArray  # this process's CPU time (the machine is shared: less noisy)
     used_beams: FloatArray
     held: FloatArray  # poses held by the grid
+    poses: FloatArray  # the estimates, (S, 3)
 
     @property
     def duration(self) -> float:
@@ -91,10 +92,12 @@ def run_log(
     scans = log.scans[start:stop]
     ref = log.reference_poses[start:stop]
     out = {k: np.zeros(len(scans)) for k in ("t", "e", "h", "s", "c", "u", "n")}
+    poses = np.zeros((len(scans), 3))
     for i, scan in enumerate(scans):
         c0 = time.process_time()
         est = loc.update(np.asarray(scan.odom, dtype=np.float64), scan)
         out["c"][i] = time.process_time() - c0
+        poses[i] = est.pose
         out["t"][i] = scan.timestamp
         out["e"][i] = math.hypot(est.pose[0] - ref[i, 0], est.pose[1] - ref[i, 1])
         out["h"][i] = abs(float(wrap_angle(est.pose[2] - ref[i, 2])))
@@ -103,7 +106,7 @@ def run_log(
         out["n"][i] = est.n_samples
         if advance is not None:
             advance()
-    return LogRun(out["t"], out["e"], out["h"], out["s"], out["c"], out["u"], out["n"])
+    return LogRun(out["t"], out["e"], out["h"], out["s"], out["c"], out["u"], out["n"], poses)
 
 
 def recovery_times(times: FloatArray, errors: FloatArray, kidnap_times: Sequence[float]) -> list[float]:
@@ -139,8 +142,12 @@ def run_grid_bench(
     kidnap_filters: Sequence[str] = ("novelty",),
     kidnap_seeds: Sequence[int] = (0, 3),
     progress: Any = None,
+    picture: Path | None = None,
 ) -> BenchReport:
-    """Run the three experiments on a real log; returns the filled :class:`BenchReport`."""
+    """Run the three experiments on a real log; returns the filled :class:`BenchReport`.
+
+    ``picture``: where to draw the map with the reference path and each filter's tracked path.
+    """
     from tourbot.data import find_data
     from tourbot.io.carmen import read_carmen
     from tourbot.localization.beam_filters import BeamFilter
@@ -207,10 +214,12 @@ def run_grid_bench(
 
     # Tracking (Table 1, "Tracking ability" and "Accuracy")
     ref0 = log.reference_poses[0]
+    tracked: dict[str, LogRun] = {}
     for name in filters:
         loc = new(name)
         loc.reset_tracking(ref0, np.diag([0.1, 0.1, math.radians(3.0)]) ** 2)
         run = run_log(loc, log, advance=stepper(f"tracking, {name}", len(log)))
+        tracked[name] = run
         rt = run.realtime_factor
         rt_cpu = run.realtime_factor_cpu
         report.add(
@@ -233,6 +242,10 @@ def run_grid_bench(
                 "mean heading err deg": math.degrees(float(run.heading_errors.mean())),
             },
         )
+
+    if picture is not None and tracked:
+        _draw(grid, log.reference_poses, tracked, picture)
+        report.notes.append(f"picture: {picture}")
 
     # Global localization from a uniform belief
     for start in global_starts:
@@ -318,6 +331,25 @@ def run_grid_bench(
     return report
 
 
+def _draw(grid: Any, reference: FloatArray, runs: dict[str, LogRun], path: Path) -> None:
+    """The map, the reference path and each filter's estimates; crosses where a scan failed."""
+    from tourbot.plotting import draw_map, draw_path, new_map_figure, save_figure
+
+    fig, ax = new_map_figure(grid)
+    draw_map(ax, grid)
+    draw_path(ax, reference, "reference (corrected poses)", color="black", linewidth=2.0)
+    for name, run in runs.items():
+        draw_path(ax, run.poses, f"grid Markov, {name} filter", linewidth=1.0, markers=False)
+        bad = run.errors > FAILURE_DISTANCE
+        if bad.any():
+            ax.plot(run.poses[bad, 0], run.poses[bad, 1], "x", markersize=6, label=f"{name}: > 45 cm off")
+    ax.set_title("tourbot bench grid: FHW, grid Markov localization (15 cm x 2 deg)")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.legend(loc="best", fontsize=8)
+    save_figure(fig, path)
+
+
 _OUTPUT = typer.Option(None, "-o", "--output", help="JSON file (default bench-results/).")
 
 
@@ -337,17 +369,33 @@ def register(bench: typer.Typer) -> None:
         """Grid Markov localization on FHW: speed (real-time factor), accuracy, global, kidnap recovery."""
         from rich.progress import Progress
 
+        from tourbot.errors import InputError
+        from tourbot.localization.beam_filters import BeamFilter
+
         def split(text: str) -> list[str]:
             return [t.strip() for t in text.split(",") if t.strip()]
+
+        def numbers(text: str, field: str) -> list[int]:
+            try:
+                return [int(t) for t in split(text)]
+            except ValueError:
+                raise InputError(f"expected comma-separated integers, got {text!r}", field=field) from None
+
+        known = {f.value for f in BeamFilter}
+        for field, value in (("--filters", filters), ("--kidnap-filters", kidnap_filters)):
+            bad = [f for f in split(value) if f not in known]
+            if bad:
+                raise InputError(f"unknown beam filter {bad[0]!r} (choose from {sorted(known)})", field=field)
 
         with Progress() as progress:
             report = run_grid_bench(
                 log_name=log,
                 filters=split(filters),
                 scans=scans or None,
-                global_starts=[int(s) for s in split(global_starts)],
+                global_starts=numbers(global_starts, "--global-starts"),
                 kidnap_filters=split(kidnap_filters),
-                kidnap_seeds=[int(k) for k in split(kidnap_seeds)],
+                kidnap_seeds=numbers(kidnap_seeds, "--kidnap-seeds"),
                 progress=progress,
+                picture=(output or default_output("grid")).with_suffix(".png"),
             )
         report.finish(output)

@@ -81,9 +81,16 @@ class RangeCaster(Protocol):
 
 
 def _default_caster(grid: OccupancyGrid, max_range: float) -> RangeCaster:
+    """The project's fastest exact caster; unknown cells do not stop rays.
+
+    A map that went through a map_server PGM is trinary: its uncertain cells (people seen once,
+    glass) come back unknown, and as walls in the expected ranges they mislead the localizer (on
+    the first 40 FHW scans: 6 scans off by metres with them blocking, none without). Only
+    occupied cells block; a ray leaving the map reads the maximum range.
+    """
     from tourbot.maps.raycast import DistanceCaster
 
-    return DistanceCaster(grid, max_range)
+    return DistanceCaster(grid, max_range, unknown_blocks=False)
 
 
 @dataclass(frozen=True)
