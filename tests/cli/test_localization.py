@@ -47,13 +47,17 @@ def test_localize_writes_one_pose_per_scan(files: tuple[Path, Path, np.ndarray],
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).mean() < 0.1
 
 
-def test_localize_global_with_entropy_filter(files: tuple[Path, Path, np.ndarray], tmp_path: Path) -> None:
+def test_localize_global(files: tuple[Path, Path, np.ndarray], tmp_path: Path) -> None:
     log, room, truth = files
     out = tmp_path / "traj.tum"
-    args = ["localize", str(log), "--map", str(room), "--global", "--filter", "entropy", "--seed", "3"]
+    args = ["localize", str(log), "--map", str(room), "--global", "--seed", "3"]
     main([*args, "--particles", "1000", "-o", str(out)])
-    _, poses = read_tum(out)
-    assert np.hypot(*(poses[-5:, :2] - truth[-5:, :2]).T).max() < 0.3
+    times, poses = read_tum(out)
+    # Plumbing only (convergence of global localization is tested in tests/localization): one
+    # finite pose per scan, inside the room.
+    assert len(times) == len(truth)
+    assert np.isfinite(poses).all()
+    assert (np.abs(poses[:, :2] - [5.0, 2.5]) < 7.0).all()
 
 
 def test_localize_needs_exactly_one_start(

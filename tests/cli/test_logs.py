@@ -129,3 +129,12 @@ def test_real_process_prints_no_traceback(tmp_path: Path) -> None:
     assert "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
     assert "range[1]" in proc.stderr
+
+
+def test_a_plain_folder_is_not_taken_for_a_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    folder = tmp_path / "logs"
+    folder.mkdir()
+    assert _run(["log", "info", str(folder)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{folder}: a folder, not a log file" in err
+    assert "Traceback" not in err

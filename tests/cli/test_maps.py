@@ -58,3 +58,10 @@ def test_map_info_and_bad_map(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     bad.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0]\n")
     assert _run(["map", "info", str(bad)]) == 2
     assert "origin must be [x, y, yaw]" in capsys.readouterr().err
+
+
+def test_map_info_of_a_folder_says_so(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(["map", "info", str(tmp_path)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{tmp_path}: a folder, not a map YAML file" in err
+    assert "Traceback" not in err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -210,3 +211,24 @@ def test_navigator_drives_a_drivable_source_on_the_estimate() -> None:
         rt.start_tour("nope")
     rt.stop()
     assert robot.speed == 0.0
+
+
+def test_replay_of_a_real_log_through_mcl(fhw_log_path: Path) -> None:
+    from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+    from tourbot.maps.reference import build_reference_map
+    from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
+
+    source = LogSource.from_path(fhw_log_path)
+    log = source._log
+    grid = build_reference_map(log, resolution=0.1)
+    mcl = MonteCarloLocalization(grid, MCLConfig(max_samples=300, min_samples=300), seed=0)
+    first = log.scans[0].reference
+    assert first is not None
+    mcl.reset_tracking(first)
+    policy = UpdatePolicy(beam_step=2, min_travel=0.0, min_turn=0.0, max_interval=0.0)
+    rt = Runtime(source, MCLLocalizer(mcl, policy))
+    snap = rt.run(until=lambda s: s.step >= 20)
+    ref = log.scans[19].reference
+    assert snap.pose is not None
+    assert ref is not None
+    assert np.hypot(snap.pose.x - ref[0], snap.pose.y - ref[1]) < 0.3

@@ -269,3 +269,19 @@ def test_speech_files_cannot_escape_their_folder(client: TestClient) -> None:
 def test_unknown_robot(client: TestClient) -> None:
     with pytest.raises(WebSocketDisconnect), connect(client, new_session(client), robot="ghost"):
         pass
+
+
+def test_each_robot_has_its_own_queue(db: Database, tmp_path: Path) -> None:
+    lefkos, albert = FakeRobot(), FakeRobot()
+    app = create_app({"lefkos": lefkos, "albert": albert}, db, None, WebConfig(speech_dir=tmp_path))
+    with TestClient(app) as client:
+        first, second = new_session(client), new_session(client)
+        with connect(client, first, "lefkos") as a, connect(client, second, "albert") as b:
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("holder"))  # not queued behind lefkos' holder
+            b.send_text(json.dumps({"type": "goto", "x": 3.0, "y": 3.0}))
+            wait_for(b, lambda m: m["type"] == "ack")
+    assert albert.commands == [("goal", (3.0, 3.0, None, None))]
+    assert lefkos.commands == []

@@ -92,4 +92,4 @@ def test_site_tours_run_on_the_robot_and_web_tours_as_goals() -> None:
     link.send_goal(5.0, 5.0, None, "vase")
     assert fake.calls[-1] == ("goal", 5.0, 5.0, 0.0)
     link.stop()
-    assert fake.calls[-1] == ("stop",)
+    assert fake.calls[-1:] == [("stop",)]

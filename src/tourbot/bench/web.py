@@ -138,6 +138,7 @@ class _Viewer:
             additional_headers={"Cookie": f"tourbot_session={token}"},
             proxy=None,
             max_queue=None,
+            close_timeout=2,
         )
 
     async def run(self, until: float) -> None:
@@ -285,8 +286,7 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[st
     await asyncio.gather(*readers, return_exceptions=True)
     delays = sorted(d for v in viewers for (at, d) in v.delays if start <= at <= end)
     at_server = await _staff(server, "GET", robot)
-    for v in viewers:
-        await v.close()
+    await asyncio.gather(*(v.close() for v in viewers))
     if not delays:
         return {"viewers": n, "frames": 0}
     return {

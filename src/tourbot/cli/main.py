@@ -74,10 +74,17 @@ def main(argv: list[str] | None = None) -> None:
     except typer.Abort:
         sys.exit(1)
     except Exception as exc:
+        # Usage errors (unknown option, bad value): typer >= 0.24 vendors click as ``typer._click``,
+        # whose exceptions are not click's; both have ``show()`` and print one usage line, exit 2.
         import click
+        from typer.exceptions import TyperException
 
-        if isinstance(exc, click.exceptions.ClickException):
-            exc.show()
+        if isinstance(exc, click.exceptions.ClickException | TyperException):
+            show = getattr(exc, "show", None)
+            if callable(show):
+                show()
+            else:
+                _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
             sys.exit(exc.exit_code)
         raise
 

@@ -21,7 +21,11 @@ def register(app: typer.Typer) -> None:
             "out/sim/sim.log.gz", "--write-log", help="CARMEN log to write (true pose as reference)."
         ),
     ) -> None:
-        """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it."""
+        """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
+
+        Beside LOG: ``.truth.tum`` (the true robot pose per scan) and ``.people.json`` (per scan:
+        people's positions, doors' open fractions, furniture poses).
+        """
         import json
 
         import numpy as np
@@ -58,6 +62,8 @@ def register(app: typer.Typer) -> None:
         people = {
             "times": sim.truth_times,
             "positions": [np.round(p, 4).tolist() for p in sim.people_history],
+            "doors": [[d.open_fraction for d in doors] for doors, _ in sim.objects_history],
+            "furniture": [[(f.x, f.y, f.theta) for f in items] for _, items in sim.objects_history],
         }
         Path(stem + ".people.json").write_text(json.dumps(people))
         console.print(

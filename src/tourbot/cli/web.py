@@ -95,7 +95,7 @@ def register(app: typer.Typer) -> None:
     def exhibit(
         slug: Annotated[str, typer.Argument(help="short name, e.g. minoan-fresco")],
         x: Annotated[float, typer.Option(help="where the robot stands to present it (m)")],
-        y: Annotated[float, typer.Option(help="(m)")],
+        y: Annotated[float, typer.Option(help="and y of that viewing pose (m)")],
         theta: Annotated[float, typer.Option(help="heading at the viewing pose (rad)")] = 0.0,
         name: Annotated[str | None, typer.Option(help="display name")] = None,
         text: Annotated[str, typer.Option(help="the exhibit's text")] = "",
@@ -117,9 +117,9 @@ def register(app: typer.Typer) -> None:
 
     @site_app.command("place")
     def place(
-        slug: str,
-        x: float,
-        y: float,
+        slug: Annotated[str, typer.Argument(help="the exhibit's short name")],
+        x: Annotated[float, typer.Argument(help="new viewing pose x (m)")],
+        y: Annotated[float, typer.Argument(help="new viewing pose y (m)")],
         theta: Annotated[float | None, typer.Option(help="new heading (rad)")] = None,
         site: SiteOpt = "fhw",
         database: DatabaseOpt = None,
@@ -129,17 +129,21 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"exhibit {saved.slug} at ({saved.x:.2f}, {saved.y:.2f}, {saved.theta:.2f})")
 
     @site_app.command("remove")
-    def remove(slug: str, site: SiteOpt = "fhw", database: DatabaseOpt = None) -> None:
+    def remove(
+        slug: Annotated[str, typer.Argument(help="the exhibit's short name")],
+        site: SiteOpt = "fhw",
+        database: DatabaseOpt = None,
+    ) -> None:
         """Remove an exhibit (and it from every tour)."""
         _db(database, site).delete_exhibit(slug)
         typer.echo(f"removed {slug}")
 
     @site_app.command("tour")
     def tour(
-        slug: str,
+        slug: Annotated[str, typer.Argument(help="the tour's short name, e.g. highlights")],
         exhibits: Annotated[list[str], typer.Argument(help="exhibit slugs in visiting order")],
         name: Annotated[str | None, typer.Option(help="display name")] = None,
-        description: str = "",
+        description: Annotated[str, typer.Option(help="what the tour is about")] = "",
         site: SiteOpt = "fhw",
         database: DatabaseOpt = None,
     ) -> None:
@@ -151,8 +155,13 @@ def register(app: typer.Typer) -> None:
 
     @site_app.command("staff")
     def staff(
-        username: str,
-        password: Annotated[str, typer.Option(prompt=True, hide_input=True, confirmation_prompt=True)],
+        username: Annotated[str, typer.Argument(help="login name")],
+        password: Annotated[
+            str,
+            typer.Option(
+                prompt=True, hide_input=True, confirmation_prompt=True, help="asked for if not given"
+            ),
+        ],
         site: SiteOpt = "fhw",
         database: DatabaseOpt = None,
     ) -> None:

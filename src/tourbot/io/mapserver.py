@@ -68,6 +68,8 @@ def read_map(yaml_path: str | Path) -> OccupancyGrid:
     p = Path(yaml_path)
     if not p.exists():
         raise MapFormatError("no such file", path=p)
+    if p.is_dir():
+        raise MapFormatError("a folder, not a map YAML file", path=p)
     try:
         doc = yaml.safe_load(p.read_text())
     except (yaml.YAMLError, UnicodeDecodeError) as exc:

@@ -48,8 +48,10 @@ def _open(path: str | Path) -> Iterator[Any]:
     p = Path(path)
     if not p.exists():
         raise BagError("no such file or folder", path=p)
-    reader = AnyReader([_bag_paths(p)])
+    if p.is_dir() and not (p / "metadata.yaml").exists():
+        raise BagError("a folder, not a log file (nor a ROS 2 bag folder: no metadata.yaml in it)", path=p)
     try:
+        reader = AnyReader([_bag_paths(p)])
         reader.open()
     except Exception as exc:  # rosbags raises several unrelated types for unreadable bags
         raise BagError(f"not a readable ROS bag ({type(exc).__name__}: {exc})", path=p) from None

@@ -151,6 +151,20 @@ class IncrementalMapper:
             raise MappingError("incremental mapping needs the odometry pose of every scan")
         return np.asarray(scan.odom, dtype=np.float64)
 
+    def evidence(self, points: FloatArray) -> FloatArray:
+        """Log-odds of occupancy (every scan so far) at world ``points`` ``(B, 2)``; 0 outside."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        out = np.zeros(len(pts))
+        if math.isnan(self._x0) or len(pts) == 0:
+            return out
+        res = self.params.resolution
+        cols = np.floor((pts[:, 0] - self._x0) / res).astype(np.int64)
+        rows = np.floor((pts[:, 1] - self._y0) / res).astype(np.int64)
+        ok = (rows >= 0) & (rows < self._hits.shape[0]) & (cols >= 0) & (cols < self._hits.shape[1])
+        c = self.params.cells
+        out[ok] = self._hits[rows[ok], cols[ok]] * c.l_occ + self._misses[rows[ok], cols[ok]] * c.l_free
+        return out
+
     def grid(self) -> OccupancyGrid:
         """The map so far as an occupancy grid (cells no beam reached are unknown)."""
         c = self.params.cells

@@ -39,6 +39,9 @@ class PeopleFilterParams:
     ``body_radius``: a beam ending this close to a person's position may be reflected by them.
     ``box_half_size``: half the side of a person's bounding box for leaving beams out of the map.
     ``scans_around``: the boxes of this many scans before and after also remove beams.
+    ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
+    occupied with at least this log-odds (a wall seen before a visitor stood in front of it; beams
+    left out never build such evidence, so a visitor standing still cannot).
     """
 
     bin_size: float = 0.15
@@ -46,6 +49,7 @@ class PeopleFilterParams:
     box_half_size: float = 0.45
     scans_around: int = 3
     confirmed_only: bool = True
+    static_evidence: float = 3.0
 
 
 def hit_probability(
@@ -167,6 +171,8 @@ class PeopleFilteredMapper:
         centres = np.concatenate(around) if around else np.zeros((0, 2))
         pts, hit = beam_endpoints(item.scan, item.pose)
         person = hit & in_boxes(pts, centres, p.box_half_size)
+        if person.any():
+            person[person] = self.mapper.evidence(pts[person]) < p.static_evidence
         self.removed_beams += int(person.sum())
         self.mapper.integrate(item.scan, item.pose, keep=~person)
         self._people.pop(k - p.scans_around, None)

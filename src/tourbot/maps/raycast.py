@@ -315,6 +315,104 @@ def _cast_one(
         v = np.int64(table[cy * width + cx])
 
 
+@numba.njit(cache=True, inline="always")
+def _march_init(
+    table: NDArray[np.uint8],
+    width: int,
+    rows: int,
+    cols: int,
+    x0: float,
+    y0: float,
+    dx: float,
+    dy: float,
+    max_cells: float,
+    outside_blocks: bool,
+) -> tuple[bool, float, float, np.int64, np.int64, np.int64]:
+    """Start of one ray for :func:`_march_step`: ``(done, range, t, cx, cy, table value)``."""
+    t, status = _start(x0, y0, dx, dy, cols, rows, outside_blocks)
+    done = status != 0 or t >= max_cells
+    res = 0.0 if status == 1 else max_cells
+    cx = np.int64(min(max(int(x0 + 1.0 + t * dx), 1), cols))
+    cy = np.int64(min(max(int(y0 + 1.0 + t * dy), 1), rows))
+    return done, res, t, cx, cy, np.int64(table[cy * width + cx])
+
+
+@numba.njit(cache=True, inline="always")
+def _march_step(
+    table: NDArray[np.uint8],
+    width: int,
+    px0: float,
+    py0: float,
+    dx: float,
+    dy: float,
+    max_cells: float,
+    outside_blocks: bool,
+    done: bool,
+    res: float,
+    t: float,
+    cx: np.int64,
+    cy: np.int64,
+    v: np.int64,
+    fx: np.int64,
+    fy: np.int64,
+    tmx: float,
+    tmy: float,
+    fresh_f: bool,
+    fresh_tm: bool,
+) -> tuple[bool, float, float, np.int64, np.int64, np.int64, np.int64, np.int64, float, float, bool, bool]:
+    """One table read of one ray (a jump or a DDA step), as a pure function of the ray's state.
+
+    The same walk as :func:`_cast_one`, cut into single steps so that :func:`cast_rays_kernel`
+    can advance two rays in turn: their table reads do not depend on each other, so the CPU
+    overlaps them (measured 1.1-1.4x over one ray at a time on the FHW map).
+    """
+    if v >= OUTSIDE:
+        return (
+            True,
+            (t if (v == BLOCKED or outside_blocks) else max_cells),
+            t,
+            cx,
+            cy,
+            v,
+            fx,
+            fy,
+            tmx,
+            tmy,
+            fresh_f,
+            fresh_tm,
+        )
+    if v > 0:  # safe jump, in fixed point
+        if not fresh_f:
+            fx = np.int64((px0 + t * dx) * _FIX)
+            fy = np.int64((py0 + t * dy) * _FIX)
+            fresh_f = True
+        t += v
+        fx += v * np.int64(dx * _FIX)
+        fy += v * np.int64(dy * _FIX)
+        cx = fx >> 32
+        cy = fy >> 32
+        fresh_tm = False
+    else:  # DDA step, branch-free
+        sx, bx, ix = _axis(dx)
+        sy, by, iy = _axis(dy)
+        if not fresh_tm:
+            tmx = (cx + bx - px0) * ix
+            tmy = (cy + by - py0) * iy
+            fresh_tm = True
+        mi = np.int64(tmx < tmy)
+        mf = float(mi)
+        t = min(tmx, tmy)
+        tmx += abs(ix) * mf
+        tmy += abs(iy) * (1.0 - mf)
+        cx += sx * mi
+        cy += sy * (1 - mi)
+        fresh_f = False
+    if t >= max_cells:
+        return True, max_cells, t, cx, cy, v, fx, fy, tmx, tmy, fresh_f, fresh_tm
+    v = np.int64(table[cy * width + cx])
+    return done, res, t, cx, cy, v, fx, fy, tmx, tmy, fresh_f, fresh_tm
+
+
 @numba.njit(cache=True)
 def cast_rays_kernel(
     table: NDArray[np.uint8],
@@ -343,13 +441,48 @@ def cast_rays_kernel(
     nb = angles.shape[0]
     ca = np.cos(angles)
     sa = np.sin(angles)
+    zero = np.int64(0)
     for i in range(n):
         ct = math.cos(oth[i])
         st = math.sin(oth[i])
-        for b in range(nb):
+        x0 = ox[i]
+        y0 = oy[i]
+        first = 0
+        if jump:  # beams b and b + 1 side by side (see _march_step)
+            px0 = x0 + 1.0
+            py0 = y0 + 1.0
+            for b in range(0, nb - 1, 2):
+                dxa = ct * ca[b] - st * sa[b]
+                dya = st * ca[b] + ct * sa[b]
+                dxb = ct * ca[b + 1] - st * sa[b + 1]
+                dyb = st * ca[b + 1] + ct * sa[b + 1]
+                da, ra, ta, cxa, cya, va = _march_init(
+                    table, width, rows, cols, x0, y0, dxa, dya, max_cells, outside_blocks
+                )
+                db, rb, tb, cxb, cyb, vb = _march_init(
+                    table, width, rows, cols, x0, y0, dxb, dyb, max_cells, outside_blocks
+                )
+                fxa, fya, fxb, fyb = zero, zero, zero, zero
+                tmxa, tmya, tmxb, tmyb = 0.0, 0.0, 0.0, 0.0
+                ffa, fta, ffb, ftb = False, False, False, False
+                while not (da and db):
+                    if not da:
+                        da, ra, ta, cxa, cya, va, fxa, fya, tmxa, tmya, ffa, fta = _march_step(
+                            table, width, px0, py0, dxa, dya, max_cells, outside_blocks,
+                            da, ra, ta, cxa, cya, va, fxa, fya, tmxa, tmya, ffa, fta,
+                        )  # fmt: skip
+                    if not db:
+                        db, rb, tb, cxb, cyb, vb, fxb, fyb, tmxb, tmyb, ffb, ftb = _march_step(
+                            table, width, px0, py0, dxb, dyb, max_cells, outside_blocks,
+                            db, rb, tb, cxb, cyb, vb, fxb, fyb, tmxb, tmyb, ffb, ftb,
+                        )  # fmt: skip
+                out[i, b] = scale * ra
+                out[i, b + 1] = scale * rb
+            first = nb - nb % 2
+        for b in range(first, nb):
             dx = ct * ca[b] - st * sa[b]
             dy = st * ca[b] + ct * sa[b]
-            r = _cast_one(table, width, rows, cols, ox[i], oy[i], dx, dy, max_cells, outside_blocks, jump)
+            r = _cast_one(table, width, rows, cols, x0, y0, dx, dy, max_cells, outside_blocks, jump)
             out[i, b] = scale * r
 
 

@@ -50,6 +50,7 @@ class NavigationConfig:
     replan_after: float = 3.0  # s blocked before planning around what blocks the way
     give_up_after: float = 90.0  # s blocked on one goal before skipping it
     obstacle_range: float = 3.0  # m: laser points farther than this do not matter to the window
+    crawl_speed: float = 0.1  # m/s: creeping slower than this among people counts as blocked
     dwell_scale: float = 1.0  # scales the exhibits' dwell times (short demos)
 
 
@@ -177,8 +178,16 @@ class SiteNavigator:
             # the path turns back: turn on the spot first (a round robot can)
             self._unblocked()
             return 0.0, math.copysign(self.config.robot.max_turn_rate * 0.8, bearing)
-        if moving:
+        if moving and speed >= self.config.crawl_speed:
             self._unblocked()
+            return speed, turn
+        if moving:
+            # creeping between people: the way is as good as blocked (the face shows it), but the
+            # robot makes progress, so no replanning and no giving up
+            self.mode = NavMode.BLOCKED
+            self.blocked_time += dt
+            self.total_blocked_time += dt
+            self.message = f"slowed by people for {self.blocked_time:.0f} s"
             return speed, turn
         return self._blocked(dt, pose, points, turn)
 

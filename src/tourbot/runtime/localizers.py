@@ -47,7 +47,7 @@ class MCLLocalizer:
         self,
         mcl: MonteCarloLocalization,
         policy: UpdatePolicy | None = None,
-        display_samples: int = 200,
+        display_samples: int = 100,
         seed: int = 0,
     ) -> None:
         self.mcl = mcl

@@ -46,7 +46,7 @@ class SimulationSettings:
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     speedup: float | None = None
-    record_every: int = 1
+    record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
 @dataclass

@@ -35,7 +35,7 @@ class Recorder:
         if self.path is None:
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with gzip.open(self.path, "wt") as f:
+        with gzip.open(self.path, "wt", compresslevel=5) as f:
             for s in self.snapshots:
                 f.write(s.to_json() + "\n")
 

@@ -6,6 +6,7 @@ The simulator source is :class:`tourbot.sim.simulator.Simulator` (a ``DrivableSo
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 from tourbot.records import Odometry, Record, RobotLog, Scan
 
@@ -25,6 +26,13 @@ class LogSource:
         self._scan_i = 0
         self._odom_i = 0
         self._time = log.scans[0].timestamp if log.scans else 0.0
+
+    @classmethod
+    def from_path(cls, path: str | Path, *, lenient: bool = False) -> LogSource:
+        """A source over any log ``tourbot.io.load_log`` reads: CARMEN logs, ROS 1 and ROS 2 bags."""
+        from tourbot.io import load_log
+
+        return cls(load_log(path, lenient=lenient), name=str(path))
 
     @property
     def time(self) -> float:

@@ -24,7 +24,7 @@ from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Odometry, Record, RobotLog, Scan
-from tourbot.runtime.snapshot import GroundTruth, PersonState
+from tourbot.runtime.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 from tourbot.sim.crowd import Crowd, CrowdConfig
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
@@ -116,6 +116,7 @@ class Simulator:
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
         self.people_history: list[NDArray[np.float64]] = []
+        self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
 
     # -- DrivableSource ---------------------------------------------------------------------------
 
@@ -153,6 +154,7 @@ class Simulator:
                 self.truth_times.append(self._time)
                 self.truth_poses.append(self.robot.pose)
                 self.people_history.append(self.people_positions())
+                self.objects_history.append((self.objects.door_states(), self.objects.furniture_states()))
         if self.config.record:
             self.records.extend(out)
         return out

@@ -233,6 +233,11 @@ def load_site(path: str | Path) -> Site:
         text = p.read_text()
     except OSError as exc:
         raise SiteError(f"cannot read the site file: {exc.strerror or exc}", path=p) from exc
+    except UnicodeDecodeError as exc:
+        raise SiteError(
+            f"not a text (UTF-8) YAML file: bad byte 0x{exc.object[exc.start]:02x} at offset {exc.start}",
+            path=p,
+        ) from exc
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:

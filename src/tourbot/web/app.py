@@ -19,6 +19,7 @@ import hashlib
 import io
 import json
 import math
+import os
 import re
 import time
 from collections.abc import AsyncIterator, Mapping
@@ -68,7 +69,11 @@ _IMPORTMAP = re.compile(r'<script type="importmap">(.*?)</script>', re.DOTALL)
 
 
 def find_node_modules(start: Path | None = None) -> Path | None:
-    """``node_modules`` of the checkout (holding three.js), searched upwards from ``start``."""
+    """``node_modules`` holding three.js: ``$TOURBOT_NODE_MODULES``, else the checkout's, searched
+    upwards from ``start`` (default the current folder) and from this package."""
+    env = os.environ.get("TOURBOT_NODE_MODULES")
+    if env:
+        return Path(env) if (Path(env) / "three" / "build" / "three.module.js").is_file() else None
     for base in (start or Path.cwd(), Path(__file__).resolve()):
         for parent in [base, *base.parents]:
             candidate = parent / "node_modules"

@@ -489,11 +489,33 @@ class Database:
 
 def open_database(url: str | None = None, *, site: str = "site") -> Database:
     """Open (creating or upgrading its schema) the site database at ``url`` or :func:`default_url`."""
-    db = Database(url or default_url(site))
+    url = url or default_url(site)
+    _create_sqlite_folder(url)
+    db = Database(url)
     try:
         migrate(db.engine)
     except Exception as exc:
         if isinstance(exc, TourbotError):
             raise
-        raise DatabaseError(f"cannot prepare the database {db.url!r}: {exc}") from exc
+        # one line: the driver's own message, without SQLAlchemy's SQL echo and background link
+        reason = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0]
+        raise DatabaseError(f"cannot prepare the database {db.url!r}: {reason}") from exc
     return db
+
+
+def _create_sqlite_folder(url: str) -> None:
+    """Create the folder of a SQLite database file, as for any output path (other URLs untouched)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        parsed = make_url(url)
+    except ArgumentError:
+        return  # Database() reports the malformed URL
+    if parsed.get_backend_name() == "sqlite" and parsed.database not in (None, "", ":memory:"):
+        try:
+            Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise DatabaseError(
+                f"cannot create the folder of the database {url!r}: {exc.strerror or exc}"
+            ) from exc

@@ -1,0 +1,523 @@
+"""``tourbot bench localization``: Fox et al. (1998) Table 1 on crowded real logs, against Nav2 AMCL.
+
+For each log (FHW museum; optionally Intel as a second building), each seed and each localizer
+(MCL and grid Markov localization, each without filter, with the entropy filter and with the
+novelty filter; Nav2 AMCL through the ``amcl`` package), on logs overlaid with the crowd of
+:mod:`tourbot.sim.overlay` (the one crowd model):
+
+- *tracking* from the first reference pose on the ``sparse`` and the ``peak`` crowd: failures
+  (% of scans whose estimate is > 45 cm from the reference, the paper's criterion), mean position
+  and heading error, time per update and real-time factor (log duration / total update time);
+- *recovery* on the peak crowd with kidnaps (:mod:`tourbot.localization.kidnap`, 0.005 per metre):
+  for each kidnap, whether and when the error stays < 45 cm for more than 10 s (the paper's
+  criterion), in seconds and metres travelled;
+- *global localization* from a uniform start on the first ``global_scans`` scans of the peak crowd:
+  success and time until the error stays < 45 cm for more than 10 s.
+
+Every figure is a mean over seeds with a 95 % confidence interval (Student t). Speed at the
+project's target budget (5000 samples, all 180 beams) is measured side by side for MCL and AMCL on
+``speed_scans`` scans. Crowded logs and maps are cached in ``--cache``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Annotated, Any, Protocol
+
+import numpy as np
+import typer
+from numpy.typing import ArrayLike, NDArray
+
+from tourbot.bench._report import BenchReport
+
+__all__ = [
+    "FAIL_DISTANCE",
+    "RunResult",
+    "mean_ci",
+    "recovery",
+    "register",
+    "settle_index",
+    "tracking_errors",
+]
+
+FloatArray = NDArray[np.float64]
+FAIL_DISTANCE = 0.45  # m, Fox et al. 1998, Sec. "Experimental results"
+STAY = 10.0  # s, "smaller than 45cm for more than 10 seconds"
+KIDNAP_SEED_OFFSET = 10_000
+METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
+LOGS = {"fhw": "fhw-corrected.log.gz", "intel": "intel-corrected.log.gz"}
+_GRIDS: dict[int, Any] = {}
+
+
+class Localizer(Protocol):
+    def update(self, odom_pose: ArrayLike, scan: Any) -> Any: ...
+
+
+# --------------------------------------------------------------------------------------------
+# Metrics (pure)
+# --------------------------------------------------------------------------------------------
+
+
+def tracking_errors(est: FloatArray, ref: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Position (m) and absolute heading (rad) errors per scan, ``(S,)`` each."""
+    pos = np.hypot(est[:, 0] - ref[:, 0], est[:, 1] - ref[:, 1])
+    head = np.abs(np.remainder(est[:, 2] - ref[:, 2] + np.pi, 2.0 * np.pi) - np.pi)
+    return pos, head
+
+
+def settle_index(err: FloatArray, times: FloatArray, start: int, end: int) -> int | None:
+    """First scan ``j`` in ``[start, end)`` from which the error stays < 45 cm for more than 10 s
+    (or until the end of the log, if that comes first and the error never rises again)."""
+    j = start
+    while j < end:
+        if err[j] >= FAIL_DISTANCE:
+            j += 1
+            continue
+        k = j
+        while k < end and err[k] < FAIL_DISTANCE:
+            k += 1
+        if times[k - 1] - times[j] > STAY or k == len(err):
+            return j
+        j = k
+    return None
+
+
+def recovery(
+    err: FloatArray, times: FloatArray, path: FloatArray, kidnap_scans: list[int]
+) -> list[tuple[bool, float, float]]:
+    """Per kidnap: (recovered, seconds, metres travelled) until the error settles below 45 cm
+    before the next kidnap (or the end of the log). ``path`` is the cumulative distance per scan."""
+    out = []
+    for i, k0 in enumerate(kidnap_scans):
+        end = kidnap_scans[i + 1] if i + 1 < len(kidnap_scans) else len(err)
+        j = settle_index(err, times, k0, end)
+        if j is None:
+            out.append((False, math.nan, math.nan))
+        else:
+            out.append((True, float(times[j] - times[k0]), float(path[j] - path[k0])))
+    return out
+
+
+def mean_ci(values: ArrayLike) -> tuple[float, float]:
+    """Mean and half-width of its 95 % confidence interval (Student t; 0 for one value)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return math.nan, math.nan
+    if v.size == 1:
+        return float(v[0]), 0.0
+    from scipy import stats
+
+    t = float(stats.t.ppf(0.975, v.size - 1))
+    return float(v.mean()), float(t * v.std(ddof=1) / math.sqrt(v.size))
+
+
+# --------------------------------------------------------------------------------------------
+# Runs
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class RunResult:
+    est: FloatArray
+    seconds: FloatArray
+    used: NDArray[np.bool_]
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _run(loc: Localizer, log: Any, scans: int | None = None) -> RunResult:
+    chosen = log.scans[:scans] if scans else log.scans
+    est = np.zeros((len(chosen), 3))
+    secs = np.zeros(len(chosen))
+    used = np.zeros((len(chosen), chosen[0].ranges.size), dtype=bool)
+    for i, scan in enumerate(chosen):
+        e = loc.update(scan.odom, scan)
+        est[i] = e.pose
+        secs[i] = e.update_seconds
+        used[i, : e.used_beams.size] = e.used_beams
+    return RunResult(est, secs, used)
+
+
+def _factory(
+    method: str, grid: Any, particles: int, *, fixed: bool = False, beams: int | None = None
+) -> Callable[[str, Any, int], Localizer]:
+    """A function ``(start, first_pose, seed) -> localizer`` for ``method`` (start: ``tracking``
+    or ``global``). ``fixed`` holds the sample count at ``particles`` (no KLD adaptation); ``beams``
+    sets AMCL's ``max_beams``. The grid localizer (and its expected-range table) is built once."""
+    from tourbot.localization.beam_filters import BeamFilter
+
+    kind, _, filt = method.partition("-")
+    if kind == "mcl":
+        from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+
+        cfg = replace(MCLConfig(), beam_filter=BeamFilter(filt), max_samples=particles)
+        if fixed:
+            cfg = replace(cfg, min_samples=particles)
+
+        def make_mcl(start: str, pose: Any, seed: int) -> Localizer:
+            m = MonteCarloLocalization(grid, cfg, seed=seed)
+            if start == "global":
+                m.reset_global()
+            else:
+                m.reset_tracking(pose)
+            return m
+
+        return make_mcl
+    if kind == "grid":
+        from tourbot.localization.grid_markov import GridMarkovConfig, GridMarkovLocalization
+
+        # One lattice and expected-range table for the three filters (it is the costly part).
+        shared = _GRIDS.get(id(grid))
+        if shared is None:
+            shared = _GRIDS[id(grid)] = GridMarkovLocalization(grid)
+        shared.config = replace(GridMarkovConfig(), beam_filter=BeamFilter(filt))
+
+        def make_grid(start: str, pose: Any, seed: int) -> Localizer:  # noqa: ARG001 (deterministic)
+            if start == "global":
+                shared.reset_global()
+            else:
+                shared.reset_tracking(pose, np.diag(np.square((0.1, 0.1, math.radians(5.0)))))
+            return shared
+
+        return make_grid
+    if kind == "amcl":
+        from tourbot.bench.peers.amcl_adapter import AMCLLocalizer, AMCLParams
+
+        params = AMCLParams(max_particles=particles)
+        if fixed:
+            params = replace(params, min_particles=particles)
+        if beams is not None:
+            params = replace(params, max_beams=beams)
+        a = AMCLLocalizer(grid, params)
+
+        def make_amcl(start: str, pose: Any, seed: int) -> Localizer:  # noqa: ARG001 (unseedable)
+            if start == "global":
+                a.reset_global()
+            else:
+                a.reset_tracking(pose)
+            return a
+
+        return make_amcl
+    raise typer.BadParameter(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+
+
+# --------------------------------------------------------------------------------------------
+# Data: maps and crowded logs, cached
+# --------------------------------------------------------------------------------------------
+
+
+def _map(log: Any, name: str, cache: Path) -> Any:
+    from tourbot.io.mapserver import read_map, write_map
+    from tourbot.maps.reference import build_reference_map
+
+    path = cache / f"{name}-map.yaml"
+    if path.exists():
+        return read_map(path)
+    grid = build_reference_map(log, 0.05)
+    write_map(grid, path)
+    return read_map(path)
+
+
+def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path) -> tuple[Any, Any]:
+    name = f"{name}{len(log.scans)}"
+    from tourbot.io import read_carmen, write_carmen
+    from tourbot.sim.overlay import OverlayConfig, overlay_crowd, read_truth, truth_path, write_truth
+
+    path = cache / f"{name}-{preset}-{seed}.log.gz"
+    if path.exists() and truth_path(path).exists():
+        return read_carmen(path), read_truth(truth_path(path))
+    result = overlay_crowd(log, grid, OverlayConfig.preset(preset), seed=seed, preset=preset)
+    write_carmen(result.log, path)
+    write_truth(result.truth, truth_path(path))
+    return read_carmen(path), result.truth
+
+
+# --------------------------------------------------------------------------------------------
+# The command
+# --------------------------------------------------------------------------------------------
+
+
+def register(bench: typer.Typer) -> None:
+    @bench.command("localization")
+    def localization(
+        logs: Annotated[str, typer.Option(help="Logs, comma-separated: fhw, intel.")] = "fhw",
+        methods: Annotated[str, typer.Option(help="Localizers, comma-separated.")] = ",".join(METHODS),
+        seeds: Annotated[
+            int, typer.Option(help="Seeds (crowds, kidnaps, filters); >= 5 for the report.")
+        ] = 5,
+        particles: Annotated[
+            int, typer.Option(help="Sample budget of MCL and AMCL for accuracy (Nav2's max_particles).")
+        ] = 2000,
+        global_scans: Annotated[int, typer.Option(help="Scans of the global-localization runs.")] = 60,
+        speed_scans: Annotated[int, typer.Option(help="Scans timed at 5000 samples and all beams.")] = 30,
+        quick: Annotated[bool, typer.Option(help="A small run for smoke tests: 1 seed, 25 scans.")] = False,
+        scans: Annotated[
+            int | None, typer.Option(help="Use only the first SCANS scans of each log (a shorter tour).")
+        ] = None,
+        cache: Annotated[Path, typer.Option(help="Cache of maps and crowded logs.")] = Path(
+            "bench-results/cache/localization"
+        ),
+        kidnap_rate: Annotated[
+            float, typer.Option(help="Kidnaps per metre (the paper: 0.005; raise it for short runs).")
+        ] = 0.005,
+        figure: Annotated[bool, typer.Option(help="Draw the Fig. 5-like picture.")] = True,
+        output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
+    ) -> None:
+        """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
+        from rich.console import Console
+        from rich.progress import Progress
+
+        from tourbot.bench.peers.amcl_adapter import amcl_available
+        from tourbot.data import data_dir
+        from tourbot.errors import TourbotError
+        from tourbot.io import read_carmen
+        from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
+        from tourbot.records import RobotLog
+
+        console = Console()
+        root = data_dir()
+        if root is None:
+            raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
+        names = [n.strip() for n in logs.split(",") if n.strip()]
+        for n in names:
+            if n not in LOGS:
+                raise TourbotError(f"unknown log {n!r}; choose from {', '.join(LOGS)}")
+        chosen = [m.strip() for m in methods.split(",") if m.strip()]
+        if "amcl" in chosen and not amcl_available():
+            console.print("[yellow]amcl not installed: Nav2 AMCL left out (pip install amcl)[/]")
+            chosen.remove("amcl")
+        n_seeds = 1 if quick else seeds
+        limit = 25 if quick else scans
+        g_scans = min(global_scans, 25) if quick else global_scans
+        cache.mkdir(parents=True, exist_ok=True)
+
+        report = BenchReport(
+            "localization",
+            [
+                "log",
+                "method",
+                "fail sparse %",
+                "fail peak %",
+                "err peak cm",
+                "head peak deg",
+                "recovered %",
+                "t rec s",
+                "d rec m",
+                "global ok %",
+                "t global s",
+                "ms/update",
+                "x real time",
+            ],
+        )
+        report.meta = {
+            "seeds": n_seeds,
+            "particles": particles,
+            "global_scans": g_scans,
+            "scans": limit,
+            "kidnap_rate_per_m": kidnap_rate,
+            "quick": quick,
+            "crowd": {},
+        }
+        figure_runs: dict[str, tuple[RunResult, Any]] = {}
+        with Progress(console=console) as progress:
+            for name in names:
+                base = read_carmen(root / "carmen" / LOGS[name])
+                grid = _map(base, name, cache)  # the whole log's reference map
+                if limit:
+                    base = RobotLog(base.source, base.scans[:limit], base.odometry, base.warnings)
+                duration = float(base.times[-1] - base.times[0])
+                ref = base.reference_poses
+                path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
+                data: list[dict[str, Any]] = []
+                task = progress.add_task(f"{name}: crowds", total=2 * n_seeds)
+                for seed in range(n_seeds):
+                    sparse, sparse_truth = _crowded(base, grid, name, "sparse", seed, cache)
+                    progress.advance(task)
+                    peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
+                    progress.advance(task)
+                    kid_rng = np.random.default_rng(KIDNAP_SEED_OFFSET + seed)
+                    kidnaps = plan_kidnaps(
+                        ref, base.times, kid_rng, KidnapConfig(probability_per_metre=kidnap_rate)
+                    )
+                    data.append(
+                        {
+                            "sparse": sparse,
+                            "peak": peak,
+                            "kidnapped": apply_kidnaps(peak, kidnaps),
+                            "kidnaps": [k.scan for k in kidnaps],
+                            "fraction": (
+                                float(sparse_truth.fraction.mean()),
+                                float(peak_truth.fraction.mean()),
+                            ),
+                            "longest": peak_truth.longest_above(0.5),
+                        }
+                    )
+                report.meta["crowd"][name] = {
+                    "sparse_mean_corrupted": mean_ci([d["fraction"][0] for d in data]),
+                    "peak_mean_corrupted": mean_ci([d["fraction"][1] for d in data]),
+                    "peak_longest_above_50_s": mean_ci([d["longest"] for d in data]),
+                    "kidnaps": [d["kidnaps"] for d in data],
+                }
+                for method in chosen:
+                    task = progress.add_task(f"{name}: {method}", total=n_seeds)
+                    fails_s, fails_p, errs, heads, secs, rtf = [], [], [], [], [], []
+                    rec_ok: list[float] = []
+                    rec_t: list[float] = []
+                    rec_d: list[float] = []
+                    glob_ok, glob_t = [], []
+                    make = _factory(method, grid, particles)
+                    first = tuple(ref[0])
+                    for seed, d in enumerate(data):
+                        r_s = _run(make("tracking", first, seed), d["sparse"])
+                        e_s, _ = tracking_errors(r_s.est, ref[: len(r_s.est)])
+                        fails_s.append(100.0 * float(np.mean(e_s > FAIL_DISTANCE)))
+                        r_p = _run(make("tracking", first, seed), d["peak"])
+                        e_p, h_p = tracking_errors(r_p.est, ref[: len(r_p.est)])
+                        fails_p.append(100.0 * float(np.mean(e_p > FAIL_DISTANCE)))
+                        errs.append(100.0 * float(e_p.mean()))
+                        heads.append(float(np.degrees(h_p.mean())))
+                        secs.append(1000.0 * float(np.mean(r_p.seconds)))
+                        rtf.append(duration / max(float(r_p.seconds.sum()), 1e-12))
+                        if seed == 0:
+                            figure_runs[method] = (r_p, d["peak"])
+                        if d["kidnaps"]:
+                            r_k = _run(make("tracking", first, seed), d["kidnapped"])
+                            e_k, _ = tracking_errors(r_k.est, ref[: len(r_k.est)])
+                            for ok, t_rec, d_rec in recovery(e_k, base.times, path, d["kidnaps"]):
+                                rec_ok.append(100.0 * ok)
+                                rec_t.append(t_rec)
+                                rec_d.append(d_rec)
+                        r_g = _run(make("global", first, seed), d["peak"], g_scans)
+                        e_g, _ = tracking_errors(r_g.est, ref[: len(r_g.est)])
+                        j = settle_index(e_g, base.times, 0, len(e_g))
+                        glob_ok.append(100.0 * (j is not None))
+                        glob_t.append(math.nan if j is None else float(base.times[j] - base.times[0]))
+                        progress.advance(task)
+
+                    def fmt(values: list[float], digits: int = 1) -> str:
+                        m, h = mean_ci(values)
+                        return "-" if math.isnan(m) else f"{m:.{digits}f} ± {h:.{digits}f}"
+
+                    report.add(
+                        **{
+                            "log": name,
+                            "method": method,
+                            "fail sparse %": fmt(fails_s),
+                            "fail peak %": fmt(fails_p),
+                            "err peak cm": fmt(errs),
+                            "head peak deg": fmt(heads, 2),
+                            "recovered %": fmt(rec_ok, 0) + f" (n={len(rec_ok)})",
+                            "t rec s": fmt(rec_t),
+                            "d rec m": fmt(rec_d),
+                            "global ok %": fmt(glob_ok, 0),
+                            "t global s": fmt(glob_t),
+                            "ms/update": fmt(secs),
+                            "x real time": fmt(rtf, 0),
+                            "raw": {
+                                "fail_sparse": fails_s,
+                                "fail_peak": fails_p,
+                                "err_peak_cm": errs,
+                                "heading_peak_deg": heads,
+                                "recovered": rec_ok,
+                                "recovery_s": rec_t,
+                                "recovery_m": rec_d,
+                                "global_ok": glob_ok,
+                                "global_s": glob_t,
+                                "ms_per_update": secs,
+                                "real_time_factor": rtf,
+                            },
+                        }
+                    )
+                if name == names[0]:
+                    _speed(report, base, grid, chosen, duration, speed_scans if not quick else 5)
+                if figure and figure_runs and name == names[0]:
+                    pic = (output or Path("bench-results/localization.json")).with_name(
+                        "localization-fig5.png"
+                    )
+                    _figure(figure_runs, grid, ref, pic)
+                    report.notes.append(f"Fig. 5-like picture (peak crowd, seed 0): {pic}")
+        for name, c in report.meta["crowd"].items():
+            s, p, longest = c["sparse_mean_corrupted"], c["peak_mean_corrupted"], c["peak_longest_above_50_s"]
+            report.notes.append(
+                f"{name}: corrupted beams sparse {100 * s[0]:.1f} ± {100 * s[1]:.1f} %, peak "
+                f"{100 * p[0]:.1f} ± {100 * p[1]:.1f} % (longest stretch above 50 %: {longest[0]:.0f} s); "
+                f"kidnaps per seed {[len(k) for k in c['kidnaps']]}"
+            )
+        report.finish(output, console)
+
+
+def _speed(report: BenchReport, log: Any, grid: Any, methods: list[str], duration: float, scans: int) -> None:
+    """MCL vs AMCL at 5000 samples and all beams, side by side on the same scans."""
+    per_scan = duration / max(1, len(log.scans) - 1)
+    timed: dict[str, float] = {}
+    for method in ("mcl-novelty", "mcl-none", "amcl"):
+        if method not in methods:
+            continue
+        make = _factory(method, grid, 5000, fixed=True, beams=log.scans[0].ranges.size)
+        loc = make("tracking", tuple(log.reference_poses[0]), 0)
+        r = _run(loc, log, scans)
+        timed[method] = float(np.median(r.seconds[1:] if len(r.seconds) > 1 else r.seconds))
+    for method, s in timed.items():
+        ratio = timed.get("amcl", math.nan) / s if method != "amcl" else 1.0
+        report.notes.append(
+            f"speed, 5000 samples, all {log.scans[0].ranges.size} beams, {scans} scans: {method} "
+            f"{1000 * s:.1f} ms/update median, {per_scan / s:.0f}x real time; AMCL/this = {ratio:.1f}x"
+        )
+    report.meta["speed_5000_all_beams_s"] = timed
+
+
+def _figure(runs: dict[str, tuple[RunResult, Any]], grid: Any, ref: FloatArray, path: Path) -> None:
+    """Estimated and reference paths with the endpoints of the integrated beams, one panel per
+    localizer (Fox et al. 1998, Fig. 5), on the peak-crowd log."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tourbot.geometry import compose
+
+    n = len(runs)
+    cols = min(4, n)
+    rows = math.ceil(n / cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 5.5 * rows), squeeze=False)
+    extent = (
+        grid.origin[0],
+        grid.origin[0] + grid.width,
+        grid.origin[1],
+        grid.origin[1] + grid.height,
+    )
+    image = np.where(grid.prob < 0, 0.85, 1.0 - 0.8 * grid.prob)
+    for ax, (method, (run, log)) in zip(axes.ravel(), runs.items(), strict=False):
+        ax.imshow(image, origin="lower", cmap="gray", vmin=0, vmax=1, extent=extent)
+        pts = []
+        for i in range(0, len(run.est), 3):
+            scan = log.scans[i]
+            g = scan.geometry
+            laser = compose(run.est[i], g.offset)
+            u = run.used[i, : g.num_beams] & (scan.ranges < g.max_range)
+            a = laser[2] + g.angles[u]
+            r = scan.ranges[u]
+            pts.append(np.stack([laser[0] + r * np.cos(a), laser[1] + r * np.sin(a)], axis=-1))
+        if pts:
+            p = np.concatenate(pts)
+            ax.scatter(p[:, 0], p[:, 1], s=0.3, c="tab:orange", alpha=0.5, linewidths=0)
+        ax.plot(ref[: len(run.est), 0], ref[: len(run.est), 1], "k-", lw=0.8, label="reference")
+        ax.plot(run.est[:, 0], run.est[:, 1], "b-", lw=0.8, label="estimate")
+        err = np.hypot(*(run.est[:, :2] - ref[: len(run.est), :2]).T)
+        ax.set_title(f"{method}: {100 * np.mean(err > FAIL_DISTANCE):.1f} % failures", fontsize=9)
+        lo = ref[: len(run.est), :2].min(axis=0) - 6.0
+        hi = ref[: len(run.est), :2].max(axis=0) + 6.0
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        ax.set_aspect("equal")
+        ax.tick_params(labelsize=6)
+    for ax in axes.ravel()[n:]:
+        ax.axis("off")
+    axes.ravel()[0].legend(fontsize=6, loc="lower left")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

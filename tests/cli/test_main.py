@@ -1,0 +1,33 @@
+"""The ``tourbot`` entry point: usage errors are one short message, exit code 2, no traceback."""
+
+from __future__ import annotations
+
+import pytest
+
+from tourbot.cli.main import main
+
+
+def _run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["site", "place", "ada", "--x", "3"], "No such option: --x"),
+        (["localize", "x.log", "--map", "m.yaml", "-o", "t.txt", "--method", "foo"], "'foo' is not one of"),
+        (["no-such-command"], "No such command"),
+        (["log", "info"], "Missing argument"),
+    ],
+)
+def test_usage_errors_are_one_message_without_traceback(
+    args: list[str], expected: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert _run(args) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert expected in err
+    assert "Traceback" not in err

@@ -1,0 +1,66 @@
+"""``tourbot site``: bad input gives one clear line; nothing a user saved in the database is lost."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from tourbot.cli.main import main
+
+
+def _run(args: list[str]) -> int:
+    try:
+        main(args)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    return 0
+
+
+def test_database_in_a_new_folder_is_created(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "new" / "deeper" / "site.db"
+    assert (
+        _run(["site", "exhibit", "my-thing", "--x", "1", "--y", "2", "--database", f"sqlite:///{path}"]) == 0
+    )
+    assert path.is_file()
+    assert _run(["site", "list", "--database", f"sqlite:///{path}"]) == 0
+    assert "my-thing" in capsys.readouterr().out
+
+
+def test_a_file_that_is_no_database_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(bytes(range(256)) * 8)
+    assert _run(["site", "list", "--database", f"sqlite:///{junk}"]) == 2
+    err = capsys.readouterr().err
+    assert "junk.db" in err
+    assert "file is not a database" in err
+    assert len(err.strip().splitlines()) == 1
+    assert "Traceback" not in err
+    assert junk.read_bytes() == bytes(range(256)) * 8  # left as it was
+
+
+def test_binary_site_file_names_the_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    junk = tmp_path / "junk.yaml"
+    junk.write_bytes(b"\xd7\xff\x00" * 100)
+    assert _run(["site", "import", "--site", str(junk), "--database", f"sqlite:///{tmp_path / 'x.db'}"]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{junk}: not a text (UTF-8) YAML file" in err
+    assert "Traceback" not in err
+
+
+def test_import_keeps_what_the_user_added_and_edited(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    db = ["--database", f"sqlite:///{tmp_path / 'site.db'}"]
+    assert _run(["site", "import", *db]) == 0
+    assert _run(["site", "exhibit", "my-thing", "--x", "1", "--y", "2", "--name", "Mine", *db]) == 0
+    assert _run(["site", "place", "marathon-runner", "3.5", "4.5", *db]) == 0
+    capsys.readouterr()
+    assert _run(["site", "import", *db]) == 0  # a second import must not undo the edits
+    assert "0 exhibits and 0 tours" in capsys.readouterr().out
+    assert _run(["site", "list", *db]) == 0
+    out = capsys.readouterr().out
+    assert "my-thing" in out
+    row = next(line for line in out.splitlines() if "marathon-runner" in line)
+    assert "3.50" in row
+    assert "4.50" in row
