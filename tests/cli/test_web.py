@@ -64,3 +64,20 @@ def test_import_keeps_what_the_user_added_and_edited(
     row = next(line for line in out.splitlines() if "marathon-runner" in line)
     assert "3.50" in row
     assert "4.50" in row
+
+
+def test_serve_start_keeps_the_database(tmp_path: Path) -> None:
+    from tourbot.web.serve import ServeSettings, build_site_app
+
+    url = f"sqlite:///{tmp_path / 'site.db'}"
+    assert _run(["site", "import", "--database", url]) == 0
+    assert _run(["site", "remove", "theatre-masks", "--database", url]) == 0
+    assert (
+        _run(["site", "exhibit", "my-thing", "--x", "1", "--y", "2", "--text", "mine", "--database", url])
+        == 0
+    )
+    _, db = build_site_app(ServeSettings(site="fhw", database=url, crowd="empty", staff_password="pw-123456"))
+    slugs = {e.slug for e in db.exhibits()}
+    assert "my-thing" in slugs
+    assert "theatre-masks" not in slugs  # a removal is not undone by re-importing the site file
+    assert db.exhibit("my-thing").text == "mine"
