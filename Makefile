@@ -6,6 +6,7 @@ VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.tourbot-installed
 NODE_STAMP := node_modules/.tourbot-installed
+PEERS_STAMP := $(VENV)/.tourbot-peers-installed
 
 .PHONY: setup demo test lint typecheck pytest bench-setup clean
 
@@ -19,6 +20,12 @@ $(NODE_STAMP): package.json package-lock.json
 	npm ci --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
+# The peers tourbot is compared with (Nav2 AMCL's core, Stone Soup): benchmark extras, also
+# installed for the tests so that the adapters are tested.
+$(PEERS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,peers]'
+	touch $(PEERS_STAMP)
+
 setup: $(STAMP) $(NODE_STAMP)
 
 demo: setup
@@ -31,14 +38,12 @@ lint: setup
 typecheck: setup
 	$(BIN)/mypy
 
-pytest: setup
+pytest: setup $(PEERS_STAMP)
 	$(BIN)/python -m pytest -q
 
 test: lint typecheck pytest
 
-# The peers tourbot is compared with (Nav2 AMCL, Stone Soup), for `tourbot bench`.
-bench-setup: setup
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,peers]'
+bench-setup: setup $(PEERS_STAMP)
 
 clean:
 	rm -rf $(VENV) node_modules .mypy_cache .ruff_cache .pytest_cache
