@@ -40,6 +40,10 @@ def register(app: typer.Typer) -> None:
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
 
+        from tourbot.errors import InputError
+
+        if not duration > 0:
+            raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
         console = Console()
         the_site = load_site(site_path(site))
         settings = SimulationSettings(crowd=crowd, seed=seed, sim=SimConfig(record=True))
