@@ -364,16 +364,16 @@ def test_grid_errors_are_localization_errors() -> None:
     assert issubclass(GridMarkovError, LocalizationError)
 
 
-def test_unknown_cells_are_not_walls(room: OccupancyGrid, caster: DistanceCaster) -> None:
-    # A trinary map (map_server PGM) turns uncertain cells unknown; they must not act as walls in
-    # the expected ranges. The scans come from the room without them.
+def test_unknown_cells_need_not_be_walls(room: OccupancyGrid, caster: DistanceCaster) -> None:
+    # A trinary map (map_server PGM) turns uncertain cells unknown; with unknown_blocks=False they do
+    # not act as walls in the expected ranges. The scans come from the room without them.
     prob = room.prob.copy()
     prob[int(1.0 / RES) : int(3.0 / RES), int(5.5 / RES) : int(6.0 / RES)] = -1.0
     patched = OccupancyGrid(prob, RES, room.origin)
     rng = np.random.default_rng(9)
     truth = _path((-0.3, 0.3, 0.0), 12, step=0.35, turn=0.03)
     odom = _odometry(truth, rng)
-    loc = GridMarkovLocalization(patched)
+    loc = GridMarkovLocalization(patched, GridMarkovConfig(unknown_blocks=False))
     loc.reset_tracking(truth[0])
     for i, pose in enumerate(truth):
         est = loc.update(odom[i], _scan(caster, pose, float(i), rng))

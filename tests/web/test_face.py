@@ -3,7 +3,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.web.face import FaceConfig, face_for, gaze, mood
@@ -26,6 +26,7 @@ def test_eyes_look_along_the_planned_path() -> None:
     assert gaze(pose, []) == 0.0
 
 
+@settings(deadline=None)
 @given(
     st.tuples(st.floats(-50, 50), st.floats(-50, 50), st.floats(-math.pi, math.pi)),
     st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), max_size=10),

@@ -430,6 +430,11 @@ def register(bench: typer.Typer) -> None:
             met=p99 <= TARGET_P99_MS,
         )
         report.add(
+            measure=f"  at the server: sampled -> sent p99 ({viewers})",
+            value=crowd.get("server_p99_ms", math.nan),
+            unit="ms",
+        )
+        report.add(
             measure=f"server CPU ({viewers} viewers)",
             value=100 * crowd.get("server_cpu", math.nan),
             unit="% of a core",

@@ -80,17 +80,11 @@ class RangeCaster(Protocol):
     def cast(self, poses: ArrayLike, angles: ArrayLike) -> NDArray[np.float32]: ...
 
 
-def _default_caster(grid: OccupancyGrid, max_range: float) -> RangeCaster:
-    """The project's fastest exact caster; unknown cells do not stop rays.
-
-    A map that went through a map_server PGM is trinary: its uncertain cells (people seen once,
-    glass) come back unknown, and as walls in the expected ranges they mislead the localizer (on
-    the first 40 FHW scans: 6 scans off by metres with them blocking, none without). Only
-    occupied cells block; a ray leaving the map reads the maximum range.
-    """
+def _default_caster(grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> RangeCaster:
+    """The project's fastest exact caster."""
     from tourbot.maps.raycast import DistanceCaster
 
-    return DistanceCaster(grid, max_range, unknown_blocks=False)
+    return DistanceCaster(grid, max_range, unknown_blocks=unknown_blocks)
 
 
 @dataclass(frozen=True)
@@ -117,6 +111,11 @@ class GridMarkovConfig:
       half a cell or half a heading step, so slow motion is not rounded away.
     - ``motion_sigmas``: width of the motion kernel's window in standard deviations.
     - ``tracking_std``: the default spread of :meth:`GridMarkovLocalization.reset_tracking`.
+    - ``unknown_blocks``: whether unknown cells stop the rays of the expected-range table. Yes
+      for a map with its unknown cells only outside the observed space (the log's reference map:
+      on FHW, 12.3 cm mean error with the novelty filter, against 31.9 cm without); no for a
+      trinary map_server map, whose uncertain cells come back unknown (first 40 FHW scans through
+      a PGM: 6 scans off by metres with, none without).
     - ``mode_radius``, ``mode_angle``: the estimate is the belief's mean within this distance of
       its most probable pose.
     """
@@ -138,6 +137,7 @@ class GridMarkovConfig:
     min_rotation: float = math.radians(1.0)
     motion_sigmas: float = 3.0
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
+    unknown_blocks: bool = True
     mode_radius: float = 0.5
     mode_angle: float = math.radians(20.0)
 
@@ -316,7 +316,7 @@ class GridMarkovLocalization:
         config: GridMarkovConfig | None = None,
         motion_model: OdometryMotionModel | None = None,
         sensor_model: BeamModel | None = None,
-        caster_factory: Callable[[OccupancyGrid, float], RangeCaster] = _default_caster,
+        caster_factory: Callable[[OccupancyGrid, float], RangeCaster] | None = None,
         table: ExpectedRangeTable | None = None,
     ) -> None:
         self.config = config or GridMarkovConfig()
@@ -379,7 +379,10 @@ class GridMarkovLocalization:
         """Build (once per map and maximum range) the expected-range table by ray casting."""
         lat = self.lattice
         if self._table is None or self._table.max_range != max_range:
-            caster = self._caster_factory(lat.grid, max_range)
+            if self._caster_factory is None:
+                caster = _default_caster(lat.grid, max_range, self.config.unknown_blocks)
+            else:
+                caster = self._caster_factory(lat.grid, max_range)
             cfg = self.config
             self._table = ExpectedRangeTable.build(
                 lat, caster, max_range, cfg.table_angle_step, cfg.range_bin, progress

@@ -178,7 +178,15 @@ class SiteNavigator:
             # the path turns back: turn on the spot first (a round robot can)
             self._unblocked()
             return 0.0, math.copysign(self.config.robot.max_turn_rate * 0.8, bearing)
-        if moving and speed >= self.config.crawl_speed:
+        crawl = self.config.crawl_speed
+        if moving and speed >= crawl:
+            self._unblocked()
+            return speed, turn
+        if (
+            moving
+            and self.window.choose(self._cmd[0], self._cmd[1], carrot, self._mapped(pose, points))[0] < crawl
+        ):
+            # as slow with only what the map explains (walls, a narrow door, starting up): not blocked
             self._unblocked()
             return speed, turn
         if moving:
@@ -267,6 +275,17 @@ class SiteNavigator:
                 return False
             return self.path is not None  # keep the old path if going around the crowd fails
         return True
+
+    def _mapped(self, pose: tuple[float, float, float], points: FloatArray) -> FloatArray:
+        """The obstacle points (robot frame) the static map explains: walls, not people."""
+        if not len(points):
+            return points
+        world = transform_points(np.asarray(pose), points)
+        cells = self.costmap._frame.world_to_cell(world)
+        ok = self.costmap._frame.inside(cells)
+        on_map = np.zeros(len(points), dtype=bool)
+        on_map[ok] = self.costmap.blocked[cells[ok, 0], cells[ok, 1]]
+        return np.ascontiguousarray(points[on_map])
 
     def _carrot(self, pose: tuple[float, float, float]) -> tuple[float, float]:
         """The point ``lookahead`` metres ahead along the path, in the robot frame."""
