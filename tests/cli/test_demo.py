@@ -59,6 +59,8 @@ def test_simulate_writes_a_carmen_log_with_ground_truth(tmp_path: Path) -> None:
         (["demo", "--particles", "-1"], "field --particles: must be at least 1, got -1"),
         (["demo", "--speedup", "-2"], "field --speedup"),
         (["simulate", "--duration", "-5"], "field --duration: must be positive"),
+        (["demo", "--crowd", "-3"], "unknown crowd '-3'; choose empty, sparse, peak or a number of visitors"),
+        (["simulate", "--crowd", "lots"], "unknown crowd 'lots'"),
     ],
 )
 def test_bad_numbers_are_refused_before_running(
