@@ -50,3 +50,27 @@ def test_simulate_writes_a_carmen_log_with_ground_truth(tmp_path: Path) -> None:
     people = json.loads((tmp_path / "s.people.json").read_text())
     assert len(people["positions"]) == 50
     assert len(people["positions"][0]) == 10
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["demo", "--duration", "-1"], "field --duration: must be positive"),
+        (["demo", "--particles", "-1"], "field --particles: must be at least 1, got -1"),
+        (["demo", "--speedup", "-2"], "field --speedup"),
+        (["simulate", "--duration", "-5"], "field --duration: must be positive"),
+        (["demo", "--crowd", "-3"], "unknown crowd '-3'; choose empty, sparse, peak or a number of visitors"),
+        (["simulate", "--crowd", "lots"], "unknown crowd 'lots'"),
+    ],
+)
+def test_bad_numbers_are_refused_before_running(
+    args: list[str], expected: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tests.cli.test_logs import _run
+
+    out = ["--out", str(tmp_path / "demo")] if args[0] == "demo" else ["--write-log", str(tmp_path / "s.log")]
+    assert _run([*args, *out]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert expected in err
+    assert "Traceback" not in err
+    assert not any(tmp_path.iterdir())  # nothing written

@@ -138,3 +138,9 @@ def test_a_plain_folder_is_not_taken_for_a_bag(tmp_path: Path, capsys: pytest.Ca
     err = " ".join(capsys.readouterr().err.split())
     assert f"{folder}: a folder, not a log file" in err
     assert "Traceback" not in err
+
+
+def test_convert_creates_the_output_folder(fhw_log_path: Path, tmp_path: Path) -> None:
+    out = tmp_path / "new" / "deeper" / "fhw.log"
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(out)]) == 0
+    assert len(read_carmen(out)) == 488

@@ -65,3 +65,20 @@ def test_map_info_of_a_folder_says_so(tmp_path: Path, capsys: pytest.CaptureFixt
     err = " ".join(capsys.readouterr().err.split())
     assert f"{tmp_path}: a folder, not a map YAML file" in err
     assert "Traceback" not in err
+
+
+def test_show_refuses_an_unknown_picture_format_first(
+    tmp_path: Path, fhw_log_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "fhw.xyz"
+    assert _run(["show", str(fhw_log_path), "-o", str(out)]) == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"{out} (field --output): cannot write a .xyz picture" in err
+    assert ".png" in err
+    assert "Traceback" not in err
+
+
+def test_log_tum_creates_the_output_folder(tmp_path: Path, fhw_log_path: Path) -> None:
+    out = tmp_path / "new" / "deeper" / "ref.txt"
+    assert _run(["log", "tum", str(fhw_log_path), "-o", str(out)]) == 0
+    assert len(out.read_text().splitlines()) == 489  # header + one pose per scan

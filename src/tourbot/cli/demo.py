@@ -27,7 +27,16 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Run a guided tour in the simulated crowded museum; live progress, then a recording and a GIF."""
         from tourbot.cli._tour_view import run_tour
+        from tourbot.errors import InputError
 
+        if not duration > 0:
+            raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
+        if particles < 1:
+            raise InputError(f"must be at least 1, got {particles}", field="--particles")
+        if speedup < 0:
+            raise InputError(f"must be 0 (as fast as possible) or positive, got {speedup}", field="--speedup")
+        if dwell_scale < 0:
+            raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
         run_tour(
             site=site,
             tour=tour,

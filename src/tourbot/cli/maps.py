@@ -106,6 +106,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.maps.reference import build_reference_map
         from tourbot.plotting import Trajectory, show_log
 
+        _check_picture_format(output)
         robot_log = load_log(log, lenient=lenient)
         trajectories = []
         for path in trajectory or []:
@@ -127,3 +128,19 @@ def register(app: typer.Typer) -> None:
             robot_log, output, grid=grid, trajectories=trajectories, odometry=odometry, map_note=note
         )
         typer.echo(f"wrote {out}")
+
+
+def _check_picture_format(output: Path) -> None:
+    """Refuse, before any work, a picture name whose extension matplotlib cannot write."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from tourbot.errors import InputError
+
+    suffix = output.suffix.lower().lstrip(".")
+    formats = FigureCanvasBase.get_supported_filetypes()
+    if suffix and suffix not in formats:
+        raise InputError(
+            f"cannot write a .{suffix} picture; use one of {', '.join('.' + f for f in sorted(formats))}",
+            path=output,
+            field="--output",
+        )

@@ -33,6 +33,7 @@ def register(app: typer.Typer) -> None:
         from rich.progress import Progress
 
         from tourbot.cli._tour_view import start_pose_for
+        from tourbot.errors import InputError
         from tourbot.io.carmen import write_carmen
         from tourbot.io.tum import write_tum
         from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
@@ -40,6 +41,8 @@ def register(app: typer.Typer) -> None:
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
 
+        if not duration > 0:
+            raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
         console = Console()
         the_site = load_site(site_path(site))
         settings = SimulationSettings(crowd=crowd, seed=seed, sim=SimConfig(record=True))

@@ -756,6 +756,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         )
     odom_policy = _policy([s.odom for s in log.scans], "odometry", path)
     ref_policy = _policy([s.reference for s in log.scans], "reference", path)
+    path.parent.mkdir(parents=True, exist_ok=True)
     with _open_for_writing(path) as out:
         out.write(f"# CARMEN log written by tourbot from {log.source}\n")
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")

@@ -29,6 +29,7 @@ def write_tum(path: str | Path, times: ArrayLike, poses: ArrayLike) -> None:
     for ti, (x, y, th) in zip(t.tolist(), p.tolist(), strict=True):
         qz, qw = math.sin(th / 2.0), math.cos(th / 2.0)
         lines.append(f"{ti!r} {x!r} {y!r} 0.0 0.0 0.0 {qz!r} {qw!r}")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
     Path(path).write_text("\n".join(lines) + "\n")
 
 

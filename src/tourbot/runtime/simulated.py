@@ -14,7 +14,7 @@ from tourbot.runtime.interfaces import Sink
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 from tourbot.runtime.loop import Runtime, RuntimeConfig
 from tourbot.runtime.sinks import MetricsSink, Recorder
-from tourbot.sim.crowd import CrowdConfig
+from tourbot.sim.crowd import PRESETS, CrowdConfig, CrowdError
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
 
@@ -25,7 +25,13 @@ def crowd_config(crowd: str | int) -> CrowdConfig | None:
     """A crowd preset by name (``empty``, ``sparse``, ``peak``) or a number of visitors."""
     if isinstance(crowd, int) or str(crowd).isdigit():
         n = int(crowd)
+        if n < 0:
+            raise CrowdError(f"a crowd of {n} visitors: the number must be 0 or more")
         return None if n == 0 else replace(CrowdConfig.preset("sparse"), num_people=n, density=None)
+    if str(crowd) not in PRESETS:
+        raise CrowdError(
+            f"unknown crowd {crowd!r}; choose {', '.join(PRESETS)} or a number of visitors (0 or more)"
+        )
     cfg = CrowdConfig.preset(str(crowd))
     empty = (cfg.density is None and cfg.num_people == 0) or cfg.density == 0
     return None if empty else cfg
