@@ -22,6 +22,7 @@ def _run(args: list[str]) -> int:
         (["localize", "x.log", "--map", "m.yaml", "-o", "t.txt", "--method", "foo"], "'foo' is not one of"),
         (["no-such-command"], "No such command"),
         (["log", "info"], "Missing argument"),
+        (["bench", "mcl", "--particles", "-5"], "Invalid value for '--particles'"),
     ],
 )
 def test_usage_errors_are_one_message_without_traceback(

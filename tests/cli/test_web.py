@@ -66,8 +66,10 @@ def test_import_keeps_what_the_user_added_and_edited(
     assert "4.50" in row
 
 
-def test_serve_start_keeps_the_database(tmp_path: Path) -> None:
+def test_serve_start_keeps_the_database(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from tourbot.web.serve import ServeSettings, build_site_app
+
+    monkeypatch.chdir(tmp_path)  # the server keeps its speech cache in the current folder
 
     url = f"sqlite:///{tmp_path / 'site.db'}"
     assert _run(["site", "import", "--database", url]) == 0

@@ -49,7 +49,7 @@ def _recovery_times(err: np.ndarray, times: np.ndarray, starts: list[int]) -> li
 def register(bench: typer.Typer) -> None:
     @bench.command("mcl")
     def mcl(
-        particles: Annotated[int, typer.Option(help="Samples (fixed: KLD-sampling off).")] = 5000,
+        particles: Annotated[int, typer.Option(min=1, help="Samples (fixed: KLD-sampling off).")] = 5000,
         filters: Annotated[str, typer.Option(help="Beam filters, comma-separated.")] = "none,entropy,novelty",
         kidnap_seeds: Annotated[int, typer.Option(help="Kidnapped copies of the log (novelty filter).")] = 3,
         scans: Annotated[int, typer.Option(help="Use only the first N scans (0: all).")] = 0,

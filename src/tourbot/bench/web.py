@@ -376,7 +376,7 @@ def register(bench: typer.Typer) -> None:
         viewers: Annotated[int, typer.Option(help="concurrent viewers")] = 200,
         viewer_seconds: Annotated[float, typer.Option(help="length of the viewers run")] = 20.0,
         trials: Annotated[int, typer.Option(help="command-to-motion trials")] = 10,
-        seed: int = 0,
+        seed: Annotated[int, typer.Option(help="seed of the simulated crowd")] = 0,
         output: Annotated[Path | None, typer.Option(help="JSON file")] = None,
     ) -> None:
         """Live-stream bandwidth, many viewers, command-to-motion latency (server in its own process)."""
