@@ -168,6 +168,7 @@ class MCLConfig:
     injection_local: float = 0.5
     injection_local_std: float = 2.0
     injection_beam_step: int = 4
+    fresh_wins: int = 2
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -209,6 +210,9 @@ class MonteCarloLocalization:
         self._casters: dict[float, RayCaster] = {}
         self.samples: FloatArray = np.zeros((0, 3))
         self.weights: FloatArray = np.zeros(0)
+        # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
+        self._fresh: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+        self._fresh_won = 0  # consecutive scans on which the fresh samples held the heaviest cluster
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -245,6 +249,8 @@ class MonteCarloLocalization:
     def _set_belief(self, samples: FloatArray) -> None:
         self.samples = np.ascontiguousarray(samples, dtype=np.float64)
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
+        self._fresh = np.zeros(samples.shape[0], dtype=bool)
+        self._fresh_won = 0
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -264,6 +270,9 @@ class MonteCarloLocalization:
             raise LocalizationError(
                 f"scan at t={scan.timestamp}: {ranges.shape[0]} ranges for {geometry.num_beams} beams"
             )
+
+        if self._fresh.shape != self.weights.shape:  # the belief was set from outside
+            self._fresh = np.zeros(self.weights.shape, dtype=bool)
 
         # 1. Motion (Eq. 1): sample the odometry motion model.
         if self._odom is not None:
@@ -360,7 +369,11 @@ class MonteCarloLocalization:
             keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance)
         else:
             m = min(cfg.novelty_samples, self.samples.shape[0])
-            idx = low_variance_resample(self.weights, m, float(self.rng.random()))
+            # Eq. 6 averages over the belief that has earned it: freshly injected samples (a
+            # recovery guess that has not yet won a scan) would make it two-peaked, and a crowd's
+            # short beams would then not look "shorter than expected" enough to be dropped.
+            w_est = self._established_weights()
+            idx = low_variance_resample(w_est, m, float(self.rng.random()))
             laser = compose(self.samples[idx], np.asarray(geometry.offset, dtype=np.float64))
             angles = geometry.angles[valid]
             expected = self._caster(float(geometry.max_range)).cast(laser, angles)
@@ -371,10 +384,34 @@ class MonteCarloLocalization:
         used[np.flatnonzero(valid)[keep]] = True
         return used
 
+    def _established_weights(self) -> FloatArray:
+        """The weights with the freshly injected samples' set to zero (all of them if none is left)."""
+        if not self._fresh.any():
+            return self.weights
+        w = np.where(self._fresh, 0.0, self.weights)
+        return w if w.sum() > 0 else self.weights
+
     def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
+        """The heaviest cluster's mean and covariance.
+
+        Freshly injected samples count only once they have *won a scan*: when, after the weight
+        update, the heaviest cluster holds more weight of fresh samples than of established ones,
+        the recovery guess has beaten the tracked belief and every sample becomes established;
+        until then the estimate is the heaviest cluster of the established samples.
+        """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
-        return best_cluster_estimate(self.samples, self.weights, labels)
+        if self._fresh.any():
+            w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
+            w_old = np.bincount(
+                labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
+            )
+            best = int(np.argmax(w_fresh + w_old))
+            self._fresh_won = self._fresh_won + 1 if w_fresh[best] > w_old[best] else 0
+            if self._fresh_won >= cfg.fresh_wins:
+                self._fresh[:] = False
+                self._fresh_won = 0
+        return best_cluster_estimate(self.samples, self._established_weights(), labels)
 
     def _resample(
         self,
@@ -387,15 +424,31 @@ class MonteCarloLocalization:
     ) -> int:
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
-        drawn = self.samples[low_variance_resample(self.weights, n_max, float(self.rng.random()))]
-        drawn = drawn[self.rng.permutation(n_max)]
+        if self._fresh.any() and not self._fresh.all():
+            # Until the fresh samples have won (see _estimate), each group keeps its share of the
+            # samples: one scan that favours a look-alike place must not wipe out the track.
+            n_f = round(n_max * self._fresh.mean())
+            groups = [np.flatnonzero(~self._fresh), np.flatnonzero(self._fresh)]
+            parts = []
+            for g, k in zip(groups, (n_max - n_f, n_f), strict=True):
+                wg = self.weights[g]
+                wg = wg / wg.sum() if wg.sum() > 0 else np.full(g.size, 1.0 / g.size)
+                parts.append(g[low_variance_resample(wg, k, float(self.rng.random()))])
+            idx = np.concatenate(parts)
+        else:
+            idx = low_variance_resample(self.weights, n_max, float(self.rng.random()))
+        idx = idx[self.rng.permutation(n_max)]
+        drawn = self.samples[idx]
         n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
         new = drawn[:n].copy()
+        fresh = self._fresh[idx[:n]].copy()
         n_inject = round(inject_fraction * n)
         if n_inject:
             new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
+            fresh[:n_inject] = True
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
+        self._fresh = fresh
         return n_inject
 
     def _scan_drawn_poses(
