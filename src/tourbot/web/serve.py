@@ -41,6 +41,7 @@ class ServeSettings:
     port: int = 8000
     slot_minutes: float = 10.0
     staff_password: str | None = None
+    speech_dir: Path = Path(".tourbot-speech")
 
 
 def _robot_names(n: int) -> list[str]:
@@ -95,7 +96,7 @@ def build_site_app(
     config = WebConfig(
         site_name=site.description.split(":")[0] if site.description else site.name,
         slots=replace(base.slots, slot_length=settings.slot_minutes * 60.0),
-        speech_dir=Path(".tourbot-speech"),
+        speech_dir=settings.speech_dir,
         guard=GuardConfig(),
     )
     return create_app(links, db, site.grid, config), db
