@@ -246,3 +246,43 @@ def test_same_seed_same_result(room: OccupancyGrid) -> None:
         mcl.reset_tracking(drive.truth[0])
         runs.append(_run(mcl, drive))
     assert np.array_equal(runs[0], runs[1])
+
+
+def _crowd_around(truth: np.ndarray, rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    """``n`` legs (10 cm circles) 0.5-1.5 m from the robot, spread over its field of view."""
+    out = []
+    for p in truth:
+        d = rng.uniform(0.5, 1.5, n)
+        a = rng.uniform(-math.pi / 2, math.pi / 2, n)
+        out.append(
+            np.array(
+                [
+                    compose(p, np.array([di * math.cos(ai), di * math.sin(ai), 0.0]))[:2]
+                    for di, ai in zip(d, a, strict=True)
+                ]
+            )
+        )
+    return out
+
+
+def test_dense_crowd_neither_triggers_recovery_nor_loses_tracking(room: OccupancyGrid) -> None:
+    # A crowd hiding about half of every scan: the novelty filter removes its beams, so the fit of
+    # the kept beams stays high, no sample is injected and the robot is tracked throughout.
+    truth = waypoints_path(40)
+    rng = np.random.default_rng(11)
+    drive = simulate(room, truth, seed=11, circles=_crowd_around(truth, rng, 14))
+    clean = simulate(room, truth, seed=11)
+    hidden = np.mean(
+        [np.mean(c.ranges - s.ranges > 0.3) for s, c in zip(drive.scans, clean.scans, strict=True)]
+    )
+    assert 0.35 < hidden < 0.7  # the crowd really shortens about half of the beams
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=1000, min_samples=300), seed=12)
+    mcl.reset_tracking(truth[0])
+    injected = 0.0
+    errors = []
+    for k, s in enumerate(drive.scans):
+        est = mcl.update(drive.odom[k], s)
+        injected += est.info["injected"]
+        errors.append(float(np.hypot(*(est.pose[:2] - truth[k, :2]))))
+    assert injected == 0
+    assert max(errors) < 0.3

@@ -29,7 +29,12 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
    resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
    expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
-   sensor measurements (especially too long readings)") and do;
+   sensor measurements (especially too long readings)") and do. Injected samples are *fresh*
+   until they have held the heaviest cluster on ``fresh_wins`` consecutive scans: the novelty
+   filter averages Eq. 6 over the established samples only (a two-peaked belief would let a
+   crowd's short beams through), the estimate is the heaviest cluster of the established samples,
+   and resampling keeps each group's share, so a false alarm cannot hand the belief to a
+   look-alike place on one scan;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -139,6 +144,11 @@ class MCLConfig:
         ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
         around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
         over the free space, scored against the scan with every ``injection_beam_step``-th beam.
+        ``fresh_wins`` 2: injected samples stay *fresh* until their cluster has been the heaviest
+        on this many consecutive scans. Fresh samples are left out of the novelty filter's belief
+        average (Eq. 6) and out of the estimate, and resampling keeps the fresh and the established
+        samples' shares, so a recovery guess at a look-alike place must beat the track twice before
+        it replaces it (in the simulated peak crowd one scan sometimes favours such a place).
     """
 
     min_samples: int = 500
