@@ -115,7 +115,8 @@ def entropy_change_reference(
         if not z > 0:
             out[b] = -np.inf
             continue
-        post = post[post > 0] / z
+        post = post / z
+        post = post[post > 0]  # after dividing: a subnormal share can round to zero
         out[b] = h0 + np.sum(post * np.log(post))
     return out
 
@@ -158,26 +159,35 @@ def _entropy_change_kernel(
                 break
     acc = np.zeros(n_groups)
     for b in range(n_beams):
+        # H' = log Z - (1/Z) sum q log q with q = w * lik scaled by its largest value (the scale
+        # cancels; scaling keeps q log q exact when the likelihoods are tiny or subnormal).
         if identity:
-            # H' = log Z - (1/Z) sum q log q with q = w * lik: one pass, no scratch array.
+            top = 0.0
+            for i in range(n):
+                top = max(top, w[i] * lik[i, b])
             z = 0.0
             s = 0.0
-            for i in range(n):
-                q = w[i] * lik[i, b]
-                if q > 0.0:
-                    z += q
-                    s += q * math.log(q)
+            if top > 0.0:
+                for i in range(n):
+                    q = w[i] * lik[i, b] / top
+                    if q > 0.0:
+                        z += q
+                        s += q * math.log(q)
         else:
             acc[:] = 0.0
             for i in range(n):
                 acc[ids[i]] += w[i] * lik[i, b]
+            top = 0.0
+            for g in range(n_groups):
+                top = max(top, acc[g])
             z = 0.0
             s = 0.0
-            for g in range(n_groups):
-                q = acc[g]
-                if q > 0.0:
-                    z += q
-                    s += q * math.log(q)
+            if top > 0.0:
+                for g in range(n_groups):
+                    q = acc[g] / top
+                    if q > 0.0:
+                        z += q
+                        s += q * math.log(q)
         if z > 0.0:
             out[b] = h0 - (math.log(z) - s / z)
         else:
