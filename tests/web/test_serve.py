@@ -32,13 +32,13 @@ def test_serve_fhw_drives_the_simulated_robot(sqlite_url: str, tmp_path: Path) -
         with connect(client, new_session(client)) as ws:
             ws.send_text(json.dumps({"type": "book"}))
             wait_for(ws, role_is("holder"))
-            target = site["exhibits"][0]["slug"]
+            # Not the first exhibit: the simulated robot starts at its viewing pose, so a goal there
+            # is reached within one step and may never show in a status message.
+            target = site["exhibits"][-1]["slug"]
             ws.send_text(json.dumps({"type": "exhibit", "exhibit": target}))
             wait_for(ws, lambda m: m["type"] == "ack")
             # The goal reaches the robot's navigator (its status carries it at the next step).
             # Generous: on a loaded machine the first steps also compile the kernels.
-            going = wait_for(
-                ws, lambda m: m["type"] == "status" and m["nav"]["goal"] is not None, limit=20000
-            )
+            going = wait_for(ws, lambda m: m["type"] == "status" and m["nav"]["goal"] is not None, limit=600)
             exhibit = db.exhibit(target)
             assert going["nav"]["goal"] == pytest.approx([exhibit.x, exhibit.y], abs=0.01)
