@@ -18,7 +18,7 @@ import collections
 import functools
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba
 import numpy as np
@@ -27,8 +27,8 @@ from numpy.typing import NDArray
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.mapping.scan_matching import MatchParams, hill_climb
-from tourbot.maps.grid import UNKNOWN, OccupancyGrid
-from tourbot.maps.reference import ReferenceMapParams, trace_beams
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.reference import ReferenceMapParams, grid_from_counts, trace_beams
 from tourbot.records import Scan
 
 __all__ = ["IncrementalMapper", "MapperParams", "MapperStep", "MappingError"]
@@ -167,17 +167,8 @@ class IncrementalMapper:
 
     def grid(self) -> OccupancyGrid:
         """The map so far as an occupancy grid (cells no beam reached are unknown)."""
-        c = self.params.cells
-        logodds = self._hits * c.l_occ + self._misses * c.l_free
-        prob = (1.0 - 1.0 / (1.0 + np.exp(np.clip(logodds, -50.0, 50.0)))).astype(np.float32)
-        prob[(self._hits == 0) & (self._misses == 0)] = UNKNOWN
-        return OccupancyGrid(
-            prob=prob,
-            resolution=self.params.resolution,
-            origin=(self._x0, self._y0, 0.0),
-            occupied_thresh=c.occupied_thresh,
-            free_thresh=c.free_thresh,
-        )
+        cells = replace(self.params.cells, resolution=self.params.resolution)
+        return grid_from_counts(self._hits, self._misses, (self._x0, self._y0), cells)
 
     # ------------------------------------------------------------------------------------------
     def _centre_on(self, pose: FloatArray) -> None:

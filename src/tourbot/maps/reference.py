@@ -39,6 +39,7 @@ __all__ = [
     "ReferenceMapParams",
     "beam_rays",
     "build_reference_map",
+    "grid_from_counts",
     "map_quality",
     "trace_beams",
     "trace_beams_reference",
@@ -336,6 +337,17 @@ def build_reference_map(
     hits, misses = trace_beams(
         (x - x0) * inv, (y - y0) * inv, th, length * inv, is_hit, (rows, cols), crossing=p.hit == "crossing"
     )
+    return grid_from_counts(hits, misses, (x0, y0), p)
+
+
+def grid_from_counts(
+    hits: IntArray, misses: IntArray, corner: tuple[float, float], params: ReferenceMapParams
+) -> OccupancyGrid:
+    """The occupancy grid of hit and miss counts (log odds ``n_hit * l_occ + n_miss * l_free``).
+
+    ``corner`` is the world position of cell (0, 0)'s corner; cells no beam reached are unknown.
+    """
+    p = params
     logodds = hits * p.l_occ + misses * p.l_free
     prob = (1.0 - 1.0 / (1.0 + np.exp(np.clip(logodds, -50.0, 50.0)))).astype(np.float32)
     prob[(hits > 0) & (hits < p.min_hits) & (prob > p.occupied_thresh)] = 0.5
@@ -343,7 +355,7 @@ def build_reference_map(
     return OccupancyGrid(
         prob=prob,
         resolution=p.resolution,
-        origin=(x0, y0, 0.0),
+        origin=(corner[0], corner[1], 0.0),
         occupied_thresh=p.occupied_thresh,
         free_thresh=p.free_thresh,
     )
