@@ -51,6 +51,7 @@ class NavigationConfig:
     give_up_after: float = 90.0  # s blocked on one goal before skipping it
     obstacle_range: float = 3.0  # m: laser points farther than this do not matter to the window
     crawl_speed: float = 0.1  # m/s: creeping slower than this among people counts as blocked
+    map_tolerance: float = 0.15  # m: laser points this close to a mapped obstacle are the map's
     dwell_scale: float = 1.0  # scales the exhibits' dwell times (short demos)
 
 
@@ -277,14 +278,18 @@ class SiteNavigator:
         return True
 
     def _mapped(self, pose: tuple[float, float, float], points: FloatArray) -> FloatArray:
-        """The obstacle points (robot frame) the static map explains: walls, not people."""
+        """The obstacle points (robot frame) the static map explains: walls, not people.
+
+        A point within ``map_tolerance`` of a mapped obstacle is the map's: the pose estimate is a
+        few centimetres off and a wall's endpoints fall partly into the free cell beside it.
+        """
         if not len(points):
             return points
         world = transform_points(np.asarray(pose), points)
         cells = self.costmap._frame.world_to_cell(world)
         ok = self.costmap._frame.inside(cells)
         on_map = np.zeros(len(points), dtype=bool)
-        on_map[ok] = self.costmap.blocked[cells[ok, 0], cells[ok, 1]]
+        on_map[ok] = self.costmap.clearance[cells[ok, 0], cells[ok, 1]] <= self.config.map_tolerance
         return np.ascontiguousarray(points[on_map])
 
     def _carrot(self, pose: tuple[float, float, float]) -> tuple[float, float]:

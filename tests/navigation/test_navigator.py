@@ -1,0 +1,34 @@
+"""The navigator's blocked-time accounting: only what the map does not explain blocks the robot."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import pytest
+
+from tourbot.cli._tour_view import start_pose_for
+from tourbot.runtime import NavMode
+from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+from tourbot.runtime.snapshot import StateSnapshot
+from tourbot.site.default import default_site
+
+
+@pytest.mark.slow
+def test_an_empty_museum_never_blocks_the_robot() -> None:
+    """Setting off from a viewing pose near walls and exhibits is slow, but not blocked by people."""
+    site = default_site()
+    settings = SimulationSettings(crowd="empty", seed=0, particles=300)
+    settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=0.1))
+    robot = simulated_runtime(site, settings, start=start_pose_for(site, "short"), record=False)
+    robot.runtime.start_tour("short")
+    modes: set[NavMode] = set()
+
+    def finished(snapshot: StateSnapshot) -> bool:
+        mode = snapshot.navigation.mode
+        modes.add(mode)
+        return mode in (NavMode.FINISHED, NavMode.FAILED)
+
+    final = robot.runtime.run(max_time=300.0, until=finished)
+    assert final.navigation.mode == NavMode.FINISHED
+    assert NavMode.BLOCKED not in modes
+    assert final.navigation.total_blocked_time == 0.0
