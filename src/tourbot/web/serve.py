@@ -1,12 +1,14 @@
 """Serving a site: the simulated (or real) robots, the database, the app, uvicorn.
 
-``tourbot serve`` and ``tourbot demo --serve`` both call :func:`build_site_app` then
+``tourbot serve`` and ``tourbot demo`` both call :func:`build_site_app` then
 :func:`run`.
 """
 
 from __future__ import annotations
 
+import errno
 import secrets
+import socket
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -42,6 +44,8 @@ class ServeSettings:
     slot_minutes: float = 10.0
     staff_password: str | None = None
     speech_dir: Path = Path(".tourbot-speech")
+    speedup: float = 1.0  # the simulated robots run this many times faster than real time
+    fresh_staff_password: bool = False  # a new generated password at each start (the demo's)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -65,7 +69,8 @@ def simulated_links(site: Site, settings: ServeSettings) -> dict[str, RobotLink]
             crowd=settings.crowd, seed=settings.seed + i, particles=settings.particles
         )
         robot = simulated_runtime(site, sim_settings, record=False)
-        links[name] = RuntimeLink(robot.runtime, period=float(robot.simulator.dt), site_tours=tours)
+        period = float(robot.simulator.dt) / settings.speedup
+        links[name] = RuntimeLink(robot.runtime, period=period, site_tours=tours)
     return links
 
 
@@ -83,13 +88,17 @@ def build_site_app(
     db = open_database(settings.database or default_url(site.name), site=site.name)
     if not db.exhibits():
         exhibits, tours = import_site(site, db)
-        console.print(f"imported {exhibits} exhibits and {tours} tours from the site file into {db.url}")
+        console.print(
+            f"imported {exhibits} exhibits and {tours} tours from the site file into {db.url}", soft_wrap=True
+        )
     if settings.staff_password:
         db.set_staff("staff", settings.staff_password)
-    elif not db.has_staff():
+    elif settings.fresh_staff_password or not db.has_staff():
         password = secrets.token_urlsafe(9)
         db.set_staff("staff", password)
-        console.print(f"staff login created: user [bold]staff[/], password [bold]{password}[/]")
+        console.print(
+            f"staff login created: user [bold]staff[/], password [bold]{password}[/]", soft_wrap=True
+        )
     if links is None:
         links = simulated_links(site, settings)
     base = WebConfig()
@@ -102,14 +111,68 @@ def build_site_app(
     return create_app(links, db, site.grid, config), db
 
 
-def run(app: FastAPI, host: str, port: int, console: Console | None = None) -> None:
-    """Serve until interrupted; prints the addresses first."""
+def listening_socket(host: str, port: int, fallback: bool) -> socket.socket:
+    """A socket bound to ``host:port``; when the port is taken, a free one if ``fallback``, else an
+    error that says so in one line."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        if not fallback or exc.errno != errno.EADDRINUSE:
+            sock.close()
+            raise TourbotError(
+                f"cannot listen on {host}:{port}: {exc.strerror}; choose another --port"
+            ) from None
+        sock.bind((host, 0))
+    sock.set_inheritable(True)
+    return sock
+
+
+def addresses(host: str, port: int) -> dict[str, str]:
+    """The pages of a server listening on ``host:port``, by role."""
+    shown = f"[{host}]" if ":" in host else host
+    base = f"http://{shown}:{port}"
+    return {
+        "visitor page": f"{base}/",
+        "on-board screen": f"{base}/onboard",
+        "staff (admin)": f"{base}/admin",
+    }
+
+
+def run(
+    app: FastAPI, host: str, port: int, console: Console | None = None, *, fallback: bool = False
+) -> None:
+    """Serve until interrupted (Ctrl-C stops it cleanly); prints the addresses once it listens.
+
+    With ``fallback`` a taken port is replaced by a free one (said in one line); without, a taken
+    port is a :class:`TourbotError`.
+    """
     import uvicorn
 
-    console = console or Console()
-    base = f"http://{host}:{port}"
-    console.print(f"visitor page: [bold]{base}/[/]   on-board screen: {base}/onboard   staff: {base}/admin")
+    out = console or Console()
+    sock = listening_socket(host, port, fallback)
+    bound = int(sock.getsockname()[1])
+    if port and bound != port:
+        out.print(f"port {port} is in use: serving on port {bound} instead")
+
+    class _Server(uvicorn.Server):
+        async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+            await super().startup(sockets)
+            if self.started:
+                for role, url in addresses(host, bound).items():
+                    out.print(f"{role + ':':17} [bold]{url}[/]", soft_wrap=True)
+                out.print("serving; press Ctrl-C to stop", highlight=False)
+
     # Frames larger than 64 kB are refused by the protocol layer before any parsing.
-    uvicorn.run(
-        app, host=host, port=port, log_level="warning", ws_max_size=65536, ws_per_message_deflate=True
+    config = uvicorn.Config(
+        app, log_level="warning", ws_max_size=65536, ws_per_message_deflate=True, timeout_graceful_shutdown=5
     )
+    try:
+        _Server(config).run(sockets=[sock])
+    except KeyboardInterrupt:  # uvicorn re-raises the Ctrl-C it handled, once it has shut down
+        pass
+    finally:
+        sock.close()
+    out.print("stopped")
