@@ -103,6 +103,9 @@ class RobotHub:
                 await self._task
         if self._thread is not None:
             await asyncio.to_thread(self._thread.join, 5.0)
+        close = getattr(self.link, "close", None)  # a robot in its own process (ProcessLink)
+        if callable(close):
+            await asyncio.to_thread(close)
         now = time.time()
         for session, booking in list(self._bookings.items()):
             self._end_booking(session, booking, now, "server stopped")

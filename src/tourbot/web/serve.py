@@ -11,7 +11,6 @@ import secrets
 import socket
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from fastapi import FastAPI
 from rich.console import Console
@@ -23,10 +22,7 @@ from tourbot.web.guard import GuardConfig
 from tourbot.web.link import RobotLink
 from tourbot.web.sitedata import import_site
 
-if TYPE_CHECKING:
-    from tourbot.site.model import Site
-
-__all__ = ["ServeSettings", "build_site_app", "run"]
+__all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +42,7 @@ class ServeSettings:
     speech_dir: Path = Path(".tourbot-speech")
     speedup: float = 1.0  # the simulated robots run this many times faster than real time
     fresh_staff_password: bool = False  # a new generated password at each start (the demo's)
+    robot_process: bool = True  # each simulated robot in its own process (see web.process_link)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -54,23 +51,52 @@ def _robot_names(n: int) -> list[str]:
     return [names[i] if i < len(names) else f"robot{i + 1}" for i in range(n)]
 
 
-def simulated_links(site: Site, settings: ServeSettings) -> dict[str, RobotLink]:
-    """One simulated runtime per robot (different seeds), each behind a :class:`RuntimeLink`."""
-    try:
+@dataclass(frozen=True)
+class SimulatedRobotFactory:
+    """Builds one simulated robot (site, crowd, MCL, navigator) behind a :class:`RuntimeLink`.
+
+    Picklable, so that the robot can be built inside its own process (:class:`ProcessLink`).
+    ``speedup`` shortens the link's period (for a robot stepped by the server's thread).
+    """
+
+    site: str
+    crowd: str | int
+    seed: int
+    particles: int
+    speedup: float = 1.0
+
+    def __call__(self) -> RobotLink:
         from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
-    except ImportError as exc:  # the simulator runtime is part of another work package
-        raise TourbotError(f"the simulator runtime is not available: {exc}") from None
-    from tourbot.web.runtime_link import RuntimeLink
+        from tourbot.site.default import site_path
+        from tourbot.site.model import load_site
+        from tourbot.web.runtime_link import RuntimeLink
+
+        site = load_site(site_path(self.site))
+        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, particles=self.particles)
+        robot = simulated_runtime(site, sim_settings, record=False)
+        period = float(robot.simulator.dt) / self.speedup
+        return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
+
+
+def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
+    """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
+    when ``settings.robot_process`` (else stepped by the server's thread)."""
+    from tourbot.web.process_link import ProcessLink
 
     links: dict[str, RobotLink] = {}
-    tours = frozenset(t.name for t in site.tours)
     for i, name in enumerate(_robot_names(settings.robots)):
-        sim_settings = SimulationSettings(
-            crowd=settings.crowd, seed=settings.seed + i, particles=settings.particles
-        )
-        robot = simulated_runtime(site, sim_settings, record=False)
-        period = float(robot.simulator.dt) / settings.speedup
-        links[name] = RuntimeLink(robot.runtime, period=period, site_tours=tours)
+        seed = settings.seed + i
+        if settings.robot_process:
+            factory = SimulatedRobotFactory(settings.site, settings.crowd, seed, settings.particles)
+            links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
+        else:
+            factory = SimulatedRobotFactory(
+                settings.site, settings.crowd, seed, settings.particles, settings.speedup
+            )
+            links[name] = factory()
+    for link in links.values():
+        if isinstance(link, ProcessLink):
+            link.wait_ready()
     return links
 
 
@@ -100,7 +126,7 @@ def build_site_app(
             f"staff login created: user [bold]staff[/], password [bold]{password}[/]", soft_wrap=True
         )
     if links is None:
-        links = simulated_links(site, settings)
+        links = simulated_links(settings)
     base = WebConfig()
     config = WebConfig(
         site_name=site.description.split(":")[0] if site.description else site.name,
