@@ -58,7 +58,7 @@ from tourbot.web.link import RobotLink
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
 from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
-from tourbot.web.stream import StreamConfig, StreamEncoder
+from tourbot.web.stream import StreamConfig
 
 __all__ = ["WebConfig", "create_app", "find_node_modules"]
 
@@ -219,6 +219,7 @@ def create_app(
             cfg.stream.rate_hz,
             speak,
             cfg.drive_robots,
+            cfg.stream,
         )
         for name, link in robots.items()
     }
@@ -497,7 +498,7 @@ def create_app(
         await ws.accept()
         await hub.connect(client.session)
         phrasebook = _phrasebook(hub, cfg, db) if onboard else None
-        sender = asyncio.create_task(_send_loop(ws, hub, client, cfg, onboard))
+        sender = asyncio.create_task(_send_loop(ws, hub, client, onboard))
         try:
             await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
             await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook)
@@ -556,9 +557,9 @@ def _path_moved(
     return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
 
 
-async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConfig, onboard: bool) -> None:
+async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: bool) -> None:
     """Stream to one client: each round takes the hub's latest state, so nothing piles up."""
-    encoder = StreamEncoder(cfg.stream)
+    held = 0  # the stream state this client holds (0: none yet)
     seen = -1
     last_status: dict[str, Any] | None = None
     sent_goal: Any = None
@@ -570,7 +571,8 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConf
         scene = hub.scene
         if scene is None:
             continue
-        message = encoder.encode(scene)
+        message = hub.stream.message_for(held)
+        held = hub.stream.version
         if message is not None:
             await ws.send_bytes(message)
             hub.send_delays.append(time.time() - scene.t)

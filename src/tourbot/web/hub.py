@@ -2,8 +2,9 @@
 
 The hub keeps the robot's loop running (``link.step`` in a worker thread, paced to real time),
 samples the robot's view at the stream rate, arbitrates control (:mod:`tourbot.web.slots`) and
-records bookings and visits in the database. Clients never queue behind each other: each
-connection reads the hub's *latest* state when it is ready to send (see :mod:`tourbot.web.stream`).
+records bookings and visits in the database. Each state is encoded once for all the viewers
+(:class:`~tourbot.web.stream.StreamBroadcast`). Clients never queue behind each other: each
+connection has its own task, which reads the hub's *latest* state when it is ready to send.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from tourbot.web.db import Database, DatabaseError
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
-from tourbot.web.stream import Body, Scene
+from tourbot.web.stream import Body, Scene, StreamBroadcast, StreamConfig
 
 __all__ = ["Announcement", "RobotHub", "scene_of"]
 
@@ -67,12 +68,14 @@ class RobotHub:
     rate_hz: float = 5.0
     speak: Callable[[str], str | None] | None = None
     drive: bool = True
+    stream_config: StreamConfig = field(default_factory=StreamConfig)
 
     def __post_init__(self) -> None:
         self.lock = threading.Lock()
         self.arbiter: SlotArbiter[int] = SlotArbiter(self.slot_config)
         self.view: RobotView | None = None
         self.scene: Scene | None = None
+        self.stream = StreamBroadcast(self.stream_config)  # each state encoded once for all viewers
         self.version = 0
         self.announcements: list[Announcement] = []
         self.send_delays: deque[float] = deque(maxlen=100_000)
@@ -143,6 +146,7 @@ class RobotHub:
         now = time.time()
         self.view = view
         self.scene = scene_of(view, now)
+        self.stream.push(self.scene)
         await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
