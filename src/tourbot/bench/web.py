@@ -54,7 +54,7 @@ def _cpu_seconds(pid: int) -> float:
 class _Server:
     """``tourbot serve`` in a child process on a fresh SQLite file."""
 
-    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1) -> None:
+    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1, robot_process: bool = True) -> None:
         self.port = _free_port()
         self.folder = tempfile.TemporaryDirectory(prefix="tourbot-bench-web-")
         db = f"sqlite:///{Path(self.folder.name) / 'site.db'}"
@@ -62,6 +62,7 @@ class _Server:
             sys.executable, "-m", "tourbot", "serve", "--site", site, "--port", str(self.port),
             "--database", db, "--crowd", crowd, "--seed", str(seed), "--robots", str(robots),
             "--staff-password", "bench-password",
+            "--robot-process" if robot_process else "--robot-in-server",
         ]  # fmt: skip
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), *sys.path])}
         self.process = subprocess.Popen(
@@ -451,6 +452,9 @@ def register(bench: typer.Typer) -> None:
         viewers: Annotated[int, typer.Option(help="concurrent viewers")] = 200,
         viewer_seconds: Annotated[float, typer.Option(help="length of the viewers run")] = 20.0,
         trials: Annotated[int, typer.Option(help="command-to-motion trials")] = 10,
+        compare: Annotated[
+            bool, typer.Option(help="also measure the viewers with the robot in the server's process")
+        ] = True,
         viewer_processes: Annotated[
             int, typer.Option(min=1, max=32, help="processes the viewers are spread over")
         ] = 4,
@@ -485,6 +489,16 @@ def register(bench: typer.Typer) -> None:
                 progress.update(task, advance=1)
         finally:
             server.close()
+        in_server: dict[str, Any] = {}
+        if compare:  # the same viewers against the earlier design: the robot steps in the server
+            old = _Server(site, "7", seed, robot_process=False)
+            try:
+                old.wait()
+                in_server = asyncio.run(
+                    _viewers(old, viewers, viewer_seconds, old.process.pid, viewer_processes)
+                )
+            finally:
+                old.close()
         kbit = bandwidth["kbit_s"]
         report.add(
             measure="live stream on the wire (1 viewer)",
@@ -537,10 +551,27 @@ def register(bench: typer.Typer) -> None:
             unit="% of a core",
         )
         report.add(measure="update delay p99 (1 viewer)", value=baseline.get("p99_ms", math.nan), unit="ms")
+        if in_server:
+            report.add(
+                measure=f"  robot in the server's process: p50 / p99 ({viewers})",
+                value=f"{in_server.get('p50_ms', math.nan):.0f} / {in_server.get('p99_ms', math.nan):.0f}",
+                unit="ms",
+            )
+            report.add(
+                measure="  robot in the server's process: server CPU",
+                value=100 * in_server.get("server_cpu", math.nan),
+                unit="% of a core",
+            )
         report.add(measure="command acknowledged p50", value=latency["ack_p50_ms"], unit="ms")
         report.add(measure="command to motion seen p50", value=latency["motion_p50_ms"], unit="ms")
         report.add(measure="command to motion seen max", value=latency["motion_max_ms"], unit="ms")
-        report.meta.update(bandwidth=bandwidth, viewers_run=crowd, baseline_run=baseline, latency=latency)
+        report.meta.update(
+            bandwidth=bandwidth,
+            viewers_run=crowd,
+            baseline_run=baseline,
+            latency=latency,
+            in_server=in_server,
+        )
         report.notes.append(
             "server = `tourbot serve` child process (web server) with the simulated robot in its own "
             "process; the viewers run in their own worker processes on the same 2 cores; a delay is a "
