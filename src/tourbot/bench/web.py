@@ -324,6 +324,13 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes:
 
     site = await _site(server.base)
     robot = site["robots"][0]
+    if site["tours"]:  # the robot on a tour (moving, localizing, planning) while it is watched
+        driver = _Viewer(server.port, robot, site["stream"])
+        await driver.open(server.base)
+        await driver.send({"type": "book"})
+        await driver.send({"type": "tour", "tour": site["tours"][0]["slug"]})
+        await asyncio.sleep(1.0)
+        await driver.close()  # the robot goes on with the tour
     ctx = multiprocessing.get_context("spawn")
     ready, results, stop = ctx.Queue(), ctx.Queue(), ctx.Event()
     shares = [n // processes + (1 if k < n % processes else 0) for k in range(processes)]
