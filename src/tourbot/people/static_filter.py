@@ -49,12 +49,19 @@ class StaticConfig:
 
 
 def previous_occupancy(
-    points_sensor: FloatArray, ranges: FloatArray, angle_min: float, angle_increment: float, cfg: StaticConfig
+    points_sensor: FloatArray,
+    ranges: FloatArray,
+    angle_min: float,
+    angle_increment: float,
+    cfg: StaticConfig,
+    min_range: float = 0.0,
 ) -> FloatArray:
     """P(occupied) of points ``(P, 2)`` (in the earlier scan's laser frame) by that scan's beams.
 
     The nearest beam and its two neighbours are read, so a small change of bearing between the
-    scans (the robot moved) still finds a return from the same surface.
+    scans (the robot moved) still finds a return from the same surface. A cell counts as free only
+    when all three beams returned (beyond ``min_range``) from behind it: a beam with no reading
+    (lasers report 0 for a dropout) might have ended on it.
     """
     B = ranges.shape[0]
     d = np.hypot(points_sensor[:, 0], points_sensor[:, 1])
@@ -63,10 +70,12 @@ def previous_occupancy(
     inside = (idx >= 0) & (idx < B) & (d <= cfg.max_range)
     window = np.clip(idx[:, None] + np.arange(-1, 2)[None, :], 0, B - 1)
     r = ranges[window]
-    returned = np.isfinite(r) & (r > 0.0)
-    gap = np.where(returned, r - d[:, None], np.inf)  # >0: beam ended behind the point
+    # A reading of 0 (or below the laser's minimum, or NaN) is no reading: the beam may have
+    # ended anywhere, so it says nothing; +inf (nothing within range) went through.
+    read = ~np.isnan(r) & (r > min_range)
+    gap = np.where(read, r - d[:, None], np.nan)  # >0: beam ended behind the point
     hit = (np.abs(gap) <= cfg.tolerance).any(axis=1)
-    through = (gap > cfg.tolerance).all(axis=1)
+    through = (read & (gap > cfg.tolerance)).all(axis=1)
     p = np.full(points_sensor.shape[0], 0.5)
     p[through] = cfg.p_free
     p[hit] = cfg.p_occupied
@@ -125,7 +134,12 @@ class StaticFilter:
                 local = points_in_sensor_frame(world_points, prev_pose, prev_scan)
                 g = prev_scan.geometry
                 p_prev = previous_occupancy(
-                    local, np.asarray(prev_scan.ranges, float), g.angle_min, g.angle_increment, cfg
+                    local,
+                    np.asarray(prev_scan.ranges, float),
+                    g.angle_min,
+                    g.angle_increment,
+                    cfg,
+                    g.min_range,
                 )
                 diff = np.clip((cfg.p_occupied - p_prev) / (cfg.p_occupied - cfg.p_free), 0.0, 1.0)
                 out = np.maximum(out, diff)
