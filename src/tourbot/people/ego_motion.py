@@ -13,11 +13,13 @@ earlier scans already saw occupied several times is furniture, not a person who 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.geometry import compose, relative
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.mapping.scan_matching import MatchParams
 from tourbot.records import Scan
@@ -30,7 +32,7 @@ FloatArray = NDArray[np.float64]
 def _no_odometry_mapper() -> MapperParams:
     # Without odometry the prior is a constant-velocity guess: 25 cm and 0.15 rad of spread (a
     # robot at 1 m/s and 7.5 Hz moves 13 cm per scan) instead of the odometry prior's 5 cm.
-    return MapperParams(match=MatchParams(sigma_xy=0.25, sigma_theta=0.15))
+    return MapperParams(match=MatchParams(sigma_xy=0.1, sigma_theta=0.08))
 
 
 @dataclass(frozen=True)
@@ -38,11 +40,17 @@ class EgoMotionConfig:
     """``mapper``: the incremental mapper's parameters (the constant-velocity prior above).
     ``static_log_odds``: a feature is on the map built so far when some cell within
     ``static_radius`` (m) of it holds at least this log-odds of occupancy from earlier scans
-    (2.5: three hits of the inverse sensor model's p = 0.7 with no miss, about 0.4 s at 7.5 Hz)."""
+    (2.5: three hits of the inverse sensor model's p = 0.7 with no miss, about 0.4 s at 7.5 Hz).
+    ``max_speed`` (m/s) and ``max_turn_rate`` (rad/s) cap the constant-velocity prediction.
+    Beams shorter than ``near_range`` (m) neither align nor enter the map: the robot's own body
+    (seen at the edges of a wide field of view) would leave a trail of obstacles along its path."""
 
     mapper: MapperParams = field(default_factory=_no_odometry_mapper)
     static_log_odds: float = 2.5
     static_radius: float = 0.1
+    max_speed: float = 1.0
+    near_range: float = 1.0
+    max_turn_rate: float = 1.5
 
 
 class ScanMatchedPoses:
@@ -56,6 +64,10 @@ class ScanMatchedPoses:
     def __init__(self, config: EgoMotionConfig | None = None) -> None:
         self.config = config or EgoMotionConfig()
         self.mapper = IncrementalMapper(self.config.mapper)
+        self._odom = np.zeros(3)  # the "odometry" handed to the mapper
+        self._poses: list[FloatArray] = []
+        self._time: float | None = None
+        self._dt = 0.0
         res = self.config.mapper.resolution
         n = max(int(self.config.static_radius / res), 0)
         k = np.arange(-n, n + 1) * res
@@ -63,16 +75,35 @@ class ScanMatchedPoses:
 
     def match(self, scan: Scan) -> FloatArray:
         """The pose of ``scan`` aligned to the map so far, from a constant-velocity prediction."""
-        # The mapper predicts pose_{k-1} + (odom_k - odom_{k-1}); handing it the last aligned pose
-        # as the scan's "odometry" makes that the motion of the previous step: constant velocity.
-        last = self.mapper.pose
-        guess = (0.0, 0.0, 0.0) if last is None else (float(last[0]), float(last[1]), float(last[2]))
-        step = self.mapper.match(dataclasses.replace(scan, odom=guess))
-        return np.asarray(step.pose, dtype=np.float64)
+        # The mapper predicts pose_{k-1} + (odom_k - odom_{k-1}): the "odometry" handed to it
+        # makes that the previous step's motion (constant velocity), capped at what the robot can
+        # do in the time between the scans (a wrong step must not be extrapolated into a worse one).
+        cfg = self.config
+        dt = 0.0 if self._time is None else max(scan.timestamp - self._time, 0.0)
+        step = np.zeros(3)
+        if len(self._poses) >= 2 and self._dt > 0.0:
+            step = relative(self._poses[-2], self._poses[-1]) * min(dt / self._dt, 2.0)
+        reach = math.hypot(step[0], step[1])
+        if reach > cfg.max_speed * dt:
+            step[:2] *= cfg.max_speed * dt / reach
+        step[2] = float(np.clip(step[2], -cfg.max_turn_rate * dt, cfg.max_turn_rate * dt))
+        odom = compose(self._odom, step)
+        self._odom = odom
+        fake = dataclasses.replace(scan, odom=(float(odom[0]), float(odom[1]), float(odom[2])))
+        aligned = self.mapper.match(fake, match_weights=self._far(scan).astype(np.float64))
+        pose = np.asarray(aligned.pose, dtype=np.float64)
+        self._dt = dt
+        self._time = scan.timestamp
+        self._poses = [*self._poses[-1:], pose]
+        return pose
 
     def integrate(self, scan: Scan, pose: FloatArray) -> None:
         """Write ``scan`` into the map at ``pose`` (its :meth:`match` result)."""
-        self.mapper.integrate(scan, pose)
+        self.mapper.integrate(scan, pose, keep=self._far(scan))
+
+    def _far(self, scan: Scan) -> NDArray[np.bool_]:
+        """Beams beyond ``near_range``: the nearer ones see the robot's own body, which moves along."""
+        return np.asarray(np.asarray(scan.ranges, dtype=np.float64) >= self.config.near_range)
 
     def on_map(self, world_points: FloatArray) -> NDArray[np.bool_]:
         """Whether each point ``(M, 2)`` lies on the static map built from the earlier scans."""

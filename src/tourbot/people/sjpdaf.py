@@ -19,14 +19,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert, transform_points
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
 from tourbot.people.ego_motion import ScanMatchedPoses
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
-from tourbot.people.static_filter import StaticConfig, StaticFilter
+from tourbot.people.static_filter import RobotBodyMask, StaticConfig, StaticFilter
 from tourbot.records import Scan
 
 __all__ = ["PeopleTracker", "SJPDAFConfig", "Track"]
@@ -52,9 +52,12 @@ class SJPDAFConfig:
     "unknown": a feature must be seen to move) starts a tentative track; with a map and
     ``birth_off_map``, any person feature off the map starts one too (the map is the static world,
     so a person standing still is not taken for furniture); ``confirm_hits`` detections confirm
-    it, and without such a map the track must also have moved ``confirm_distance`` (m) from where
-    it started (people walk; furniture seen from a robot whose pose is a little off jitters by a
-    few centimetres); a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
+    it, and without such a map the track must also have been seen moving: its features moving
+    (P(moving) >= ``birth_moving``) in ``confirm_moving`` hits, and the track ``confirm_distance``
+    (m) away from where it started both in the world (people walk; furniture seen from a robot
+    whose pose is a little off jitters by a few centimetres) and relative to the robot (the robot's
+    own body seen by its laser moves with it); a track not confirmed within ``confirm_window``
+    scans ends; a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
     after ``max_misses``, or when its samples spread beyond ``max_position_std`` (an occluded
     person lost for good), or leave ``max_range`` of the robot.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends.
@@ -118,6 +121,8 @@ class _TrackState:
     occluded: bool = False
     origin: tuple[float, float] = (0.0, 0.0)
     travel: float = 0.0
+    origin_robot: tuple[float, float] = (0.0, 0.0)
+    travel_robot: float = 0.0
     moving_hits: int = 0
 
 
@@ -147,6 +152,7 @@ class PeopleTracker:
         self.config = config or SJPDAFConfig()
         self.rng = rng or np.random.default_rng(0)
         self.static = StaticFilter(self.config.static, grid_map)
+        self.body = RobotBodyMask(self.config.static)
         self.ego_motion = ego_motion
         self.last_pose = np.zeros(3)
         self._samples = np.zeros((0, self.config.num_samples, 4))
@@ -220,6 +226,10 @@ class PeopleTracker:
     def _features(self, scan: Scan, pose: FloatArray) -> tuple[PersonFeatures, FloatArray]:
         cfg = self.config
         legs = detect_legs(scan, cfg.legs)
+        body = self.body.is_body(legs.points)  # the robot's own body, not a person's legs
+        self.body.learn(legs.points, pose)
+        if body.any():
+            legs = LegFeatures(legs.points[~body], legs.width[~body], legs.probability[~body])
         sensor = compose(pose, np.asarray(scan.geometry.offset, dtype=np.float64))
         persons = group_legs(legs, cfg.legs).transformed(sensor)
         world_legs = LegFeatures(
@@ -312,6 +322,7 @@ class PeopleTracker:
         spread = np.sqrt(self._samples[..., 0:2].var(axis=1).sum(axis=1)) if K else np.zeros(0)
         mean = self._samples[..., 0:2].mean(axis=1) if K else np.zeros((0, 2))
         far = np.linalg.norm(mean - pose[None, 0:2], axis=1) > cfg.max_range + 1.0
+        robot_frame = transform_points(invert(pose), mean) if K else mean
         # Without a map of the static world, a track must also have been seen moving to be confirmed.
         need_motion = not (cfg.birth_off_map and self.static.has_map)
         # A hit is a moving hit when the features explaining the person were seen moving.
@@ -321,6 +332,7 @@ class PeopleTracker:
         for k, st in enumerate(self._states):
             st.age += 1
             st.travel = max(st.travel, float(np.hypot(*(mean[k] - st.origin))))
+            st.travel_robot = max(st.travel_robot, float(np.hypot(*(robot_frame[k] - st.origin_robot))))
             st.occluded = not bool(visible[k])
             if a.beta0[k] < 0.5:
                 st.hits += 1
@@ -328,7 +340,10 @@ class PeopleTracker:
                 st.moving_hits += int(moved[k] >= 0.5)
             elif visible[k]:
                 st.misses += 1  # an occluded person is not missed: its samples just spread out
-            seen_moving = st.travel >= cfg.confirm_distance and st.moving_hits >= cfg.confirm_moving
+            seen_moving = (
+                min(st.travel, st.travel_robot) >= cfg.confirm_distance
+                and st.moving_hits >= cfg.confirm_moving
+            )
             if st.hits >= cfg.confirm_hits and (seen_moving or not need_motion):
                 st.confirmed = True
             limit = cfg.max_misses if st.confirmed else cfg.tentative_misses
@@ -364,7 +379,10 @@ class PeopleTracker:
             ] + cfg.birth_position_std * self.rng.standard_normal((new.size, N, 2))
             s[..., 2:4] = cfg.birth_velocity_std * self.rng.standard_normal((new.size, N, 2))
             self._samples = np.concatenate([self._samples, s], axis=0)
-            for j in new.tolist():
+            local = transform_points(invert(pose), features.points[new])
+            for j, (lx, ly) in zip(new.tolist(), local.tolist(), strict=True):
                 origin = (float(features.points[j, 0]), float(features.points[j, 1]))
-                self._states.append(_TrackState(id=self._next_id, hits=1, origin=origin, moving_hits=1))
+                self._states.append(
+                    _TrackState(id=self._next_id, hits=1, origin=origin, origin_robot=(lx, ly), moving_hits=1)
+                )
                 self._next_id += 1
