@@ -132,3 +132,17 @@ def test_a_wall_reads_one_and_unexplored_space_its_level() -> None:
         assert field[mid, mid] == pytest.approx(1.0, abs=0.15)  # on the wall
         assert field[mid, (n // 4 + 8) // factor + 6] == pytest.approx(0.0, abs=0.05)  # free space
         assert field[mid, -3] == pytest.approx(params.unknown_level, abs=1e-6)  # never seen
+
+
+def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
+    geom = LaserGeometry(3, -0.1, 0.1, 30.0)
+    scan = Scan(0.0, np.array([2.0, 2.0, 2.0]), geom, odom=(0.0, 0.0, 0.0))
+    both = IncrementalMapper(start=np.zeros(3))
+    both.integrate(scan, np.zeros(3))
+    person = IncrementalMapper(start=np.zeros(3))
+    person.integrate(scan, np.zeros(3), free_only=np.array([False, True, False]))
+    ahead = np.array([[1.0, 0.0], [2.0, 0.0]])  # in front of the middle beam's end, and its end
+    plain, cut = both.evidence(ahead), person.evidence(ahead)
+    assert cut[0] == plain[0] < 0  # the space in front of the person is free as before
+    assert plain[1] > 0  # the person's cell is no obstacle
+    assert cut[1] == 0

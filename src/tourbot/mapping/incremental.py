@@ -217,8 +217,19 @@ class IncrementalMapper:
         best[2] = float(wrap_angle(best[2]))
         return best, val
 
-    def integrate(self, scan: Scan, pose: FloatArray, *, keep: NDArray[np.bool_] | None = None) -> None:
-        """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given."""
+    def integrate(
+        self,
+        scan: Scan,
+        pose: FloatArray,
+        *,
+        keep: NDArray[np.bool_] | None = None,
+        free_only: NDArray[np.bool_] | None = None,
+    ) -> None:
+        """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given.
+
+        Beams in ``free_only`` add their free space but not their endpoint: the space in front of a
+        person the beam hit was seen free, the person's cell is not an obstacle of the map.
+        """
         if math.isnan(self._x0):
             self._centre_on(np.asarray(pose, dtype=np.float64))
         p = self.params
@@ -231,6 +242,12 @@ class IncrementalMapper:
         keep = use
         if not keep.any():
             return
+        if free_only is not None:
+            # free space up to the cell before the endpoint's (about the misses the hit would add)
+            cut = np.asarray(free_only, dtype=bool) & is_hit
+            short = np.clip(ranges - 1.5 * p.resolution, 0.0, p.max_free_range)
+            ranges = np.where(cut, short, ranges)
+            is_hit = is_hit & ~cut
         laser = compose(pose, g.offset)
         th = laser[2] + g.angles[keep]
         length = np.where(is_hit[keep], ranges[keep], np.minimum(ranges[keep], p.max_free_range))
