@@ -293,8 +293,8 @@ class IncrementalMapper:
         )
         lr, lc, dh, dm = _counted_cells(hits, misses)
         rr, cc = r0 + lr, c0 + lc
-        self._hits[rr, cc] += dh
-        self._misses[rr, cc] += dm
+        c = p.cells
+        _apply_counts(self._hits, self._misses, rr, cc, dh, dm, c.l_occ, c.l_free)  # the whole map
         self._change(rr, cc, dh, dm)
         if p.window is not None:
             self._recent.append(_Footprint(bx, by, (int(hits.shape[0]), int(hits.shape[1])), lr, lc, dh, dm))
@@ -342,7 +342,12 @@ class IncrementalMapper:
                 sigma / (self.params.resolution * factor), factor, self.params.unknown_level
             )
             value = np.array([0.0, 1.0, unknown]) / (factor * factor)
-            _stamp_cells(fieldk, rows // factor, cols // factor, value[a] - value[b], stamp)
+            fr, fc, w = rows // factor, cols // factor, value[a] - value[b]
+            if factor > 1:  # one stamp per coarse cell, with the changes of its fine cells summed
+                key, inverse = np.unique(fr * fieldk.shape[1] + fc, return_inverse=True)
+                fr, fc = np.divmod(key, fieldk.shape[1])
+                w = np.bincount(inverse, weights=w)
+            _stamp_cells(fieldk, fr, fc, w, stamp)
 
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
         """Grow the grid so that the world box fits, with a margin."""
