@@ -9,7 +9,9 @@ person (Eq. 10-11), from histograms of each person's samples over 15 x 15 cm bin
 ``P(hit_xy | x_i)`` is the fraction of person ``i``'s samples whose bin lies within a body radius
 of the beam's bin (the histogram, normalized, summed over the person's extent), times how sure the
 tracker is that the track is a person (1 once confirmed). During alignment each beam is weighted
-by ``1 - P(hit_b | X)`` (Eq. 12).
+by ``1 - P(hit_b | X)`` (Eq. 12); beams ending on the scan's own person features (below) count as
+``P(hit) = 1``. A scan is aligned against the map of the scans before it with the people known at
+once; the map that is returned gets it a few scans later (below).
 
 When the map is built, the beams ending in a person's bounding box are left out. A scan is
 written ``scans_around`` scans late, so that the tracker's delay is covered: a track counts as a
@@ -27,12 +29,12 @@ from __future__ import annotations
 
 import collections
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
@@ -67,6 +69,8 @@ class PeopleFilterParams:
     ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
     occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
     ``keep_free_space``: a person's beam still marks the cells in front of the person free.
+    ``align_features``: beams ending on the scan's person features get no weight in alignment
+    (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
     """
 
     bin_size: float = 0.15
@@ -80,6 +84,7 @@ class PeopleFilterParams:
     beyond: float = 0.2
     static_evidence: float = 3.0
     keep_free_space: bool = True
+    align_features: bool = True
 
 
 def hit_probability(
@@ -165,6 +170,17 @@ class _Pending:
     features: FloatArray  # (F, 2) person features of this scan
     moving: FloatArray  # (F,) their P(moving)
 
+    def moved_to(self, pose: FloatArray) -> _Pending:
+        """The same scan at an aligned ``pose``: what was seen from the predicted pose moves along."""
+        correction = compose(pose, invert(self.pose))
+
+        def move(points: FloatArray) -> FloatArray:
+            return transform_points(correction, points) if len(points) else points
+
+        return replace(
+            self, pose=pose, track_positions=move(self.track_positions), features=move(self.features)
+        )
+
 
 @dataclass
 class PeopleFilteredMapper:
@@ -205,40 +221,42 @@ class PeopleFilteredMapper:
         predicted = self.mapper.predict(scan) if pose is None else np.asarray(pose, dtype=np.float64)
         tracks = self.tracker.update(scan, predicted)
         self._confirmed.update(t.id for t in tracks if t.confirmed)
+        item = _Pending(
+            scan,
+            predicted,
+            self._index,
+            [t.id for t in tracks],
+            np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
+            self.tracker.last_features.points.copy(),
+            np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
+        )
         if pose is None:
             sets = self.tracker.sample_sets()
             confirm = self.tracker.config.confirm_hits
             existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
             h = hit_probability([sets[t.id] for t in tracks], pts, p, existence)
-            at = np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose)
-        else:
-            at = predicted
-        self._pending.append(
-            _Pending(
-                scan,
-                at,
-                self._index,
-                [t.id for t in tracks],
-                np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
-                self.tracker.last_features.points.copy(),
-                np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
-            )
-        )
+            if p.align_features:
+                h = np.maximum(h, self._person_beams(item, tracks=False))
+            item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
+            # the next scan aligns against this one at once, with the people known now
+            self.mapper.integrate(scan, item.pose, free_only=self._person_beams(item), into="alignment")
+        self._pending.append(item)
         self._index += 1
         while self._pending and self._pending[0].index + p.scans_around < self._index:
             self._write(self._pending.popleft())
-        return at
+        return item.pose
 
     def finish(self) -> None:
         """Write the scans still waiting for the people seen after them."""
         while self._pending:
             self._write(self._pending.popleft())
 
-    def _people(self, item: _Pending) -> tuple[FloatArray, FloatArray]:
-        """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan."""
+    def _people(self, item: _Pending, tracks: bool = True) -> tuple[FloatArray, FloatArray]:
+        """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
+        features only, without ``tracks``)."""
         p = self.params
-        tracked = [i in self._confirmed or not p.confirmed_only for i in item.track_ids]
+        tracked = [tracks and (i in self._confirmed or not p.confirmed_only) for i in item.track_ids]
         centres = item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
         features = item.features
         if len(features):
@@ -254,16 +272,20 @@ class PeopleFilteredMapper:
         around = (points[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
         return np.asarray(self.mapper.evidence(around).reshape(len(points), -1).max(axis=1))
 
-    def _write(self, item: _Pending) -> None:
-        p = self.params
-        centres, half = self._people(item)
+    def _person_beams(self, item: _Pending, tracks: bool = True) -> NDArray[np.bool_]:
+        """The beams of a scan that ended on a person, with the tracks confirmed so far."""
+        centres, half = self._people(item, tracks)
         pts, hit = beam_endpoints(item.scan, item.pose)
         laser = compose(item.pose, item.scan.geometry.offset)
-        person = hit & person_beams(pts, laser, centres, half, p.beyond)
+        person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
         if person.any():
-            person[person] = self.mapper.evidence(pts[person]) < p.static_evidence
+            person[person] = self.mapper.evidence(pts[person]) < self.params.static_evidence
+        return person
+
+    def _write(self, item: _Pending) -> None:
+        person = self._person_beams(item)
         self.removed_beams += int(person.sum())
-        if p.keep_free_space:
-            self.mapper.integrate(item.scan, item.pose, free_only=person)
+        if self.params.keep_free_space:
+            self.mapper.integrate(item.scan, item.pose, free_only=person, into="map")
         else:
-            self.mapper.integrate(item.scan, item.pose, keep=~person)
+            self.mapper.integrate(item.scan, item.pose, keep=~person, into="map")
