@@ -30,6 +30,7 @@ from __future__ import annotations
 import collections
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -240,7 +241,7 @@ class PeopleFilteredMapper:
                 h = np.maximum(h, self._person_beams(item, tracks=False))
             item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
             # the next scan aligns against this one at once, with the people known now
-            self.mapper.integrate(scan, item.pose, free_only=self._person_beams(item), into="alignment")
+            self._integrate(item, self._person_beams(item), "alignment")
         self._pending.append(item)
         self._index += 1
         while self._pending and self._pending[0].index + p.scans_around < self._index:
@@ -285,7 +286,12 @@ class PeopleFilteredMapper:
     def _write(self, item: _Pending) -> None:
         person = self._person_beams(item)
         self.removed_beams += int(person.sum())
+        self._integrate(item, person, "map")
+
+    def _integrate(
+        self, item: _Pending, person: NDArray[np.bool_], into: Literal["map", "alignment"]
+    ) -> None:
         if self.params.keep_free_space:
-            self.mapper.integrate(item.scan, item.pose, free_only=person, into="map")
+            self.mapper.integrate(item.scan, item.pose, free_only=person, into=into)
         else:
-            self.mapper.integrate(item.scan, item.pose, keep=~person, into="map")
+            self.mapper.integrate(item.scan, item.pose, keep=~person, into=into)
