@@ -16,7 +16,8 @@ once; the map that is returned gets it a few scans later (below).
 When the map is built, the beams ending in a person's bounding box are left out. A scan is
 written ``scans_around`` scans late, so that the tracker's delay is covered: a track counts as a
 person in scan ``t`` when it is confirmed by scan ``t + scans_around`` (its position in scan ``t``
-is used, so a visitor standing still is removed from the scans before the confirmation too).
+is used, so a visitor standing still is removed from the scans before the confirmation too), or
+when it had been detected a few times by scan ``t`` (a tentative track).
 Besides the tracks, the person features of the scan itself count (a person walks several metres
 between the scans of a sparse log, and no track can follow): those the tracker's static filter
 sees moving, and those standing where the map so far has seen free floor (the difference of the
@@ -62,11 +63,12 @@ class PeopleFilterParams:
 
     Map building: ``box_half_size``: half the side of a tracked person's bounding box (legs up to
     a stride apart); ``scans_around``: how many scans later a scan is written, and so how late a
-    track may be confirmed and still count in it; ``confirmed_only``: only tracks confirmed by then
-    (else every track). Person features of the scan itself count (in a box of
-    ``feature_half_size``) when their P(moving) is at least ``feature_moving`` or the map so far has
-    a log-odds at most ``feature_free`` around them (seen free before). ``beyond``: a beam ending
-    farther than this behind a person's centre passed the person and is kept.
+    track may be confirmed and still count in it; a track not confirmed by then counts when it had
+    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 above). Person
+    features of the scan itself count (in a box of ``feature_half_size``) when their P(moving) is
+    at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
+    them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
+    passed the person and is kept.
     ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
     occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
     ``keep_free_space``: a person's beam still marks the cells in front of the person free.
@@ -78,7 +80,7 @@ class PeopleFilterParams:
     body_radius: float = 0.3
     box_half_size: float = 0.3
     scans_around: int = 3
-    confirmed_only: bool = True
+    tentative_hits: int | None = 2
     feature_half_size: float = 0.25
     feature_moving: float = 0.8
     feature_free: float = -0.3
@@ -167,6 +169,7 @@ class _Pending:
     pose: FloatArray
     index: int
     track_ids: list[int]
+    track_hits: list[int]  # detections of each track so far
     track_positions: FloatArray  # (K, 2)
     features: FloatArray  # (F, 2) person features of this scan
     moving: FloatArray  # (F,) their P(moving)
@@ -227,6 +230,7 @@ class PeopleFilteredMapper:
             predicted,
             self._index,
             [t.id for t in tracks],
+            [t.hits for t in tracks],
             np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
             self.tracker.last_features.points.copy(),
             np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
@@ -257,7 +261,11 @@ class PeopleFilteredMapper:
         """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
         features only, without ``tracks``)."""
         p = self.params
-        tracked = [tracks and (i in self._confirmed or not p.confirmed_only) for i in item.track_ids]
+        tentative = p.tentative_hits if p.tentative_hits is not None else np.inf
+        tracked = [
+            tracks and (i in self._confirmed or hits >= tentative)
+            for i, hits in zip(item.track_ids, item.track_hits, strict=True)
+        ]
         centres = item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
         features = item.features
         if len(features):
