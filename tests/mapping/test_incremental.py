@@ -190,3 +190,20 @@ def test_apply_counts_kernel_matches_numpy_reference(seed: int, n: int) -> None:
 def test_level_halvings_must_match_the_smoothing_levels() -> None:
     with pytest.raises(MappingError, match="level_halvings"):
         MapperParams(smoothing=(0.2, 0.05), level_halvings=(3, 3, 5))
+
+
+def test_integrate_into_one_map_only(hall_log: RobotLog) -> None:
+    """The returned map and the map scans are aligned against can be written separately."""
+    scan, pose = hall_log.scans[0], hall_log.reference_poses[0]
+    only_map = IncrementalMapper(start=pose)
+    only_map.integrate(scan, pose, into="map")
+    only_alignment = IncrementalMapper(start=pose)
+    only_alignment.integrate(scan, pose, into="alignment")
+    both = IncrementalMapper(start=pose)
+    both.integrate(scan, pose)
+    assert np.array_equal(only_map._hits, both._hits)
+    assert not only_map._near_hits.any()
+    assert np.array_equal(only_alignment._near_hits, both._near_hits)
+    assert not only_alignment._hits.any()
+    for a, b in zip(only_alignment._fields, both._fields, strict=True):
+        assert np.array_equal(a, b)

@@ -5,6 +5,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.mapping.incremental import IncrementalMapper
+from tourbot.mapping.metrics import relative_pose_error
 from tourbot.mapping.people_filter import (
     PeopleFilteredMapper,
     hit_probability,
@@ -145,3 +146,18 @@ def hall_walls(grid: OccupancyGrid, hall: OccupancyGrid) -> np.ndarray:
     out = np.zeros(grid.prob.size, bool)
     out[ok] = hall.occupied()[cells[ok, 0], cells[ok, 1]]
     return out.reshape(grid.prob.shape)
+
+
+def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: RobotLog) -> None:
+    start = hall_log.reference_poses[0]
+    plain = IncrementalMapper(start=start)
+    filtered = PeopleFilteredMapper.create(start=start)
+    for scan in hall_log.scans[:60]:
+        plain.add_scan(scan)
+        filtered.add_scan(scan)
+    filtered.finish()
+    ref = hall_log.reference_poses[:60]
+    a = relative_pose_error(np.asarray(plain.poses), ref).trans_mean
+    b = relative_pose_error(np.asarray(filtered.mapper.poses), ref).trans_mean
+    assert b < 1.5 * a + 0.005
+    assert filtered.mapper.grid().occupied().sum() > 0.8 * plain.grid().occupied().sum()

@@ -19,6 +19,7 @@ import functools
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numba
 import numpy as np
@@ -242,11 +243,15 @@ class IncrementalMapper:
         *,
         keep: NDArray[np.bool_] | None = None,
         free_only: NDArray[np.bool_] | None = None,
+        into: Literal["both", "map", "alignment"] = "both",
     ) -> None:
         """Write ``scan`` into the map at ``pose``; only the beams in ``keep`` when given.
 
         Beams in ``free_only`` add their free space but not their endpoint: the space in front of a
         person the beam hit was seen free, the person's cell is not an obstacle of the map.
+        ``into`` says which map gets the scan: the map that :meth:`grid` returns, the map that
+        scans are aligned against (the last ``window`` scans), or both (people-filtered mapping
+        aligns against each scan at once but writes the map a few scans late).
         """
         if math.isnan(self._x0):
             self._centre_on(np.asarray(pose, dtype=np.float64))
@@ -294,7 +299,10 @@ class IncrementalMapper:
         lr, lc, dh, dm = _counted_cells(hits, misses)
         rr, cc = r0 + lr, c0 + lc
         c = p.cells
-        _apply_counts(self._hits, self._misses, rr, cc, dh, dm, c.l_occ, c.l_free)  # the whole map
+        if into != "alignment":
+            _apply_counts(self._hits, self._misses, rr, cc, dh, dm, c.l_occ, c.l_free)  # the whole map
+        if into == "map":
+            return
         self._change(rr, cc, dh, dm)
         if p.window is not None:
             self._recent.append(_Footprint(bx, by, (int(hits.shape[0]), int(hits.shape[1])), lr, lc, dh, dm))

@@ -9,12 +9,15 @@ person (Eq. 10-11), from histograms of each person's samples over 15 x 15 cm bin
 ``P(hit_xy | x_i)`` is the fraction of person ``i``'s samples whose bin lies within a body radius
 of the beam's bin (the histogram, normalized, summed over the person's extent), times how sure the
 tracker is that the track is a person (1 once confirmed). During alignment each beam is weighted
-by ``1 - P(hit_b | X)`` (Eq. 12).
+by ``1 - P(hit_b | X)`` (Eq. 12); beams ending on the scan's own person features (below) count as
+``P(hit) = 1``. A scan is aligned against the map of the scans before it with the people known at
+once; the map that is returned gets it a few scans later (below).
 
 When the map is built, the beams ending in a person's bounding box are left out. A scan is
 written ``scans_around`` scans late, so that the tracker's delay is covered: a track counts as a
 person in scan ``t`` when it is confirmed by scan ``t + scans_around`` (its position in scan ``t``
-is used, so a visitor standing still is removed from the scans before the confirmation too).
+is used, so a visitor standing still is removed from the scans before the confirmation too), or
+when it had been detected a few times by scan ``t`` (a tentative track).
 Besides the tracks, the person features of the scan itself count (a person walks several metres
 between the scans of a sparse log, and no track can follow): those the tracker's static filter
 sees moving, and those standing where the map so far has seen free floor (the difference of the
@@ -27,12 +30,13 @@ from __future__ import annotations
 
 import collections
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
@@ -59,27 +63,31 @@ class PeopleFilterParams:
 
     Map building: ``box_half_size``: half the side of a tracked person's bounding box (legs up to
     a stride apart); ``scans_around``: how many scans later a scan is written, and so how late a
-    track may be confirmed and still count in it; ``confirmed_only``: only tracks confirmed by then
-    (else every track). Person features of the scan itself count (in a box of
-    ``feature_half_size``) when their P(moving) is at least ``feature_moving`` or the map so far has
-    a log-odds at most ``feature_free`` around them (seen free before). ``beyond``: a beam ending
-    farther than this behind a person's centre passed the person and is kept.
+    track may be confirmed and still count in it; a track not confirmed by then counts when it had
+    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 above). Person
+    features of the scan itself count (in a box of ``feature_half_size``) when their P(moving) is
+    at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
+    them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
+    passed the person and is kept.
     ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
     occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
     ``keep_free_space``: a person's beam still marks the cells in front of the person free.
+    ``align_features``: beams ending on the scan's person features get no weight in alignment
+    (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
     """
 
     bin_size: float = 0.15
     body_radius: float = 0.3
     box_half_size: float = 0.3
     scans_around: int = 3
-    confirmed_only: bool = True
+    tentative_hits: int | None = 2
     feature_half_size: float = 0.25
     feature_moving: float = 0.8
     feature_free: float = -0.3
     beyond: float = 0.2
     static_evidence: float = 3.0
     keep_free_space: bool = True
+    align_features: bool = True
 
 
 def hit_probability(
@@ -161,9 +169,21 @@ class _Pending:
     pose: FloatArray
     index: int
     track_ids: list[int]
+    track_hits: list[int]  # detections of each track so far
     track_positions: FloatArray  # (K, 2)
     features: FloatArray  # (F, 2) person features of this scan
     moving: FloatArray  # (F,) their P(moving)
+
+    def moved_to(self, pose: FloatArray) -> _Pending:
+        """The same scan at an aligned ``pose``: what was seen from the predicted pose moves along."""
+        correction = compose(pose, invert(self.pose))
+
+        def move(points: FloatArray) -> FloatArray:
+            return transform_points(correction, points) if len(points) else points
+
+        return replace(
+            self, pose=pose, track_positions=move(self.track_positions), features=move(self.features)
+        )
 
 
 @dataclass
@@ -205,40 +225,47 @@ class PeopleFilteredMapper:
         predicted = self.mapper.predict(scan) if pose is None else np.asarray(pose, dtype=np.float64)
         tracks = self.tracker.update(scan, predicted)
         self._confirmed.update(t.id for t in tracks if t.confirmed)
+        item = _Pending(
+            scan,
+            predicted,
+            self._index,
+            [t.id for t in tracks],
+            [t.hits for t in tracks],
+            np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
+            self.tracker.last_features.points.copy(),
+            np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
+        )
         if pose is None:
             sets = self.tracker.sample_sets()
             confirm = self.tracker.config.confirm_hits
             existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
             h = hit_probability([sets[t.id] for t in tracks], pts, p, existence)
-            at = np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose)
-        else:
-            at = predicted
-        self._pending.append(
-            _Pending(
-                scan,
-                at,
-                self._index,
-                [t.id for t in tracks],
-                np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
-                self.tracker.last_features.points.copy(),
-                np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
-            )
-        )
+            if p.align_features:
+                h = np.maximum(h, self._person_beams(item, tracks=False))
+            item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
+            # the next scan aligns against this one at once, with the people known now
+            self._integrate(item, self._person_beams(item), "alignment")
+        self._pending.append(item)
         self._index += 1
         while self._pending and self._pending[0].index + p.scans_around < self._index:
             self._write(self._pending.popleft())
-        return at
+        return item.pose
 
     def finish(self) -> None:
         """Write the scans still waiting for the people seen after them."""
         while self._pending:
             self._write(self._pending.popleft())
 
-    def _people(self, item: _Pending) -> tuple[FloatArray, FloatArray]:
-        """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan."""
+    def _people(self, item: _Pending, tracks: bool = True) -> tuple[FloatArray, FloatArray]:
+        """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
+        features only, without ``tracks``)."""
         p = self.params
-        tracked = [i in self._confirmed or not p.confirmed_only for i in item.track_ids]
+        tentative = p.tentative_hits if p.tentative_hits is not None else np.inf
+        tracked = [
+            tracks and (i in self._confirmed or hits >= tentative)
+            for i, hits in zip(item.track_ids, item.track_hits, strict=True)
+        ]
         centres = item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
         features = item.features
         if len(features):
@@ -254,16 +281,25 @@ class PeopleFilteredMapper:
         around = (points[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
         return np.asarray(self.mapper.evidence(around).reshape(len(points), -1).max(axis=1))
 
-    def _write(self, item: _Pending) -> None:
-        p = self.params
-        centres, half = self._people(item)
+    def _person_beams(self, item: _Pending, tracks: bool = True) -> NDArray[np.bool_]:
+        """The beams of a scan that ended on a person, with the tracks confirmed so far."""
+        centres, half = self._people(item, tracks)
         pts, hit = beam_endpoints(item.scan, item.pose)
         laser = compose(item.pose, item.scan.geometry.offset)
-        person = hit & person_beams(pts, laser, centres, half, p.beyond)
+        person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
         if person.any():
-            person[person] = self.mapper.evidence(pts[person]) < p.static_evidence
+            person[person] = self.mapper.evidence(pts[person]) < self.params.static_evidence
+        return person
+
+    def _write(self, item: _Pending) -> None:
+        person = self._person_beams(item)
         self.removed_beams += int(person.sum())
-        if p.keep_free_space:
-            self.mapper.integrate(item.scan, item.pose, free_only=person)
+        self._integrate(item, person, "map")
+
+    def _integrate(
+        self, item: _Pending, person: NDArray[np.bool_], into: Literal["map", "alignment"]
+    ) -> None:
+        if self.params.keep_free_space:
+            self.mapper.integrate(item.scan, item.pose, free_only=person, into=into)
         else:
-            self.mapper.integrate(item.scan, item.pose, keep=~person)
+            self.mapper.integrate(item.scan, item.pose, keep=~person, into=into)
