@@ -46,7 +46,9 @@ class LegConfig:
     nearer than the beams beside it on one side at least to be a local minimum (Burgard et al.,
     Sec. 4: "legs ... appear as local minima in the scans"), and the range must jump by as much on
     both sides (the other side may be an occluder in front, such as the person's other leg).
-    ``max_range`` ignores features too far away to be resolved as legs.
+    ``max_range`` ignores features too far away to be resolved as legs, ``min_range`` those so
+    near the laser that they are the robot's own body (a person's leg centre cannot come nearer
+    than the robot's skin around the laser).
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
     laser sees only the near side of a leg (about 2/3 of a 6 cm radius behind the visible arc).
@@ -61,6 +63,7 @@ class LegConfig:
     min_contrast: float = 0.10
     contrast_scale: float = 0.05
     max_range: float = 8.0
+    min_range: float = 0.25
     max_leg_separation: float = 0.55
     depth_offset: float = 0.04
     min_probability: float = 0.1
@@ -114,7 +117,10 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     valid = _valid_ranges(scan, np.inf)
     pts, width, prob = leg_segments(r, scan.geometry.angles, valid, cfg)
     if pts.shape[0]:
-        pts = pts + cfg.depth_offset * pts / np.maximum(np.linalg.norm(pts, axis=1, keepdims=True), 1e-9)
+        d = np.linalg.norm(pts, axis=1, keepdims=True)
+        pts = pts + cfg.depth_offset * pts / np.maximum(d, 1e-9)
+        far = d[:, 0] >= cfg.min_range
+        pts, width, prob = pts[far], width[far], prob[far]
     return LegFeatures(pts, width, prob)
 
 

@@ -19,13 +19,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert, transform_points
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
+from tourbot.people.ego_motion import ScanMatchedPoses
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
-from tourbot.people.static_filter import StaticConfig, StaticFilter
+from tourbot.people.static_filter import RobotBodyMask, StaticConfig, StaticFilter
 from tourbot.records import Scan
 
 __all__ = ["PeopleTracker", "SJPDAFConfig", "Track"]
@@ -51,7 +52,12 @@ class SJPDAFConfig:
     "unknown": a feature must be seen to move) starts a tentative track; with a map and
     ``birth_off_map``, any person feature off the map starts one too (the map is the static world,
     so a person standing still is not taken for furniture); ``confirm_hits`` detections confirm
-    it; a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
+    it, and without such a map the track must also have been seen moving: its features moving
+    (P(moving) >= ``birth_moving``) in ``confirm_moving`` hits, and the track ``confirm_distance``
+    (m) away from where it started both in the world (people walk; furniture seen from a robot
+    whose pose is a little off jitters by a few centimetres) and relative to the robot (the robot's
+    own body seen by its laser moves with it); a track not confirmed within ``confirm_window``
+    scans ends; a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one
     after ``max_misses``, or when its samples spread beyond ``max_position_std`` (an occluded
     person lost for good), or leave ``max_range`` of the robot.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends.
@@ -72,6 +78,9 @@ class SJPDAFConfig:
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
     confirm_hits: int = 3
+    confirm_distance: float = 0.3
+    confirm_moving: int = 3
+    confirm_window: int = 15
     tentative_misses: int = 2
     max_misses: int = 10
     max_position_std: float = 1.0
@@ -110,6 +119,11 @@ class _TrackState:
     age: int = 0
     confirmed: bool = False
     occluded: bool = False
+    origin: tuple[float, float] = (0.0, 0.0)
+    travel: float = 0.0
+    origin_robot: tuple[float, float] = (0.0, 0.0)
+    travel_robot: float = 0.0
+    moving_hits: int = 0
 
 
 @dataclass
@@ -133,22 +147,41 @@ class PeopleTracker:
         *,
         grid_map: OccupancyGrid | None = None,
         rng: np.random.Generator | None = None,
+        ego_motion: ScanMatchedPoses | None = None,
     ) -> None:
         self.config = config or SJPDAFConfig()
         self.rng = rng or np.random.default_rng(0)
         self.static = StaticFilter(self.config.static, grid_map)
+        self.body = RobotBodyMask(self.config.static)
+        self.ego_motion = ego_motion
+        self.last_pose = np.zeros(3)
         self._samples = np.zeros((0, self.config.num_samples, 4))
         self._states: list[_TrackState] = []
         self._next_id = 1
         self._time: float | None = None
         self.last_legs = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
         self.last_features = PersonFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64))
+        self.last_moving = np.zeros(0)  # P(moving) of each of ``last_features`` (static filter)
 
     # --- the algorithm ----------------------------------------------------------------------------
 
-    def update(self, scan: Scan, robot_pose: FloatArray | tuple[float, float, float]) -> list[Track]:
-        """Integrate one scan taken at ``robot_pose`` (world frame); return all current tracks."""
-        pose = np.asarray(robot_pose, dtype=np.float64)
+    def update(
+        self, scan: Scan, robot_pose: FloatArray | tuple[float, float, float] | None = None
+    ) -> list[Track]:
+        """Integrate one scan taken at ``robot_pose`` (world frame); return all current tracks.
+
+        With ``ego_motion`` (a recording without odometry) the pose comes from scan matching
+        instead and ``robot_pose`` must be None; the pose used is ``last_pose``.
+        """
+        if self.ego_motion is not None:
+            if robot_pose is not None:
+                raise ValueError("a tracker with ego_motion takes its poses from scan matching")
+            pose = self.ego_motion.match(scan)
+        elif robot_pose is None:
+            raise ValueError("robot_pose is needed without ego_motion")
+        else:
+            pose = np.asarray(robot_pose, dtype=np.float64)
+        self.last_pose = pose
         dt = self._advance_time(scan.timestamp)
         features, moving = self._features(scan, pose)  # legs -> person features z_j(t), world frame
         self._predict(dt)  # p(x_i^t | x_i^{t-1}, dt) for every sample
@@ -156,6 +189,8 @@ class PeopleTracker:
         assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
         self._manage(assoc, features, moving, detect, pose)  # start, confirm, end tracks
+        if self.ego_motion is not None:
+            self.ego_motion.integrate(scan, pose)  # the scan joins the map built on the fly
         return self.tracks()
 
     def tracks(self) -> list[Track]:
@@ -192,6 +227,10 @@ class PeopleTracker:
     def _features(self, scan: Scan, pose: FloatArray) -> tuple[PersonFeatures, FloatArray]:
         cfg = self.config
         legs = detect_legs(scan, cfg.legs)
+        body = self.body.is_body(legs.points)  # the robot's own body, not a person's legs
+        self.body.learn(legs.points, pose)
+        if body.any():
+            legs = LegFeatures(legs.points[~body], legs.width[~body], legs.probability[~body])
         sensor = compose(pose, np.asarray(scan.geometry.offset, dtype=np.float64))
         persons = group_legs(legs, cfg.legs).transformed(sensor)
         world_legs = LegFeatures(
@@ -202,6 +241,8 @@ class PeopleTracker:
             legs.probability,
         )
         leg_moving = self.static.moving_probability(world_legs.points, scan, pose)
+        if self.ego_motion is not None:  # legs on the map built so far stand still
+            leg_moving[self.ego_motion.on_map(world_legs.points)] = 0.0
         # A person moves when one of its legs does (the stance leg stands still while walking).
         m = persons.members
         moving = np.zeros(len(persons))
@@ -213,6 +254,7 @@ class PeopleTracker:
         persons = PersonFeatures(persons.points[keep], persons.probability[keep], persons.members[keep])
         self.last_legs = world_legs
         self.last_features = persons
+        self.last_moving = moving[keep]
         return persons, moving[keep]
 
     def _predict(self, dt: float) -> None:
@@ -282,19 +324,35 @@ class PeopleTracker:
         spread = np.sqrt(self._samples[..., 0:2].var(axis=1).sum(axis=1)) if K else np.zeros(0)
         mean = self._samples[..., 0:2].mean(axis=1) if K else np.zeros((0, 2))
         far = np.linalg.norm(mean - pose[None, 0:2], axis=1) > cfg.max_range + 1.0
+        robot_frame = transform_points(invert(pose), mean) if K else mean
+        # Without a map of the static world, a track must also have been seen moving to be confirmed.
+        need_motion = not (cfg.birth_off_map and self.static.has_map)
+        # A hit is a moving hit when the features explaining the person were seen moving.
+        moved = np.zeros(K)
+        if K and a.pair_track.size:
+            np.add.at(moved, a.pair_track, a.pair_beta * (moving[a.pair_feature] >= cfg.birth_moving))
         for k, st in enumerate(self._states):
             st.age += 1
+            st.travel = max(st.travel, float(np.hypot(*(mean[k] - st.origin))))
+            st.travel_robot = max(st.travel_robot, float(np.hypot(*(robot_frame[k] - st.origin_robot))))
             st.occluded = not bool(visible[k])
             if a.beta0[k] < 0.5:
                 st.hits += 1
                 st.misses = 0
+                st.moving_hits += int(moved[k] >= 0.5)
             elif visible[k]:
                 st.misses += 1  # an occluded person is not missed: its samples just spread out
-            if st.hits >= cfg.confirm_hits:
+            seen_moving = (
+                min(st.travel, st.travel_robot) >= cfg.confirm_distance
+                and st.moving_hits >= cfg.confirm_moving
+            )
+            if st.hits >= cfg.confirm_hits and (seen_moving or not need_motion):
                 st.confirmed = True
             limit = cfg.max_misses if st.confirmed else cfg.tentative_misses
             if st.misses >= limit or spread[k] > cfg.max_position_std or far[k]:
                 keep[k] = False
+            if need_motion and not st.confirmed and st.age >= cfg.confirm_window:
+                keep[k] = False  # never seen moving: furniture
         # Duplicates: two tracks on one person; the younger (fewer hits) ends.
         if K > 1:
             d = np.linalg.norm(mean[:, None] - mean[None, :], axis=-1)
@@ -323,6 +381,10 @@ class PeopleTracker:
             ] + cfg.birth_position_std * self.rng.standard_normal((new.size, N, 2))
             s[..., 2:4] = cfg.birth_velocity_std * self.rng.standard_normal((new.size, N, 2))
             self._samples = np.concatenate([self._samples, s], axis=0)
-            for _ in range(new.size):
-                self._states.append(_TrackState(id=self._next_id, hits=1))
+            local = transform_points(invert(pose), features.points[new])
+            for j, (lx, ly) in zip(new.tolist(), local.tolist(), strict=True):
+                origin = (float(features.points[j, 0]), float(features.points[j, 1]))
+                self._states.append(
+                    _TrackState(id=self._next_id, hits=1, origin=origin, origin_robot=(lx, ly), moving_hits=1)
+                )
                 self._next_id += 1

@@ -26,7 +26,7 @@ from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.occlusion import points_in_sensor_frame
 from tourbot.records import Scan
 
-__all__ = ["StaticConfig", "StaticFilter", "previous_occupancy"]
+__all__ = ["RobotBodyMask", "StaticConfig", "StaticFilter", "previous_occupancy"]
 
 FloatArray = NDArray[np.float64]
 
@@ -38,10 +38,24 @@ class StaticConfig:
     walking slowly, whose legs move only a few centimetres between consecutive scans);
     ``tolerance``: how close (m) a previous return must be to call the cell occupied then;
     ``p_free`` / ``p_occupied``: the inverse sensor model's values; ``map_clearance``: features
-    within this distance (m) of an occupied map cell are static."""
+    within this distance (m) of an occupied map cell are static.
+
+    The robot's own body seen by the laser (at the edges of a 270-degree field of view, a bumper or
+    a mast) moves with the robot: in the world frame it walks. Leg detections are counted per
+    ``body_cell`` (m) of the laser frame over the scans at which the robot had moved
+    ``body_min_motion`` (m, or that many radians) since the last counted one, with an exponential
+    memory of ``body_memory`` such scans; a cell detected at least ``body_count`` times and in at
+    least ``body_rate`` of them is the robot's body. (A robot standing still teaches nothing: a
+    person standing beside it is fixed in the laser frame too; a person walking along with a
+    moving robot in the same 10 cm cell for 15 scans, about 2 s, is rare.)"""
 
     lag: int = 5
     tolerance: float = 0.08
+    body_cell: float = 0.1
+    body_rate: float = 0.1
+    body_count: float = 15.0
+    body_memory: int = 200
+    body_min_motion: float = 0.05
     p_free: float = 0.1
     p_occupied: float = 0.9
     map_clearance: float = 0.15
@@ -49,12 +63,19 @@ class StaticConfig:
 
 
 def previous_occupancy(
-    points_sensor: FloatArray, ranges: FloatArray, angle_min: float, angle_increment: float, cfg: StaticConfig
+    points_sensor: FloatArray,
+    ranges: FloatArray,
+    angle_min: float,
+    angle_increment: float,
+    cfg: StaticConfig,
+    min_range: float = 0.0,
 ) -> FloatArray:
     """P(occupied) of points ``(P, 2)`` (in the earlier scan's laser frame) by that scan's beams.
 
     The nearest beam and its two neighbours are read, so a small change of bearing between the
-    scans (the robot moved) still finds a return from the same surface.
+    scans (the robot moved) still finds a return from the same surface. A cell counts as free only
+    when all three beams returned (beyond ``min_range``) from behind it: a beam with no reading
+    (lasers report 0 for a dropout) might have ended on it.
     """
     B = ranges.shape[0]
     d = np.hypot(points_sensor[:, 0], points_sensor[:, 1])
@@ -63,10 +84,12 @@ def previous_occupancy(
     inside = (idx >= 0) & (idx < B) & (d <= cfg.max_range)
     window = np.clip(idx[:, None] + np.arange(-1, 2)[None, :], 0, B - 1)
     r = ranges[window]
-    returned = np.isfinite(r) & (r > 0.0)
-    gap = np.where(returned, r - d[:, None], np.inf)  # >0: beam ended behind the point
+    # A reading of 0 (or below the laser's minimum, or NaN) is no reading: the beam may have
+    # ended anywhere, so it says nothing; +inf (nothing within range) went through.
+    read = ~np.isnan(r) & (r > min_range)
+    gap = np.where(read, r - d[:, None], np.nan)  # >0: beam ended behind the point
     hit = (np.abs(gap) <= cfg.tolerance).any(axis=1)
-    through = (gap > cfg.tolerance).all(axis=1)
+    through = (read & (gap > cfg.tolerance)).all(axis=1)
     p = np.full(points_sensor.shape[0], 0.5)
     p[through] = cfg.p_free
     p[hit] = cfg.p_occupied
@@ -125,10 +148,58 @@ class StaticFilter:
                 local = points_in_sensor_frame(world_points, prev_pose, prev_scan)
                 g = prev_scan.geometry
                 p_prev = previous_occupancy(
-                    local, np.asarray(prev_scan.ranges, float), g.angle_min, g.angle_increment, cfg
+                    local,
+                    np.asarray(prev_scan.ranges, float),
+                    g.angle_min,
+                    g.angle_increment,
+                    cfg,
+                    g.min_range,
                 )
                 diff = np.clip((cfg.p_occupied - p_prev) / (cfg.p_occupied - cfg.p_free), 0.0, 1.0)
                 out = np.maximum(out, diff)
         out[self.on_map(world_points)] = 0.0
         self._history.append((scan, pose.copy()))
         return out
+
+
+class RobotBodyMask:
+    """Leg detections fixed in the laser frame while the robot moves are the robot's own body.
+
+    The robot's pose only tells whether it moved; no map is needed. See :class:`StaticConfig`.
+    """
+
+    def __init__(self, config: StaticConfig | None = None) -> None:
+        self.config = config or StaticConfig()
+        self._count: dict[tuple[int, int], float] = {}
+        self._total = 0.0
+        self._last: FloatArray | None = None
+
+    def _cells(self, laser_points: FloatArray) -> list[tuple[int, int]]:
+        c = np.floor(laser_points / self.config.body_cell).astype(np.int64)
+        return [(int(a), int(b)) for a, b in c]
+
+    def is_body(self, laser_points: FloatArray) -> NDArray[np.bool_]:
+        """Which detections ``(M, 2)`` (laser frame) lie on the robot's body, as learned so far."""
+        cfg = self.config
+        cells = self._cells(np.asarray(laser_points, dtype=np.float64).reshape(-1, 2))
+        floor = max(cfg.body_count, cfg.body_rate * self._total)
+        return np.array([self._count.get(c, 0.0) >= floor for c in cells], dtype=bool)
+
+    def learn(self, laser_points: FloatArray, robot_pose: FloatArray) -> None:
+        """Count the detections of a scan taken at ``robot_pose`` if the robot moved since the last."""
+        cfg = self.config
+        pose = np.asarray(robot_pose, dtype=np.float64)
+        if self._last is not None:
+            turn = abs(math.remainder(float(pose[2] - self._last[2]), math.tau))
+            if max(float(np.hypot(*(pose[:2] - self._last[:2]))), turn) < cfg.body_min_motion:
+                return
+        self._last = pose.copy()
+        decay = 1.0 - 1.0 / max(cfg.body_memory, 1)
+        self._total = self._total * decay + 1.0
+        seen = set(self._cells(np.asarray(laser_points, dtype=np.float64).reshape(-1, 2)))
+        for c in list(self._count):
+            self._count[c] *= decay
+            if self._count[c] < 0.5 and c not in seen:
+                del self._count[c]
+        for c in seen:
+            self._count[c] = self._count.get(c, 0.0) + 1.0
