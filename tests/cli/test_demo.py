@@ -86,25 +86,49 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def _read_until(stream: IO[str], prefix: str, limit: float) -> tuple[str, list[str]]:
-    """The first line starting with ``prefix`` (and every line read), or a failure after ``limit`` s."""
-    import selectors
-    import time
+class _Lines:
+    """The lines a child process prints, read by a thread (a select() on a buffered text stream
+    would miss lines that arrived in the same chunk)."""
 
-    lines: list[str] = []
-    selector = selectors.DefaultSelector()
-    selector.register(stream, selectors.EVENT_READ)
-    deadline = time.monotonic() + limit
-    while time.monotonic() < deadline:
-        if not selector.select(timeout=1.0):
-            continue
-        line = stream.readline()
-        if not line:
-            break
-        lines.append(line.rstrip())
-        if line.startswith(prefix):
-            return line, lines
-    pytest.fail(f"no line starting with {prefix!r} within {limit} s; output: {lines}")
+    def __init__(self, stream: IO[str]) -> None:
+        import queue
+        import threading
+
+        self.queue: queue.Queue[str | None] = queue.Queue()
+        self.seen: list[str] = []
+        self.thread = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self.thread.start()
+
+    def _read(self, stream: IO[str]) -> None:
+        for line in stream:
+            self.queue.put(line.rstrip())
+        self.queue.put(None)
+
+    def until(self, prefix: str, limit: float) -> str:
+        """The first line starting with ``prefix``, or a failure after ``limit`` s."""
+        import queue
+        import time
+
+        deadline = time.monotonic() + limit
+        while (left := deadline - time.monotonic()) > 0:
+            try:
+                line = self.queue.get(timeout=left)
+            except queue.Empty:
+                break
+            if line is None:
+                break
+            self.seen.append(line)
+            if line.startswith(prefix):
+                return line
+        pytest.fail(f"no line starting with {prefix!r} within {limit} s; output: {self.seen}")
+
+    def rest(self) -> str:
+        self.thread.join(10)
+        while not self.queue.empty():
+            line = self.queue.get()
+            if line is not None:
+                self.seen.append(line)
+        return "\n".join(self.seen)
 
 
 async def _first_keyframe(base: str, port: int) -> Any:
@@ -171,18 +195,18 @@ def test_demo_serves_the_museum_until_ctrl_c(tmp_path: Path) -> None:
     )  # fmt: skip
     try:
         assert process.stdout is not None
-        line, lines = _read_until(process.stdout, "visitor page:", limit=240)
+        lines = _Lines(process.stdout)
+        line = lines.until("visitor page:", limit=240)
         taken.close()
-        assert f"port {port} is in use: serving on port" in "\n".join(lines)
-        assert any(re.search(r"password \S+", x) for x in lines)  # the generated staff password
+        assert f"port {port} is in use: serving on port" in "\n".join(lines.seen)
+        assert any(re.search(r"password \S+", x) for x in lines.seen)  # the generated staff password
         match = re.search(r"http://127\.0\.0\.1:(\d+)/", line)
         assert match, line
         served = int(match.group(1))
         assert served != port
         base = f"http://127.0.0.1:{served}"
-        more = [_read_until(process.stdout, prefix, limit=10)[0] for prefix in ("on-board", "staff")]
-        assert f"{base}/onboard" in more[0]
-        assert f"{base}/admin" in more[1]
+        assert f"{base}/onboard" in lines.until("on-board", limit=10)
+        assert f"{base}/admin" in lines.until("staff", limit=10)
         page = httpx.get(base + "/", trust_env=False, timeout=30)
         assert page.status_code == 200
         assert "<canvas" in page.text or "three" in page.text
@@ -194,7 +218,10 @@ def test_demo_serves_the_museum_until_ctrl_c(tmp_path: Path) -> None:
         assert grid.free()[row, col]
         assert (tmp_path / "out" / "demo" / "tourbot-fhw.db").is_file()  # the database is kept there
         os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
-        out, err = process.communicate(timeout=60)
+        assert process.stderr is not None
+        err = process.stderr.read()
+        process.wait(60)
+        out = lines.rest()
     finally:
         taken.close()
         if process.poll() is None:
