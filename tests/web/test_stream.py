@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.web.stream import (
+    MAX_BODIES,
     Body,
     Scene,
     StreamBroadcast,
@@ -236,3 +237,17 @@ def test_starting_and_stopping_are_sent_at_once() -> None:
     assert decoder.scene().robot.vx == pytest.approx(0.3)
     assert encoder.encode(Scene(0.6, Body(0, 1.06, 1.0, 0.3, 0.0))) is None
     assert encoder.encode(Scene(0.8, Body(0, 1.1, 1.0, 0.0, 0.0))) is not None  # stopped
+
+
+def test_a_crowd_denser_than_a_message_streams_the_people_nearest_the_robot() -> None:
+    from tourbot.web.hub import scene_of
+    from tourbot.web.link import PersonView, RobotView
+
+    people = tuple(PersonView(i, 1.0 + 0.1 * i, 0.0) for i in range(400))  # id i is 0.1 i m away
+    scene = scene_of(RobotView(0.0, 1.0, 0.0, 0.0, people=people), t=10.0)
+    assert len(scene.people) == MAX_BODIES - 1
+    assert max(p.x for p in scene.people) == pytest.approx(1.0 + 0.1 * (MAX_BODIES - 2))
+    message = StreamEncoder().encode(scene)  # fits in one message
+    decoder = StreamDecoder()
+    decoder.feed(message or b"")
+    assert len(decoder.scene().people) == MAX_BODIES - 1

@@ -25,15 +25,19 @@ from tourbot.web.db import Database, DatabaseError
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
-from tourbot.web.stream import Body, Scene, StreamBroadcast, StreamConfig
+from tourbot.web.stream import MAX_BODIES, Body, Scene, StreamBroadcast, StreamConfig
 
 __all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
 
 log = logging.getLogger(__name__)
 
 
-def scene_of(view: RobotView, t: float) -> Scene:
-    """The streamed scene of a view at wall-clock ``t``; track ids map into the stream's 1..65535."""
+def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1) -> Scene:
+    """The streamed scene of a view at wall-clock ``t``; track ids map into the stream's 1..65535.
+
+    A message carries at most ``MAX_BODIES`` bodies: in a denser crowd the people nearest to the
+    robot are streamed.
+    """
     robot = Body(
         0,
         view.x,
@@ -44,7 +48,10 @@ def scene_of(view: RobotView, t: float) -> Scene:
         view.omega,
     )
     people = {}
-    for p in view.people:
+    nearest = view.people
+    if len(nearest) > max_people:
+        nearest = tuple(sorted(nearest, key=lambda p: math.hypot(p.x - view.x, p.y - view.y))[:max_people])
+    for p in nearest:
         i = p.id % 65535 + 1
         people[i] = Body(i, p.x, p.y, p.vx, p.vy)
     return Scene(t, robot, tuple(people.values()))

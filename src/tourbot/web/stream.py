@@ -34,6 +34,7 @@ from tourbot.errors import TourbotError
 
 __all__ = [
     "KEYFRAME",
+    "MAX_BODIES",
     "ROBOT_ID",
     "Body",
     "Scene",
@@ -54,7 +55,7 @@ _BODY = struct.Struct("<Hhhbb")
 _ROBOT_EXTRA = struct.Struct("<Hb")
 _ID = struct.Struct("<H")
 _TWO_PI = 2.0 * math.pi
-_MAX_BODIES = 255
+MAX_BODIES = 255  # bodies in one message (the count is a byte)
 
 
 class StreamError(TourbotError):
@@ -196,8 +197,8 @@ class StreamEncoder:
     def encode(self, scene: Scene) -> bytes | None:
         """The message bringing the client to ``scene``, or None when it can predict it already."""
         bodies = scene.bodies()
-        if len(bodies) > _MAX_BODIES:
-            raise StreamError(f"{len(bodies)} bodies in a scene, at most {_MAX_BODIES} are streamed")
+        if len(bodies) > MAX_BODIES:
+            raise StreamError(f"{len(bodies)} bodies in a scene, at most {MAX_BODIES} are streamed")
         quantizer = _Quantizer(self.config)
         if self._epoch is None:
             self._epoch = scene.t
@@ -222,7 +223,7 @@ class StreamEncoder:
             _HEAD.pack(DELTA, ticks, len(updates))
             + b"".join(updates)
             + bytes([len(removed)])
-            + b"".join(_ID.pack(i) for i in removed[:_MAX_BODIES])
+            + b"".join(_ID.pack(i) for i in removed[:MAX_BODIES])
         )
 
     def keyframe(self, t: float) -> bytes:
