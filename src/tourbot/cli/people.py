@@ -20,6 +20,8 @@ class PoseSource(StrEnum):
 
 
 def register(app: typer.Typer) -> None:
+    _register_train(app)
+
     @app.command("track")
     def track(
         log: Annotated[Path, typer.Argument(help="A CARMEN log or a ROS bag.")],
@@ -82,6 +84,32 @@ def register(app: typer.Typer) -> None:
         if plot is not None:
             _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")
             typer.echo(f"picture -> {plot}")
+
+
+def _register_train(app: typer.Typer) -> None:
+    @app.command("train-legs")
+    def train_legs(
+        bags: Annotated[list[Path], typer.Argument(help="Annotated leg_tracker bags (*_extracted.bag).")],
+        output: Annotated[
+            Path | None,
+            typer.Option("-o", "--output", help="Model JSON to write (default: the shipped model file)."),
+        ] = None,
+        match: Annotated[
+            float, typer.Option(help="Metres within which a candidate is an annotated leg.")
+        ] = 0.25,
+    ) -> None:
+        """Fit the leg model (P(leg) from a segment's shape) to annotated bags and write it as JSON."""
+        from tourbot.io.errors import BagError
+        from tourbot.people.leg_classifier import DEFAULT_MODEL
+        from tourbot.people.leg_training import train_leg_model
+
+        for bag in bags:
+            if not bag.exists():
+                raise BagError("no such bag", path=bag)
+        model = train_leg_model(bags, match=match)
+        out = output or DEFAULT_MODEL
+        model.save(out)
+        typer.echo(f"leg model ({model.trained_on}) -> {out}")
 
 
 def _plot_tracks(paths: dict[int, list[tuple[float, float]]], out: Path, title: str) -> None:
