@@ -14,7 +14,9 @@ __all__ = ["PoseSource", "register"]
 class PoseSource(StrEnum):
     """Where the robot's pose at each scan comes from (tracks are in that pose's frame)."""
 
+    auto = "auto"
     odom = "odom"
+    scan_matching = "scan-matching"
     reference = "reference"
     none = "none"
 
@@ -33,9 +35,10 @@ def register(app: typer.Typer) -> None:
         pose: Annotated[
             PoseSource,
             typer.Option(
-                help="Robot pose per scan: odometry, the log's reference pose, or none (robot still)."
+                help="Robot pose per scan: odometry, scan-to-map matching (Burgard Sec. 2.1), the log's "
+                "reference pose, or none (robot still); auto: odometry if the log has it, else scan matching."
             ),
-        ] = PoseSource.odom,
+        ] = PoseSource.auto,
         tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
         plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
@@ -49,6 +52,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
         from tourbot.io.rosbag import read_bag
+        from tourbot.people.ego_motion import ScanMatchedPoses
         from tourbot.people.sjpdaf import PeopleTracker
 
         if log_kind(log) == "rosbag" and log.exists():
@@ -56,7 +60,12 @@ def register(app: typer.Typer) -> None:
         else:
             robot_log = load_log(log)
         grid = read_map(map_path) if map_path is not None else None
-        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed))
+        if pose is PoseSource.auto:
+            has_odom = bool(robot_log.scans) and all(s.odom is not None for s in robot_log.scans)
+            pose = PoseSource.odom if has_odom else PoseSource.scan_matching
+            typer.echo(f"robot pose from {pose.value}")
+        ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
+        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
         output.parent.mkdir(parents=True, exist_ok=True)
         rows = 0
         ids: set[int] = set()
@@ -66,10 +75,12 @@ def register(app: typer.Typer) -> None:
             writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
             task = progress.add_task(f"tracking {log.name}", total=len(robot_log.scans))
             for k, scan in enumerate(robot_log.scans):
-                chosen = scan.odom if pose is PoseSource.odom else scan.reference
-                robot = np.asarray(
-                    chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
-                )
+                robot = None
+                if ego is None:
+                    chosen = scan.odom if pose is PoseSource.odom else scan.reference
+                    robot = np.asarray(
+                        chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
+                    )
                 for tr in tracker.update(scan, robot):
                     if tr.confirmed or tentative:
                         writer.writerow(
