@@ -433,6 +433,10 @@ def _real_bags(report: BenchReport, folder: Path) -> None:
         report.add(
             tracker=f"legs model({other[:10]}) {name}", precision=learnt["precision"], recall=learnt["recall"]
         )
+        rule_tracks = track_scores(folder / name, None)
+        report.add(
+            tracker=f"tracks rule {name}", precision=rule_tracks["precision"], recall=rule_tracks["recall"]
+        )
         tracks = track_scores(folder / name, model)
         report.add(
             tracker=f"tracks model({other[:10]}) {name}",
@@ -443,7 +447,8 @@ def _real_bags(report: BenchReport, folder: Path) -> None:
             "rule": rule,
             "model": learnt,
             "model_trained_on": model.trained_on,
-            "tracks": tracks,
+            "tracks_rule": rule_tracks,
+            "tracks_model": tracks,
         }
     shipped = default_model()
     report.notes.append(
