@@ -78,8 +78,8 @@ class SJPDAFConfig:
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
     confirm_hits: int = 3
-    confirm_distance: float = 0.3
-    confirm_moving: int = 3
+    confirm_distance: float = 0.5
+    confirm_moving: int = 5
     confirm_window: int = 15
     tentative_misses: int = 2
     max_misses: int = 10
