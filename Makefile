@@ -1,4 +1,5 @@
-# tourbot: `make demo` runs the main job, `make test` runs lint, type check and all tests.
+# tourbot: `make demo` serves the simulated crowded museum on the web (Ctrl-C stops it), `make test`
+# runs lint, type check and all tests.
 # Both create the virtual environment and install everything they need themselves.
 
 PYTHON ?= python3

@@ -43,8 +43,24 @@ def test_recovery_per_kidnap_until_the_next() -> None:
     err[30:] = 2.0  # kidnap at 30, never back
     out = recovery(err, times, path, [10, 30])
     assert out[0] == (True, 5.0, 2.5)
+    assert out[1] is not None
     assert out[1][0] is False
     assert math.isnan(out[1][1])
+
+
+def test_a_kidnap_followed_by_another_within_ten_seconds_is_censored() -> None:
+    times = np.arange(40.0)
+    path = np.arange(40.0)
+    err = np.full(40, 0.05)
+    err[10:15] = 2.0
+    out = recovery(err, times, path, [10, 14, 30])
+    assert out[0] is None  # the next kidnap comes 4 s later: it cannot be judged
+    assert out[1] == (True, 1.0, 1.0)
+    assert out[2] == (True, 0.0, 0.0)
+    err[10:25] = 2.0
+    judged = recovery(err, times, path, [10, 22])[0]  # 12 s to the next kidnap: judged, failed
+    assert judged is not None
+    assert judged[0] is False
 
 
 def test_mean_ci() -> None:

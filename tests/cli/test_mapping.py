@@ -27,6 +27,17 @@ def test_slam_writes_map_and_trajectory(tmp_path: Path) -> None:
     assert np.all(np.isfinite(poses))
 
 
+def test_slam_with_people_filter(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    log = drive(building(), n=20)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "map.yaml"
+    main(["slam", str(path), "-o", str(out), "--people-filter"])
+    assert read_map(out).occupied().sum() > 100
+    assert "beams left out as people" in capsys.readouterr().out
+
+
 def test_slam_missing_log_is_one_clear_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["slam", str(tmp_path / "nope.log"), "-o", str(tmp_path / "m.yaml")])

@@ -14,6 +14,8 @@ from tourbot.localization.mcl import (
     LocalizationError,
     MCLConfig,
     MonteCarloLocalization,
+    _anneal_step,
+    _longest,
     best_cluster_estimate,
     best_cluster_estimate_reference,
     cluster_bins,
@@ -149,6 +151,44 @@ def test_global_localization_converges(room: OccupancyGrid) -> None:
     err = _errors(est, drive.truth)
     assert err[25:].max() < 0.3
     assert mcl.samples.shape[0] < 2000  # KLD shrank the set once localized
+
+
+def test_global_start_among_people_localizes_on_the_first_scans(room: OccupancyGrid) -> None:
+    # Two people in front of the robot at every scan: the annealed start over a large candidate
+    # set, scored on the longest returns, must find the robot within a few scans.
+    truth = waypoints_path(12)
+    drive = simulate(room, truth, seed=11, circles=_people_in_front(truth, np.random.default_rng(12)))
+    cfg = MCLConfig(max_samples=2000, min_samples=300, global_samples=20000, global_candidates=200_000)
+    mcl = MonteCarloLocalization(room, cfg, seed=13)
+    mcl.reset_global()
+    first = mcl.update(drive.odom[0], drive.scans[0])
+    assert first.n_samples == 20000
+    assert first.info["global_stages"] >= 1
+    est = [first.pose] + [mcl.update(drive.odom[k], drive.scans[k]).pose for k in range(1, len(truth))]
+    assert _errors(np.array(est), truth)[3:].max() < 0.3
+
+
+def test_longest_keeps_the_longest_valid_returns() -> None:
+    ranges = np.array([5.0, 1.0, 9.0, 2.0, 50.0, 3.0])
+    valid = np.array([True, True, True, True, False, True])
+    np.testing.assert_array_equal(_longest(ranges, valid, 0.4), [True, False, True, False, False, False])
+    np.testing.assert_array_equal(_longest(ranges, valid, 1.0), valid)
+    assert _longest(ranges, valid, 0.01).sum() == 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.float64, 50, elements=st.floats(-50, 0)), st.floats(0.05, 0.9))
+def test_anneal_step_keeps_the_effective_sample_size(ll: np.ndarray, frac: float) -> None:
+    def ess(d: float) -> float:
+        w = np.exp(d * ll - (d * ll).max())
+        return float(w.sum() ** 2 / (w * w).sum())
+
+    target = frac * ll.size
+    d = _anneal_step(np.zeros(ll.size), ll, 1.0, target)
+    assert 0.0 <= d <= 1.0
+    assert ess(d) >= target - 1e-6
+    if d < 1.0:  # the largest such step: a little more would go below the target
+        assert ess(min(1.0, d + 1e-6 + 1e-3 * d)) < target + 1e-3 * ll.size
 
 
 def test_recovers_from_a_kidnap(room: OccupancyGrid) -> None:

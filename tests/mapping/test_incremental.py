@@ -9,6 +9,10 @@ from tourbot.mapping.incremental import (
     IncrementalMapper,
     MapperParams,
     MappingError,
+    _apply_counts,
+    _apply_counts_reference,
+    _counted_cells,
+    _counted_cells_reference,
     _stamp_cells,
     _stamp_cells_reference,
 )
@@ -132,3 +136,74 @@ def test_a_wall_reads_one_and_unexplored_space_its_level() -> None:
         assert field[mid, mid] == pytest.approx(1.0, abs=0.15)  # on the wall
         assert field[mid, (n // 4 + 8) // factor + 6] == pytest.approx(0.0, abs=0.05)  # free space
         assert field[mid, -3] == pytest.approx(params.unknown_level, abs=1e-6)  # never seen
+
+
+def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
+    geom = LaserGeometry(3, -0.1, 0.1, 30.0)
+    scan = Scan(0.0, np.array([2.0, 2.0, 2.0]), geom, odom=(0.0, 0.0, 0.0))
+    both = IncrementalMapper(start=np.zeros(3))
+    both.integrate(scan, np.zeros(3))
+    person = IncrementalMapper(start=np.zeros(3))
+    person.integrate(scan, np.zeros(3), free_only=np.array([False, True, False]))
+    ahead = np.array([[1.0, 0.0], [2.0, 0.0]])  # in front of the middle beam's end, and its end
+    plain, cut = both.evidence(ahead), person.evidence(ahead)
+    assert cut[0] == plain[0] < 0  # the space in front of the person is free as before
+    assert plain[1] > 0  # the person's cell is no obstacle
+    assert cut[1] == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), fill=st.floats(0.0, 1.0))
+def test_counted_cells_kernel_matches_numpy_reference(seed: int, fill: float) -> None:
+    rng = np.random.default_rng(seed)
+    shape = (int(rng.integers(1, 30)), int(rng.integers(1, 30)))
+    hits = np.where(rng.random(shape) < fill, rng.integers(-2, 4, shape), 0).astype(np.int32)
+    misses = np.where(rng.random(shape) < fill, rng.integers(-2, 4, shape), 0).astype(np.int32)
+    fast = _counted_cells(hits, misses)
+    slow = _counted_cells_reference(hits, misses)
+    for k in range(4):
+        assert np.array_equal(fast[k], slow[k])
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(0, 60))
+def test_apply_counts_kernel_matches_numpy_reference(seed: int, n: int) -> None:
+    rng = np.random.default_rng(seed)
+    hits = rng.integers(0, 4, (12, 9)).astype(np.int32)
+    misses = rng.integers(0, 6, (12, 9)).astype(np.int32)
+    flat = rng.choice(hits.size, size=min(n, hits.size), replace=False)
+    rows, cols = np.divmod(flat, hits.shape[1])
+    d_hits = rng.integers(-1, 3, len(flat)).astype(np.int32)
+    d_misses = rng.integers(-1, 3, len(flat)).astype(np.int32)
+    d_hits = np.maximum(d_hits, -hits[rows, cols])  # counts never go below zero
+    d_misses = np.maximum(d_misses, -misses[rows, cols])
+    fast_h, fast_m, slow_h, slow_m = hits.copy(), misses.copy(), hits.copy(), misses.copy()
+    cells = MapperParams().cells
+    fast = _apply_counts(fast_h, fast_m, rows, cols, d_hits, d_misses, cells.l_occ, cells.l_free)
+    slow = _apply_counts_reference(slow_h, slow_m, rows, cols, d_hits, d_misses, cells.l_occ, cells.l_free)
+    assert np.array_equal(fast_h, slow_h)
+    assert np.array_equal(fast_m, slow_m)
+    for a, b in zip(fast, slow, strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_level_halvings_must_match_the_smoothing_levels() -> None:
+    with pytest.raises(MappingError, match="level_halvings"):
+        MapperParams(smoothing=(0.2, 0.05), level_halvings=(3, 3, 5))
+
+
+def test_integrate_into_one_map_only(hall_log: RobotLog) -> None:
+    """The returned map and the map scans are aligned against can be written separately."""
+    scan, pose = hall_log.scans[0], hall_log.reference_poses[0]
+    only_map = IncrementalMapper(start=pose)
+    only_map.integrate(scan, pose, into="map")
+    only_alignment = IncrementalMapper(start=pose)
+    only_alignment.integrate(scan, pose, into="alignment")
+    both = IncrementalMapper(start=pose)
+    both.integrate(scan, pose)
+    assert np.array_equal(only_map._hits, both._hits)
+    assert not only_map._near_hits.any()
+    assert np.array_equal(only_alignment._near_hits, both._near_hits)
+    assert not only_alignment._hits.any()
+    for a, b in zip(only_alignment._fields, both._fields, strict=True):
+        assert np.array_equal(a, b)

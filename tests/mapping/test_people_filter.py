@@ -5,9 +5,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.mapping.incremental import IncrementalMapper
-from tourbot.mapping.people_filter import PeopleFilteredMapper, hit_probability, in_boxes
+from tourbot.mapping.metrics import relative_pose_error
+from tourbot.mapping.people_filter import (
+    PeopleFilteredMapper,
+    hit_probability,
+    in_boxes,
+    person_beams,
+)
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DDACaster
+from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import LaserGeometry, RobotLog, Scan
 
 
@@ -40,6 +47,25 @@ def test_in_boxes() -> None:
     pts = np.array([[0.0, 0.0], [1.0, 1.0], [0.44, -0.44]])
     assert in_boxes(pts, np.array([[0.0, 0.0]]), 0.45).tolist() == [True, False, True]
     assert not in_boxes(pts, np.zeros((0, 2)), 0.45).any()
+
+
+def test_existence_scales_a_tentative_persons_hit_probability() -> None:
+    rng = np.random.default_rng(1)
+    samples = rng.normal([1.0, 1.0], 0.05, (200, 2))
+    pts = np.array([[1.0, 1.0], [1.1, 0.9]])
+    full = hit_probability([samples], pts)
+    third = hit_probability([samples], pts, existence=[1 / 3])
+    assert np.allclose(third, full / 3)
+    assert np.all(hit_probability([samples], pts, existence=[0.0]) == 0.0)
+
+
+def test_a_beam_that_passed_the_person_is_kept() -> None:
+    person = np.array([[3.0, 0.0]])
+    ends = np.array([[2.9, 0.1], [3.3, 0.05], [3.1, 0.2], [3.0, 1.0]])  # leg, wall behind, leg, aside
+    kept = person_beams(ends, np.zeros(2), person, np.array([0.3]), 0.2)
+    assert kept.tolist() == [True, False, True, False]
+    # without the range test, the wall behind the visitor would be lost too
+    assert in_boxes(ends, person, 0.3).tolist() == [True, True, True, False]
 
 
 def _walker_log(hall: OccupancyGrid, n: int = 70) -> tuple[RobotLog, np.ndarray]:
@@ -85,3 +111,53 @@ def test_people_are_left_out_of_the_map(hall: OccupancyGrid) -> None:
     after = occupied_near_path(filtered.mapper.grid())
     assert before > 0
     assert after < 0.5 * before
+
+
+def test_a_visitor_standing_where_the_floor_was_seen_free_is_left_out(hall: OccupancyGrid) -> None:
+    """Without any confirmed track (the tracker here never confirms), the person features of a
+    scan that stand where the map has seen free floor are people: a visitor who walks up and then
+    stands still is not mapped, while the walls behind stay."""
+    log, people = _walker_log(hall)
+    robot = log.reference_poses[0]
+    never = PeopleTracker(SJPDAFConfig(confirm_hits=10_000), rng=np.random.default_rng(0))
+    filtered = PeopleFilteredMapper.create(start=robot, tracker=never)
+    plain = IncrementalMapper(start=robot)
+    for scan in log.scans:
+        plain.integrate(scan, robot)
+        filtered.add_scan(scan, pose=robot)
+    filtered.finish()
+    standing = people[35]  # stands still from scan 20 to 50
+
+    def near_person(grid: OccupancyGrid) -> int:
+        pts = grid.cell_to_world(np.argwhere(grid.occupied()))
+        return int(np.sum(np.linalg.norm(pts - standing, axis=1) < 0.3))
+
+    assert near_person(plain.grid()) > 0
+    assert near_person(filtered.mapper.grid()) == 0
+    walls_plain = int((plain.grid().occupied() & hall_walls(plain.grid(), hall)).sum())
+    walls_kept = int((filtered.mapper.grid().occupied() & hall_walls(plain.grid(), hall)).sum())
+    assert walls_kept >= 0.99 * walls_plain
+
+
+def hall_walls(grid: OccupancyGrid, hall: OccupancyGrid) -> np.ndarray:
+    """Cells of ``grid`` that are occupied cells of the hall itself."""
+    cells = hall.world_to_cell(grid.cell_to_world(np.argwhere(np.ones(grid.prob.shape, bool))))
+    ok = hall.inside(cells)
+    out = np.zeros(grid.prob.size, bool)
+    out[ok] = hall.occupied()[cells[ok, 0], cells[ok, 1]]
+    return out.reshape(grid.prob.shape)
+
+
+def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: RobotLog) -> None:
+    start = hall_log.reference_poses[0]
+    plain = IncrementalMapper(start=start)
+    filtered = PeopleFilteredMapper.create(start=start)
+    for scan in hall_log.scans[:60]:
+        plain.add_scan(scan)
+        filtered.add_scan(scan)
+    filtered.finish()
+    ref = hall_log.reference_poses[:60]
+    a = relative_pose_error(np.asarray(plain.poses), ref).trans_mean
+    b = relative_pose_error(np.asarray(filtered.mapper.poses), ref).trans_mean
+    assert b < 1.5 * a + 0.005
+    assert filtered.mapper.grid().occupied().sum() > 0.8 * plain.grid().occupied().sum()

@@ -285,3 +285,17 @@ def test_each_robot_has_its_own_queue(db: Database, tmp_path: Path) -> None:
             wait_for(b, lambda m: m["type"] == "ack")
     assert albert.commands == [("goal", (3.0, 3.0, None, None))]
     assert lefkos.commands == []
+
+
+def test_holder_and_watcher_get_the_path_of_a_new_goal(client: TestClient) -> None:
+    """The planned path is published by the hub (one JSON text shared by all the viewers)."""
+    with connect(client, new_session(client)) as holder, connect(client, new_session(client)) as watcher:
+        holder.send_text(json.dumps({"type": "book"}))
+        wait_for(holder, role_is("holder"))
+        holder.send_text(json.dumps({"type": "goto", "x": 8.0, "y": 2.0}))
+        for ws in (holder, watcher):
+            path = wait_for(ws, lambda m: m["type"] == "path" and bool(m["points"]))
+            assert path["points"][-1] == [8.0, 2.0]
+        hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+        assert hub.path_message is not None
+        assert json.loads(hub.path_message)["points"][-1] == [8.0, 2.0]

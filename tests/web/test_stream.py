@@ -6,7 +6,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tourbot.web.stream import Body, Scene, StreamConfig, StreamDecoder, StreamEncoder, StreamError
+from tourbot.web.stream import (
+    Body,
+    Scene,
+    StreamBroadcast,
+    StreamConfig,
+    StreamDecoder,
+    StreamEncoder,
+    StreamError,
+)
 
 coord = st.floats(-300.0, 300.0, allow_nan=False)
 speed = st.floats(-2.4, 2.4, allow_nan=False)
@@ -82,6 +90,71 @@ def test_deltas_keep_every_body_within_tolerance(skips: list[bool], leave_at: in
             assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= tol
         assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
         assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    viewers=st.lists(
+        st.tuples(st.integers(0, 60), st.lists(st.booleans(), min_size=80, max_size=80)),
+        min_size=1,
+        max_size=5,
+    ),
+    leave_at=st.integers(0, 80),
+)
+def test_broadcast_keeps_every_viewer_within_tolerance(
+    viewers: list[tuple[int, list[bool]]], leave_at: int
+) -> None:
+    """Viewers join at any state and skip any states (slow ones): each holds the scene within the
+    tolerance, and all the up-to-date ones get the very same bytes."""
+    config = StreamConfig()
+    broadcast = StreamBroadcast(config)
+    decoders = [StreamDecoder(config) for _ in viewers]
+    held = [0] * len(viewers)
+    t0 = 5000.0
+    for k in range(80):
+        t = t0 + k / config.rate_hz
+        people = tuple(_walk(t, i) for i in range(1, 8) if not (i == 3 and k >= leave_at))
+        robot = Body(0, 0.5 * (t - t0), 1.0, 0.5, 0.0, math.remainder(0.3 * (t - t0), 2 * math.pi), 0.3)
+        broadcast.push(Scene(t, robot, people))
+        sent: dict[int, bytes] = {}
+        for v, (joins, skips) in enumerate(viewers):
+            if k < joins or (skips[k] and held[v]):
+                continue  # not here yet, or too slow for this state
+            message = broadcast.message_for(held[v])
+            held[v] = broadcast.version
+            if message is not None:
+                if held[v] - 1 == k and message[0] == 2:
+                    assert sent.setdefault(message[0], message) is message  # one encoding for all
+                decoders[v].feed(message)
+            shown = decoders[v].scene(t)
+            tol = config.position_tolerance + 2 * config.position_quantum
+            truth = {p.id: p for p in people}
+            assert {p.id for p in shown.people} == set(truth)
+            for p in shown.people:
+                assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= tol
+            assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
+            assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
+
+
+def test_broadcast_keyframe_after_the_counter_wrap() -> None:
+    """A viewer joining after the 16-bit time counter wrapped decodes the right time."""
+    config = StreamConfig(refresh_period=1.0)
+    broadcast = StreamBroadcast(config)
+    for k in range(800):
+        broadcast.push(Scene(100.0 + k, Body(0, 0.01 * k, 0.0, 0.01, 0.0)))
+    late = StreamDecoder(config)
+    key = broadcast.message_for(0)
+    assert key is not None
+    assert key[0] == 1
+    late.feed(key)
+    assert late.t == pytest.approx(899.0, abs=0.006)
+    assert late.scene().robot.x == pytest.approx(7.99, abs=0.01)
+    broadcast.push(Scene(900.5, Body(0, 8.005, 0.0, 0.01, 0.0)))
+    assert broadcast.message_for(broadcast.version) is None
+    delta = broadcast.message_for(broadcast.version - 1)
+    if delta is not None:
+        late.feed(delta)
+    assert late.scene(900.5).robot.x == pytest.approx(8.005, abs=0.02)
 
 
 def test_still_scene_sends_nothing_until_refresh() -> None:

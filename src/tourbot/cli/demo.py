@@ -1,4 +1,11 @@
-"""``tourbot demo``: a guided tour through the crowded FHW museum, simulated, with MCL in the loop."""
+"""``tourbot demo``: the simulated crowded FHW museum served on the web, or one headless guided tour.
+
+By default (what ``make demo`` runs) the demo is the whole tele-presence experience of Burgard et
+al. (section 6) on the embedded default: the simulated museum with its crowd, MCL and the
+navigator in the loop, and the web server with the visitor page, the on-board screen and the
+staff pages at local addresses it prints. ``--record`` runs one guided tour headless instead and
+writes a recording, a summary and a GIF.
+"""
 
 from __future__ import annotations
 
@@ -12,40 +19,119 @@ __all__ = ["register"]
 def register(app: typer.Typer) -> None:
     @app.command("demo")
     def demo(
-        tour: str = typer.Option("highlights", help="Tour of the site to guide."),
+        record: bool = typer.Option(
+            False,
+            "--record",
+            "--headless",
+            help="Run one guided tour headless and write a recording, summary and GIF (no web server).",
+        ),
+        tour: str = typer.Option("highlights", help="Tour of the site to guide (--record)."),
         crowd: str = typer.Option("peak", help="Crowd: empty, sparse, peak, or a number of visitors."),
         seed: int = typer.Option(0, help="Seed: the same seed gives the same run."),
-        duration: float = typer.Option(900.0, help="Stop after this many simulated seconds."),
+        duration: float = typer.Option(900.0, help="Stop after this many simulated seconds (--record)."),
         speedup: float = typer.Option(
-            0.0, help="Pace to this many times real time (0: as fast as possible)."
+            0.0,
+            help="Pace to this many times real time (0: as fast as possible with --record, "
+            "real time when serving).",
         ),
-        particles: int = typer.Option(1000, help="MCL samples."),
-        dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times."),
+        particles: int | None = typer.Option(
+            None, help="MCL samples (default 1000 with --record, 300 when serving, to keep real time)."
+        ),
+        dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times (--record)."),
         site: str = typer.Option("fhw", help="Shipped site name or site file."),
-        out: str = typer.Option("out/demo", help="Folder for the recording, summary and animation."),
-        animation: bool = typer.Option(True, help="Write the tour's animation (GIF)."),
+        out: str = typer.Option(
+            "out/demo", help="Folder for the recording, summary and animation; when serving, the database."
+        ),
+        animation: bool = typer.Option(True, help="Write the tour's animation (GIF, --record)."),
+        host: str = typer.Option("127.0.0.1", help="Address the web server listens on."),
+        port: int = typer.Option(8000, help="TCP port (a free one is chosen when it is taken)."),
+        database: str | None = typer.Option(
+            None, help="SQLAlchemy URL of the site database (default OUT/tourbot-SITE.db, never wiped)."
+        ),
+        staff_password: str | None = typer.Option(
+            None,
+            envvar="TOURBOT_STAFF_PASSWORD",
+            help="Password of the staff login 'staff' (default: a new one, printed at start).",
+        ),
     ) -> None:
-        """Run a guided tour in the simulated crowded museum; live progress, then a recording and a GIF."""
-        from tourbot.cli._tour_view import run_tour
+        """The simulated crowded museum with its web pages (visitors, on-board screen, staff) until Ctrl-C."""
         from tourbot.errors import InputError
 
         if not duration > 0:
             raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
-        if particles < 1:
+        if particles is not None and particles < 1:
             raise InputError(f"must be at least 1, got {particles}", field="--particles")
         if speedup < 0:
             raise InputError(f"must be 0 (as fast as possible) or positive, got {speedup}", field="--speedup")
         if dwell_scale < 0:
             raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
-        run_tour(
-            site=site,
-            tour=tour,
-            crowd=crowd,
-            seed=seed,
-            duration=duration,
-            speedup=speedup,
-            particles=particles,
-            dwell_scale=dwell_scale,
-            out=Path(out),
-            animation=animation,
+        if not 0 <= port <= 65535:
+            raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        if record:
+            from tourbot.cli._tour_view import run_tour
+
+            run_tour(
+                site=site,
+                tour=tour,
+                crowd=crowd,
+                seed=seed,
+                duration=duration,
+                speedup=speedup,
+                particles=particles or 1000,
+                dwell_scale=dwell_scale,
+                out=Path(out),
+                animation=animation,
+            )
+            return
+        _serve(
+            site,
+            crowd,
+            seed,
+            speedup or 1.0,
+            particles or 300,
+            Path(out),
+            host,
+            port,
+            database,
+            staff_password,
         )
+
+
+def _serve(
+    site: str,
+    crowd: str,
+    seed: int,
+    speedup: float,
+    particles: int,
+    out: Path,
+    host: str,
+    port: int,
+    database: str | None,
+    staff_password: str | None,
+) -> None:
+    """Build the simulated museum and its web server, then serve until Ctrl-C."""
+    import time
+
+    from rich.console import Console
+
+    from tourbot.runtime.simulated import crowd_config
+    from tourbot.web.serve import ServeSettings, build_site_app, run
+
+    console = Console()
+    crowd_config(crowd)  # a clear error before anything starts
+    name = Path(site).stem if site.endswith((".yaml", ".yml")) else Path(site).name
+    out.mkdir(parents=True, exist_ok=True)
+    settings = ServeSettings(
+        site=site, database=database or f"sqlite:///{out / f'tourbot-{name}.db'}", crowd=crowd, seed=seed,
+        particles=particles, host=host, port=port, staff_password=staff_password,
+        speech_dir=out / "speech", speedup=speedup, fresh_staff_password=True,
+    )  # fmt: skip
+    t0 = time.perf_counter()
+    with console.status("building the simulated museum (the first run compiles the kernels)..."):
+        app, db = build_site_app(settings, console=console)
+    console.print(
+        f"set up in {time.perf_counter() - t0:.1f} s: site {name}, crowd {crowd}, seed {seed}, "
+        f"{speedup:g}x real time; database {db.url}",
+        soft_wrap=True,
+    )
+    run(app, host, port, console, fallback=True)

@@ -174,11 +174,19 @@ class MCLConfig:
     recovery_min_used: float = 0.3
     fit_distance: float = 0.15
     max_injection: float = 0.2
-    injection_candidates: int = 20000
+    injection_candidates: int = 200000
     injection_local: float = 0.5
     injection_local_std: float = 2.0
     injection_beam_step: int = 4
     fresh_wins: int = 2
+    global_candidates: int = 1_000_000
+    global_beam_step: int = 4
+    global_ess: float = 0.1
+    global_jitter: tuple[float, float, float] = (0.05, 0.05, math.radians(2.0))
+    global_stages: int = 8
+    global_long_fraction: float = 0.5
+    global_done: float = 0.95
+    injection_stages: int = 3
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -226,6 +234,9 @@ class MonteCarloLocalization:
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        # Set by reset_global: the first scan is integrated by the annealed global start.
+        self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
+        self._global_phase = False  # from reset_global until one cluster holds the belief
         self.last_estimate: LocalizationEstimate | None = None
 
     # ------------------------------------------------------------------ initialisation
@@ -255,6 +266,8 @@ class MonteCarloLocalization:
         if cells.shape[0] == 0:
             raise LocalizationError("the map has no free cell to localize in")
         self._set_belief(_uniform_free_poses(g, cells, self.config.global_samples, self.rng))
+        self._global_cells = (g, cells)
+        self._global_phase = True
 
     def _set_belief(self, samples: FloatArray) -> None:
         self.samples = np.ascontiguousarray(samples, dtype=np.float64)
@@ -264,6 +277,8 @@ class MonteCarloLocalization:
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        self._global_cells = None
+        self._global_phase = False
 
     # ------------------------------------------------------------------ the filter
 
@@ -292,20 +307,37 @@ class MonteCarloLocalization:
         # 2. Beam selection: returns only, then the paper's filter (Eq. 3-6).
         field_ = self._field(geometry)
         valid = np.isfinite(ranges) & (ranges >= geometry.min_range) & (ranges < geometry.max_range)
-        used = self._select_beams(valid, ranges, geometry, field_)
+        info: dict[str, float] = {"n_valid_beams": float(valid.sum())}
+        injected = 0
+        global_start = self._global_cells is not None and bool(valid.any())
+        if global_start:
+            # Global localization: the first scan is integrated over a large candidate set.
+            info["global_stages"] = float(self._global_start(ranges, geometry, field_, valid))
+            used = valid
+        else:
+            used = self._select_beams(valid, ranges, geometry, field_)
+            if self._global_phase:
+                # A spread belief makes the novelty filter keep nearly every beam; a crowd only
+                # shortens beams, so while the belief is spread only the longest are trusted.
+                used = _longest(ranges, used, cfg.global_long_fraction)
 
         # 3. Perception (Eq. 2), in log space, tempered.
         n_used = int(used.sum())
-        info: dict[str, float] = {"n_valid_beams": float(valid.sum())}
-        injected = 0
-        if n_used:
+        if n_used and not global_start:
             loglik = field_.log_likelihood(self.samples, ranges, geometry, beam_mask=used)
             # How well the best hypothesis explains the integrated beams: the fraction of them
             # ending within fit_distance of a mapped obstacle (robust to a few stray beams).
             best = int(np.argmax(loglik))
             lls = field_.beam_log_likelihoods(self.samples[best : best + 1], ranges, geometry)[0, used]
             w_best = float(np.mean(lls >= field_.params.log_p(cfg.fit_distance)))
-            logw = np.log(np.maximum(self.weights, 1e-300)) + cfg.likelihood_exponent * loglik
+            temper = cfg.likelihood_exponent
+            prior = np.log(np.maximum(self.weights, 1e-300))
+            if self._global_phase:
+                # While the belief is spread, one scan may not collapse it: its exponent is cut
+                # to keep the effective sample size at global_ess of the samples.
+                temper = _anneal_step(prior, loglik, temper, cfg.global_ess * self.samples.shape[0])
+            info["temper"] = temper
+            logw = prior + temper * loglik
             logw -= logw.max()
             w = np.exp(logw)
             self.weights = w / w.sum()
@@ -329,10 +361,16 @@ class MonteCarloLocalization:
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
+        if self._global_phase and not global_start and cluster_weight >= cfg.global_done:
+            self._global_phase = False
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
-        if n_used and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0):
-            injected = self._resample(inject_fraction, ranges, geometry, field_, used, pose)
+        if (
+            n_used
+            and not global_start
+            and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0)
+        ):
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose)
         info["injected"] = float(injected)
 
         est = LocalizationEstimate(
@@ -394,6 +432,79 @@ class MonteCarloLocalization:
         used[np.flatnonzero(valid)[keep]] = True
         return used
 
+    def _global_start(
+        self, ranges: FloatArray, geometry: LaserGeometry, field_: LikelihoodField, valid: NDArray[np.bool_]
+    ) -> int:
+        """Integrate the first scan of a global localization by annealed importance sampling.
+
+        ``global_candidates`` poses uniform over the free space (far more than the filter carries:
+        on a 1000 m^2 museum, 50000 samples leave a pose within 20 cm and 3 deg of the robot
+        unlikely) are scored against every ``global_beam_step``-th return. The tempered likelihood
+        ``L ** likelihood_exponent`` of the scan is then brought in by stages ``L ** d_k``
+        (Neal 2001, "Annealed importance sampling"; Deutscher, Blake & Reid 2000, the annealed
+        particle filter): each ``d_k`` is the largest step that keeps the effective sample size at
+        ``global_ess`` of ``global_samples``; the candidates are resampled (low variance) to
+        ``global_samples``, jittered by ``global_jitter`` and scored again, with all returns,
+        until the exponents sum to ``likelihood_exponent`` (or after ``global_stages`` stages, the
+        last one taking what is left). The scan is thus counted once, at the usual temper, while
+        the candidates close to its best explanations are refined on the way. KLD-sampling then
+        shrinks the set at the next resampling as the belief concentrates. Returns the stages used.
+        """
+        cfg = self.config
+        assert self._global_cells is not None
+        grid, cells = self._global_cells
+        self._global_cells = None
+        n = cfg.global_samples
+        cand = _uniform_free_poses(grid, cells, max(cfg.global_candidates, n), self.rng)
+        beams = _longest(ranges, valid, cfg.global_long_fraction)
+        samples, stages = self._anneal(cand, n, ranges, geometry, field_, beams, cfg.global_stages)
+        self.samples = samples
+        self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
+        self._fresh = np.zeros(samples.shape[0], dtype=bool)
+        return stages
+
+    def _anneal(
+        self,
+        cand: FloatArray,
+        n: int,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        field_: LikelihoodField,
+        beams: NDArray[np.bool_],
+        max_stages: int,
+    ) -> tuple[FloatArray, int]:
+        """``n`` poses drawn from the candidates ``cand`` by the tempered likelihood of ``beams``,
+        brought in by stages that keep the effective sample size at ``global_ess * n``; the first
+        stage scores every ``global_beam_step``-th beam only, later ones (on ``n`` jittered
+        survivors) all of them. Returns the poses and the number of stages."""
+        cfg = self.config
+        mask = np.zeros_like(beams)
+        mask[:: max(1, cfg.global_beam_step)] = True
+        mask &= beams
+        if not mask.any():
+            mask = beams
+        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask) * (beams.sum() / mask.sum())
+        logw = np.zeros(cand.shape[0])
+        left = cfg.likelihood_exponent
+        jitter = np.asarray(cfg.global_jitter, dtype=np.float64)
+        stages = 0
+        while True:
+            stages += 1
+            step = _anneal_step(logw, ll, left, cfg.global_ess * n)
+            logw = logw + step * ll
+            left -= step
+            w = np.exp(logw - logw.max())
+            idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
+            cand = cand[idx] + self.rng.standard_normal((n, 3)) * jitter
+            cand[:, 2] = wrap_angle(cand[:, 2])
+            inside = self._in_free_space(cand)
+            if left <= 1e-12 or stages >= max_stages or not inside.any():
+                break
+            cand = cand[inside]
+            ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=beams)
+            logw = np.zeros(cand.shape[0])
+        return np.ascontiguousarray(cand), stages
+
     def _established_weights(self) -> FloatArray:
         """The weights with the freshly injected samples' set to zero (all of them if none is left)."""
         if not self._fresh.any():
@@ -434,6 +545,8 @@ class MonteCarloLocalization:
     ) -> int:
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
+        if self._global_phase:
+            n_max = max(n_max, cfg.global_samples)  # a spread belief keeps its large sample set
         if self._fresh.any() and not self._fresh.all():
             # Until the fresh samples have won (see _estimate), each group keeps its share of the
             # samples: one scan that favours a look-alike place must not wipe out the track.
@@ -484,18 +597,11 @@ class MonteCarloLocalization:
             ]
         )
         cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
-        mask = np.zeros_like(valid)
-        mask[:: max(1, cfg.injection_beam_step)] = True
-        mask &= valid
-        if not mask.any():
-            return cand[n_local:][:n]
-        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask)
-        # Tempered as the main update, scaled up for the subsampled beams; not in free space: never.
-        logw = cfg.likelihood_exponent * ll * (valid.sum() / mask.sum())
-        logw[~self._in_free_space(cand)] = -np.inf
-        w = np.exp(logw - logw.max())
-        idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
-        return cand[idx]
+        cand = cand[self._in_free_space(cand)]
+        beams = _longest(ranges, valid, cfg.global_long_fraction)
+        if not beams.any():
+            return cand[:n]
+        return self._anneal(cand, n, ranges, geometry, field_, beams, cfg.injection_stages)[0]
 
     def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
         rc = self.grid.world_to_cell(poses[:, :2])
@@ -514,6 +620,38 @@ def _uniform_free_poses(grid: OccupancyGrid, cells: IntArray, n: int, rng: np.ra
     local = (pick[:, ::-1] + rng.random((n, 2))) * grid.resolution  # (col, row) -> (x, y)
     th = rng.uniform(-math.pi, math.pi, n)
     return grid.grid_to_world(np.column_stack([local, th - grid.origin[2]]))
+
+
+def _longest(ranges: FloatArray, valid: NDArray[np.bool_], fraction: float) -> NDArray[np.bool_]:
+    """The ``fraction`` longest of the ``valid`` returns: people only ever shorten a beam, so
+    in a crowd the longest readings are the ones most likely to see the building."""
+    k = int(valid.sum())
+    keep = max(1, math.ceil(fraction * k))
+    if keep >= k:
+        return valid
+    cut = np.sort(ranges[valid])[k - keep]
+    return valid & (ranges >= cut)
+
+
+def _anneal_step(logw: FloatArray, ll: FloatArray, most: float, ess: float) -> float:
+    """The largest exponent ``d <= most`` for which the weights ``exp(logw + d * ll)`` keep an
+    effective sample size of at least ``ess`` (bisection; ESS falls as ``d`` grows)."""
+
+    def ess_of(d: float) -> float:
+        lw = logw + d * ll
+        w = np.exp(lw - lw.max())
+        return float(w.sum() ** 2 / np.sum(w * w))
+
+    if ess_of(most) >= ess:
+        return most
+    lo, hi = 0.0, most
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        if ess_of(mid) >= ess:
+            lo = mid
+        else:
+            hi = mid
+    return lo
 
 
 def _cell_keys(samples: FloatArray, cell: float, cell_theta: float) -> IntArray:

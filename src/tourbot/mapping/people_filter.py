@@ -7,27 +7,48 @@ person (Eq. 10-11), from histograms of each person's samples over 15 x 15 cm bin
     P(hit_xy | X) = 1 - prod_i (1 - P(hit_xy | x_i))
 
 ``P(hit_xy | x_i)`` is the fraction of person ``i``'s samples whose bin lies within a body radius
-of the beam's bin (the histogram, normalized, summed over the person's extent). During alignment
-each beam is weighted by ``1 - P(hit_b | X)`` (Eq. 12). When the map is built, the beams ending in
-a tracked person's bounding box are left out, with the boxes of a few scans before and after
-(a person is tracked only after being seen a few times, and legs swing).
+of the beam's bin (the histogram, normalized, summed over the person's extent), times how sure the
+tracker is that the track is a person (1 once confirmed). During alignment each beam is weighted
+by ``1 - P(hit_b | X)`` (Eq. 12); beams ending on the scan's own person features (below) count as
+``P(hit) = 1``. A scan is aligned against the map of the scans before it with the people known at
+once; the map that is returned gets it a few scans later (below).
+
+When the map is built, the beams ending in a person's bounding box are left out. A scan is
+written ``scans_around`` scans late, so that the tracker's delay is covered: a track counts as a
+person in scan ``t`` when it is confirmed by scan ``t + scans_around`` (its position in scan ``t``
+is used, so a visitor standing still is removed from the scans before the confirmation too), or
+when it had been detected a few times by scan ``t`` (a tentative track).
+Besides the tracks, the person features of the scan itself count (a person walks several metres
+between the scans of a sparse log, and no track can follow): those the tracker's static filter
+sees moving, and those standing where the map so far has seen free floor (the difference of the
+scan and the map, Sec. 4, Fig. 6, against the whole map instead of the previous scan). A beam is
+a person's only if it does not end beyond the person (a wall behind a visitor stays), and a
+person's beam still clears the free space in front of the person.
 """
 
 from __future__ import annotations
 
 import collections
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
-__all__ = ["PeopleFilterParams", "PeopleFilteredMapper", "beam_endpoints", "hit_probability", "in_boxes"]
+__all__ = [
+    "PeopleFilterParams",
+    "PeopleFilteredMapper",
+    "beam_endpoints",
+    "hit_probability",
+    "in_boxes",
+    "person_beams",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -36,34 +57,59 @@ FloatArray = NDArray[np.float64]
 class PeopleFilterParams:
     """Parameters of people filtering (bins of 15 cm as in Burgard et al. Sec. 5).
 
-    ``body_radius``: a beam ending this close to a person's position may be reflected by them.
-    ``box_half_size``: half the side of a person's bounding box for leaving beams out of the map.
-    ``scans_around``: the boxes of this many scans before and after also remove beams.
+    Alignment (Eq. 10-12): ``body_radius``: a beam ending this close to a person's samples may be
+    reflected by them; a tentative track counts with the share ``hits / confirm_hits`` of the way to
+    its confirmation.
+
+    Map building: ``box_half_size``: half the side of a tracked person's bounding box (legs up to
+    a stride apart); ``scans_around``: how many scans later a scan is written, and so how late a
+    track may be confirmed and still count in it; a track not confirmed by then counts when it had
+    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 above). Person
+    features of the scan itself count (in a box of ``feature_half_size``) when their P(moving) is
+    at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
+    them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
+    passed the person and is kept.
     ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
-    occupied with at least this log-odds (a wall seen before a visitor stood in front of it; beams
-    left out never build such evidence, so a visitor standing still cannot).
+    occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
+    ``keep_free_space``: a person's beam still marks the cells in front of the person free.
+    ``align_features``: beams ending on the scan's person features get no weight in alignment
+    (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
     """
 
     bin_size: float = 0.15
     body_radius: float = 0.3
-    box_half_size: float = 0.45
+    box_half_size: float = 0.3
     scans_around: int = 3
-    confirmed_only: bool = True
+    tentative_hits: int | None = 2
+    feature_half_size: float = 0.25
+    feature_moving: float = 0.8
+    feature_free: float = -0.3
+    beyond: float = 0.2
     static_evidence: float = 3.0
+    keep_free_space: bool = True
+    align_features: bool = True
 
 
 def hit_probability(
-    sample_sets: Iterable[FloatArray], points: FloatArray, params: PeopleFilterParams | None = None
+    sample_sets: Iterable[FloatArray],
+    points: FloatArray,
+    params: PeopleFilterParams | None = None,
+    existence: Iterable[float] | None = None,
 ) -> FloatArray:
-    """``P(hit_xy | X)`` at world ``points`` ``(B, 2)`` from the people's samples (Eq. 10-11)."""
+    """``P(hit_xy | X)`` at world ``points`` ``(B, 2)`` from the people's samples (Eq. 10-11).
+
+    ``existence`` (one per sample set, default 1) scales each person's ``P(hit_xy | x_i)``.
+    """
     p = params or PeopleFilterParams()
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     miss = np.ones(len(pts))
     reach = (p.body_radius / p.bin_size) ** 2
     pbins = np.floor(pts / p.bin_size)
-    for samples in sample_sets:
+    sets = list(sample_sets)
+    probs = [1.0] * len(sets) if existence is None else list(existence)
+    for samples, prob in zip(sets, probs, strict=True):
         s = np.asarray(samples, dtype=np.float64)
-        if s.size == 0:
+        if s.size == 0 or prob <= 0.0:
             continue
         sbins = np.floor(s[:, :2] / p.bin_size)
         lo = sbins.min(axis=0) - p.body_radius / p.bin_size - 1
@@ -72,7 +118,7 @@ def hit_probability(
         if not near.any():
             continue
         d2 = ((pbins[near, None, :] - sbins[None, :, :]) ** 2).sum(axis=2)
-        miss[near] *= 1.0 - (d2 <= reach).mean(axis=1)
+        miss[near] *= 1.0 - prob * (d2 <= reach).mean(axis=1)
     return 1.0 - miss
 
 
@@ -90,17 +136,54 @@ def beam_endpoints(scan: Scan, pose: FloatArray) -> tuple[FloatArray, NDArray[np
 def in_boxes(points: FloatArray, centres: FloatArray, half_size: float) -> NDArray[np.bool_]:
     """Which ``points`` ``(B, 2)`` fall in an axis-aligned box of ``half_size`` around any centre."""
     c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+    return person_beams(np.asarray(points), None, c, np.full(len(c), half_size), np.inf)
+
+
+def person_beams(
+    points: FloatArray,
+    origin: FloatArray | None,
+    centres: FloatArray,
+    half_sizes: FloatArray,
+    beyond: float,
+) -> NDArray[np.bool_]:
+    """Which beam endpoints ``(B, 2)`` a person reflected: in a person's box (``centres`` ``(K, 2)``,
+    ``half_sizes`` ``(K,)``) and, seen from the laser at ``origin``, not more than ``beyond`` farther
+    away than the person's centre (such a beam passed the person: a wall behind a visitor)."""
+    c = np.asarray(centres, dtype=np.float64).reshape(-1, 2)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if len(c) == 0:
-        return np.zeros(len(points), dtype=bool)
-    d = np.abs(np.asarray(points)[:, None, :] - c[None, :, :])
-    return np.asarray(np.any(np.all(d <= half_size, axis=2), axis=1))
+        return np.zeros(len(pts), dtype=bool)
+    inside = np.all(np.abs(pts[:, None, :] - c[None, :, :]) <= np.asarray(half_sizes)[None, :, None], axis=2)
+    if origin is not None and np.isfinite(beyond):
+        o = np.asarray(origin, dtype=np.float64)[:2]
+        reach = np.linalg.norm(c - o, axis=1) + beyond
+        inside &= np.linalg.norm(pts - o, axis=1)[:, None] <= reach[None, :]
+    return np.asarray(np.any(inside, axis=1))
 
 
 @dataclass
 class _Pending:
+    """A scan waiting to be written, with what the tracker saw in it."""
+
     scan: Scan
     pose: FloatArray
     index: int
+    track_ids: list[int]
+    track_hits: list[int]  # detections of each track so far
+    track_positions: FloatArray  # (K, 2)
+    features: FloatArray  # (F, 2) person features of this scan
+    moving: FloatArray  # (F,) their P(moving)
+
+    def moved_to(self, pose: FloatArray) -> _Pending:
+        """The same scan at an aligned ``pose``: what was seen from the predicted pose moves along."""
+        correction = compose(pose, invert(self.pose))
+
+        def move(points: FloatArray) -> FloatArray:
+            return transform_points(correction, points) if len(points) else points
+
+        return replace(
+            self, pose=pose, track_positions=move(self.track_positions), features=move(self.features)
+        )
 
 
 @dataclass
@@ -113,7 +196,7 @@ class PeopleFilteredMapper:
     removed_beams: int = 0
 
     def __post_init__(self) -> None:
-        self._people: dict[int, FloatArray] = {}  # scan index -> tracked people's positions (K, 2)
+        self._confirmed: set[int] = set()  # ids of every track confirmed so far
         self._pending: collections.deque[_Pending] = collections.deque()
         self._index = 0
 
@@ -141,38 +224,82 @@ class PeopleFilteredMapper:
         p = self.params
         predicted = self.mapper.predict(scan) if pose is None else np.asarray(pose, dtype=np.float64)
         tracks = self.tracker.update(scan, predicted)
-        keep_ids = {t.id for t in tracks if t.confirmed or not p.confirmed_only}
+        self._confirmed.update(t.id for t in tracks if t.confirmed)
+        item = _Pending(
+            scan,
+            predicted,
+            self._index,
+            [t.id for t in tracks],
+            [t.hits for t in tracks],
+            np.asarray([t.position for t in tracks], dtype=np.float64).reshape(-1, 2),
+            self.tracker.last_features.points.copy(),
+            np.asarray(self.tracker.last_moving, dtype=np.float64).copy(),
+        )
         if pose is None:
-            samples = [s for i, s in self.tracker.sample_sets().items() if i in keep_ids]
+            sets = self.tracker.sample_sets()
+            confirm = self.tracker.config.confirm_hits
+            existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
-            h = hit_probability(samples, pts, p)
-            at = np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose)
-        else:
-            at = predicted
-        people = [t.position for t in tracks if t.id in keep_ids]
-        self._people[self._index] = np.asarray(people, dtype=np.float64).reshape(-1, 2)
-        self._pending.append(_Pending(scan, at, self._index))
+            h = hit_probability([sets[t.id] for t in tracks], pts, p, existence)
+            if p.align_features:
+                h = np.maximum(h, self._person_beams(item, tracks=False))
+            item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
+            # the next scan aligns against this one at once, with the people known now
+            self._integrate(item, self._person_beams(item), "alignment")
+        self._pending.append(item)
         self._index += 1
         while self._pending and self._pending[0].index + p.scans_around < self._index:
             self._write(self._pending.popleft())
-        return at
+        return item.pose
 
     def finish(self) -> None:
         """Write the scans still waiting for the people seen after them."""
         while self._pending:
             self._write(self._pending.popleft())
 
-    def _write(self, item: _Pending) -> None:
+    def _people(self, item: _Pending, tracks: bool = True) -> tuple[FloatArray, FloatArray]:
+        """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
+        features only, without ``tracks``)."""
         p = self.params
-        k = item.index
-        around = [
-            self._people[j] for j in range(k - p.scans_around, k + p.scans_around + 1) if j in self._people
+        tentative = p.tentative_hits if p.tentative_hits is not None else np.inf
+        tracked = [
+            tracks and (i in self._confirmed or hits >= tentative)
+            for i, hits in zip(item.track_ids, item.track_hits, strict=True)
         ]
-        centres = np.concatenate(around) if around else np.zeros((0, 2))
+        centres = item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
+        features = item.features
+        if len(features):
+            seen_free = self._evidence_around(features) <= p.feature_free
+            features = features[(item.moving >= p.feature_moving) | seen_free]
+        half = np.r_[np.full(len(centres), p.box_half_size), np.full(len(features), p.feature_half_size)]
+        return np.concatenate([centres, features]), half
+
+    def _evidence_around(self, points: FloatArray) -> FloatArray:
+        """The largest log-odds of the map so far in the 3 x 3 cells around each point."""
+        res = self.mapper.params.resolution
+        offsets = res * np.array([[dx, dy] for dx in (-1, 0, 1) for dy in (-1, 0, 1)], dtype=np.float64)
+        around = (points[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
+        return np.asarray(self.mapper.evidence(around).reshape(len(points), -1).max(axis=1))
+
+    def _person_beams(self, item: _Pending, tracks: bool = True) -> NDArray[np.bool_]:
+        """The beams of a scan that ended on a person, with the tracks confirmed so far."""
+        centres, half = self._people(item, tracks)
         pts, hit = beam_endpoints(item.scan, item.pose)
-        person = hit & in_boxes(pts, centres, p.box_half_size)
+        laser = compose(item.pose, item.scan.geometry.offset)
+        person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
         if person.any():
-            person[person] = self.mapper.evidence(pts[person]) < p.static_evidence
+            person[person] = self.mapper.evidence(pts[person]) < self.params.static_evidence
+        return person
+
+    def _write(self, item: _Pending) -> None:
+        person = self._person_beams(item)
         self.removed_beams += int(person.sum())
-        self.mapper.integrate(item.scan, item.pose, keep=~person)
-        self._people.pop(k - p.scans_around, None)
+        self._integrate(item, person, "map")
+
+    def _integrate(
+        self, item: _Pending, person: NDArray[np.bool_], into: Literal["map", "alignment"]
+    ) -> None:
+        if self.params.keep_free_space:
+            self.mapper.integrate(item.scan, item.pose, free_only=person, into=into)
+        else:
+            self.mapper.integrate(item.scan, item.pose, keep=~person, into=into)

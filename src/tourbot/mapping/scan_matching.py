@@ -235,8 +235,12 @@ def hill_climb(
     prior_sigma: FloatArray,
     params: MatchParams,
     steps_scale: float = 1.0,
+    halvings: int | None = None,
 ) -> tuple[FloatArray, float]:
-    """The pose (field frame) maximizing map likelihood times the odometry prior, from ``start``."""
+    """The pose (field frame) maximizing map likelihood times the odometry prior, from ``start``.
+
+    ``halvings`` overrides ``params.halvings`` (a coarse level needs less precision).
+    """
     best, val = _hill_climb(
         field,
         1.0 / resolution,
@@ -248,7 +252,7 @@ def hill_climb(
         np.asarray(prior, dtype=np.float64),
         1.0 / np.asarray(prior_sigma, dtype=np.float64),
         np.asarray(params.steps, dtype=np.float64) * steps_scale,
-        params.halvings,
+        params.halvings if halvings is None else halvings,
         params.max_iterations,
     )
     best[2] = math.atan2(math.sin(best[2]), math.cos(best[2]))

@@ -161,6 +161,7 @@ class PeopleTracker:
         self._time: float | None = None
         self.last_legs = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
         self.last_features = PersonFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64))
+        self.last_moving = np.zeros(0)  # P(moving) of each of ``last_features`` (static filter)
 
     # --- the algorithm ----------------------------------------------------------------------------
 
@@ -253,6 +254,7 @@ class PeopleTracker:
         persons = PersonFeatures(persons.points[keep], persons.probability[keep], persons.members[keep])
         self.last_legs = world_legs
         self.last_features = persons
+        self.last_moving = moving[keep]
         return persons, moving[keep]
 
     def _predict(self, dt: float) -> None:

@@ -18,7 +18,6 @@ import base64
 import hashlib
 import io
 import json
-import math
 import os
 import re
 import time
@@ -58,7 +57,7 @@ from tourbot.web.link import RobotLink
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
 from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
-from tourbot.web.stream import StreamConfig, StreamEncoder
+from tourbot.web.stream import StreamConfig
 
 __all__ = ["WebConfig", "create_app", "find_node_modules"]
 
@@ -219,6 +218,7 @@ def create_app(
             cfg.stream.rate_hz,
             speak,
             cfg.drive_robots,
+            cfg.stream,
         )
         for name, link in robots.items()
     }
@@ -497,7 +497,7 @@ def create_app(
         await ws.accept()
         await hub.connect(client.session)
         phrasebook = _phrasebook(hub, cfg, db) if onboard else None
-        sender = asyncio.create_task(_send_loop(ws, hub, client, cfg, onboard))
+        sender = asyncio.create_task(_send_loop(ws, hub, client, onboard))
         try:
             await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
             await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook)
@@ -521,76 +521,39 @@ def _phrasebook(hub: RobotHub, cfg: WebConfig, db: Database) -> PhraseBook:
     )
 
 
-def _nav_status(hub: RobotHub) -> dict[str, Any]:
-    view = hub.view
-    if view is None:
-        return {"state": "idle"}
-    nav = view.nav
-    return {
-        "state": nav.state,
-        "exhibit": nav.exhibit,
-        "tour": nav.tour,
-        "progress": list(nav.tour_progress),
-        "message": nav.message,
-        "goal": None if nav.goal is None else [round(nav.goal[0], 2), round(nav.goal[1], 2)],
-    }
+async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: bool) -> None:
+    """Stream to one client: each round takes the hub's latest state, so nothing piles up.
 
-
-def _path_points(hub: RobotHub) -> list[tuple[float, float]]:
-    """The planned path, thinned to at most 40 points at 10 cm (the page trims what is travelled)."""
-    view = hub.view
-    if view is None or not view.nav.path:
-        return []
-    path = view.nav.path
-    step = max(1, math.ceil(len(path) / 40))
-    points = [*path[::step], path[-1]]
-    return [(round(x, 1), round(y, 1)) for x, y in points]
-
-
-def _path_moved(
-    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 0.5
-) -> bool:
-    """Whether a replanned path left the one the client has by more than ``tolerance`` (m)."""
-    if not old:
-        return bool(new)
-    return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
-
-
-async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, cfg: WebConfig, onboard: bool) -> None:
-    """Stream to one client: each round takes the hub's latest state, so nothing piles up."""
-    encoder = StreamEncoder(cfg.stream)
+    Everything common to the viewers (the stream's bytes, the navigation status, the path message)
+    is made once per state by the hub; here only this client's slot is looked at.
+    """
+    held = 0  # the stream state this client holds (0: none yet)
     seen = -1
     last_status: dict[str, Any] | None = None
-    sent_goal: Any = None
-    sent_path: list[tuple[float, float]] = []
-    path_checked = 0.0
+    sent_path: str | None = None
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
         seen = await hub.wait_change(seen)
         scene = hub.scene
         if scene is None:
             continue
-        message = encoder.encode(scene)
+        message = hub.stream.message_for(held)
+        held = hub.stream.version
         if message is not None:
             await ws.send_bytes(message)
             hub.send_delays.append(time.time() - scene.t)
-        now = time.time()
-        slot = hub.arbiter.view(client.session, now).as_dict()
-        status: dict[str, Any] = {"type": "status", "slot": slot, "nav": _nav_status(hub)}
+        slot = hub.arbiter.view(client.session, time.time()).as_dict()
+        status: dict[str, Any] = {"type": "status", "slot": slot, "nav": hub.nav_status}
         if onboard:
             status["face"] = hub.face()
         comparable = {**status, "slot": {k: v for k, v in slot.items() if k != "time_left"}}
         if comparable != last_status:
             await ws.send_text(json.dumps(status, separators=(",", ":")))
             last_status = comparable
-        # The path goes out with a new goal, then only when a replan moved it (checked every 2 s).
-        goal = status["nav"].get("goal")
-        if goal != sent_goal or (goal is not None and now - path_checked > 2.0):
-            points = _path_points(hub)
-            path_checked = now
-            if goal != sent_goal or _path_moved(points, sent_path):
-                await ws.send_text(json.dumps({"type": "path", "points": points}, separators=(",", ":")))
-                sent_goal, sent_path = goal, points
+        path = hub.path_message
+        if path is not None and path is not sent_path:
+            await ws.send_text(path)
+            sent_path = path
         for item in hub.announcements:
             if item.seq > said:
                 audio = None if item.audio is None else f"/speech/{item.audio}"

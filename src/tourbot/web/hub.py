@@ -2,14 +2,16 @@
 
 The hub keeps the robot's loop running (``link.step`` in a worker thread, paced to real time),
 samples the robot's view at the stream rate, arbitrates control (:mod:`tourbot.web.slots`) and
-records bookings and visits in the database. Clients never queue behind each other: each
-connection reads the hub's *latest* state when it is ready to send (see :mod:`tourbot.web.stream`).
+records bookings and visits in the database. Each state is encoded once for all the viewers
+(:class:`~tourbot.web.stream.StreamBroadcast`). Clients never queue behind each other: each
+connection has its own task, which reads the hub's *latest* state when it is ready to send.
 """
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import json
 import logging
 import math
 import threading
@@ -17,14 +19,15 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from tourbot.web.db import Database, DatabaseError
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
-from tourbot.web.stream import Body, Scene
+from tourbot.web.stream import Body, Scene, StreamBroadcast, StreamConfig
 
-__all__ = ["Announcement", "RobotHub", "scene_of"]
+__all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +50,40 @@ def scene_of(view: RobotView, t: float) -> Scene:
     return Scene(t, robot, tuple(people.values()))
 
 
+def nav_status(view: RobotView | None) -> dict[str, Any]:
+    """The navigation part of the pages' status message."""
+    if view is None:
+        return {"state": "idle"}
+    nav = view.nav
+    return {
+        "state": nav.state,
+        "exhibit": nav.exhibit,
+        "tour": nav.tour,
+        "progress": list(nav.tour_progress),
+        "message": nav.message,
+        "goal": None if nav.goal is None else [round(nav.goal[0], 2), round(nav.goal[1], 2)],
+    }
+
+
+def path_points(view: RobotView) -> list[tuple[float, float]]:
+    """The planned path, thinned to at most 40 points at 10 cm (the page trims what is travelled)."""
+    path = view.nav.path
+    if not path:
+        return []
+    step = max(1, math.ceil(len(path) / 40))
+    points = [*path[::step], path[-1]]
+    return [(round(x, 1), round(y, 1)) for x, y in points]
+
+
+def path_moved(
+    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 0.5
+) -> bool:
+    """Whether a replanned path left the published one by more than ``tolerance`` (m)."""
+    if not old:
+        return bool(new)
+    return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
+
+
 @dataclass(frozen=True)
 class Announcement:
     """Something the robot says: the text, and the audio file's name when speech is available."""
@@ -67,12 +104,20 @@ class RobotHub:
     rate_hz: float = 5.0
     speak: Callable[[str], str | None] | None = None
     drive: bool = True
+    stream_config: StreamConfig = field(default_factory=StreamConfig)
+    path_check_period: float = 2.0  # a replanned path is republished when it moved (checked this often)
 
     def __post_init__(self) -> None:
         self.lock = threading.Lock()
         self.arbiter: SlotArbiter[int] = SlotArbiter(self.slot_config)
         self.view: RobotView | None = None
         self.scene: Scene | None = None
+        self.stream = StreamBroadcast(self.stream_config)  # each state encoded once for all viewers
+        self.nav_status: dict[str, Any] = nav_status(None)
+        self.path_message: str | None = None  # the path as the pages get it (JSON), shared
+        self._path: list[tuple[float, float]] = []
+        self._path_goal: object = None
+        self._path_checked = 0.0
         self.version = 0
         self.announcements: list[Announcement] = []
         self.send_delays: deque[float] = deque(maxlen=100_000)
@@ -103,6 +148,9 @@ class RobotHub:
                 await self._task
         if self._thread is not None:
             await asyncio.to_thread(self._thread.join, 5.0)
+        close = getattr(self.link, "close", None)  # a robot in its own process (ProcessLink)
+        if callable(close):
+            await asyncio.to_thread(close)
         now = time.time()
         for session, booking in list(self._bookings.items()):
             self._end_booking(session, booking, now, "server stopped")
@@ -140,12 +188,26 @@ class RobotHub:
         now = time.time()
         self.view = view
         self.scene = scene_of(view, now)
+        self.stream.push(self.scene)
+        self.nav_status = nav_status(view)
+        self._publish_path(view, now)
         await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
             await self._arrived(state[1])
         self._last_state = state
         await self.notify()
+
+    def _publish_path(self, view: RobotView, now: float) -> None:
+        """A path message with a new goal, then only when a replan moved the path."""
+        goal = self.nav_status["goal"]
+        if goal == self._path_goal and (goal is None or now - self._path_checked < self.path_check_period):
+            return
+        self._path_checked = now
+        points = path_points(view)
+        if goal != self._path_goal or path_moved(points, self._path):
+            self._path_goal, self._path = goal, points
+            self.path_message = json.dumps({"type": "path", "points": points}, separators=(",", ":"))
 
     async def notify(self) -> None:
         self.version += 1

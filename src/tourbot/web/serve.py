@@ -1,15 +1,16 @@
 """Serving a site: the simulated (or real) robots, the database, the app, uvicorn.
 
-``tourbot serve`` and ``tourbot demo --serve`` both call :func:`build_site_app` then
+``tourbot serve`` and ``tourbot demo`` both call :func:`build_site_app` then
 :func:`run`.
 """
 
 from __future__ import annotations
 
+import errno
 import secrets
+import socket
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from fastapi import FastAPI
 from rich.console import Console
@@ -21,10 +22,7 @@ from tourbot.web.guard import GuardConfig
 from tourbot.web.link import RobotLink
 from tourbot.web.sitedata import import_site
 
-if TYPE_CHECKING:
-    from tourbot.site.model import Site
-
-__all__ = ["ServeSettings", "build_site_app", "run"]
+__all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
 
 @dataclass(frozen=True)
@@ -42,6 +40,9 @@ class ServeSettings:
     slot_minutes: float = 10.0
     staff_password: str | None = None
     speech_dir: Path = Path(".tourbot-speech")
+    speedup: float = 1.0  # the simulated robots run this many times faster than real time
+    fresh_staff_password: bool = False  # a new generated password at each start (the demo's)
+    robot_process: bool = True  # each simulated robot in its own process (see web.process_link)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -50,22 +51,52 @@ def _robot_names(n: int) -> list[str]:
     return [names[i] if i < len(names) else f"robot{i + 1}" for i in range(n)]
 
 
-def simulated_links(site: Site, settings: ServeSettings) -> dict[str, RobotLink]:
-    """One simulated runtime per robot (different seeds), each behind a :class:`RuntimeLink`."""
-    try:
+@dataclass(frozen=True)
+class SimulatedRobotFactory:
+    """Builds one simulated robot (site, crowd, MCL, navigator) behind a :class:`RuntimeLink`.
+
+    Picklable, so that the robot can be built inside its own process (:class:`ProcessLink`).
+    ``speedup`` shortens the link's period (for a robot stepped by the server's thread).
+    """
+
+    site: str
+    crowd: str | int
+    seed: int
+    particles: int
+    speedup: float = 1.0
+
+    def __call__(self) -> RobotLink:
         from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
-    except ImportError as exc:  # the simulator runtime is part of another work package
-        raise TourbotError(f"the simulator runtime is not available: {exc}") from None
-    from tourbot.web.runtime_link import RuntimeLink
+        from tourbot.site.default import site_path
+        from tourbot.site.model import load_site
+        from tourbot.web.runtime_link import RuntimeLink
+
+        site = load_site(site_path(self.site))
+        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, particles=self.particles)
+        robot = simulated_runtime(site, sim_settings, record=False)
+        period = float(robot.simulator.dt) / self.speedup
+        return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
+
+
+def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
+    """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
+    when ``settings.robot_process`` (else stepped by the server's thread)."""
+    from tourbot.web.process_link import ProcessLink
 
     links: dict[str, RobotLink] = {}
-    tours = frozenset(t.name for t in site.tours)
     for i, name in enumerate(_robot_names(settings.robots)):
-        sim_settings = SimulationSettings(
-            crowd=settings.crowd, seed=settings.seed + i, particles=settings.particles
-        )
-        robot = simulated_runtime(site, sim_settings, record=False)
-        links[name] = RuntimeLink(robot.runtime, period=float(robot.simulator.dt), site_tours=tours)
+        seed = settings.seed + i
+        if settings.robot_process:
+            factory = SimulatedRobotFactory(settings.site, settings.crowd, seed, settings.particles)
+            links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
+        else:
+            factory = SimulatedRobotFactory(
+                settings.site, settings.crowd, seed, settings.particles, settings.speedup
+            )
+            links[name] = factory()
+    for link in links.values():
+        if isinstance(link, ProcessLink):
+            link.wait_ready()
     return links
 
 
@@ -83,15 +114,19 @@ def build_site_app(
     db = open_database(settings.database or default_url(site.name), site=site.name)
     if not db.exhibits():
         exhibits, tours = import_site(site, db)
-        console.print(f"imported {exhibits} exhibits and {tours} tours from the site file into {db.url}")
+        console.print(
+            f"imported {exhibits} exhibits and {tours} tours from the site file into {db.url}", soft_wrap=True
+        )
     if settings.staff_password:
         db.set_staff("staff", settings.staff_password)
-    elif not db.has_staff():
+    elif settings.fresh_staff_password or not db.has_staff():
         password = secrets.token_urlsafe(9)
         db.set_staff("staff", password)
-        console.print(f"staff login created: user [bold]staff[/], password [bold]{password}[/]")
+        console.print(
+            f"staff login created: user [bold]staff[/], password [bold]{password}[/]", soft_wrap=True
+        )
     if links is None:
-        links = simulated_links(site, settings)
+        links = simulated_links(settings)
     base = WebConfig()
     config = WebConfig(
         site_name=site.description.split(":")[0] if site.description else site.name,
@@ -102,14 +137,68 @@ def build_site_app(
     return create_app(links, db, site.grid, config), db
 
 
-def run(app: FastAPI, host: str, port: int, console: Console | None = None) -> None:
-    """Serve until interrupted; prints the addresses first."""
+def listening_socket(host: str, port: int, fallback: bool) -> socket.socket:
+    """A socket bound to ``host:port``; when the port is taken, a free one if ``fallback``, else an
+    error that says so in one line."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    sock = socket.socket(family, socket.SOCK_STREAM)
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        sock.bind((host, port))
+    except OSError as exc:
+        if not fallback or exc.errno != errno.EADDRINUSE:
+            sock.close()
+            raise TourbotError(
+                f"cannot listen on {host}:{port}: {exc.strerror}; choose another --port"
+            ) from None
+        sock.bind((host, 0))
+    sock.set_inheritable(True)
+    return sock
+
+
+def addresses(host: str, port: int) -> dict[str, str]:
+    """The pages of a server listening on ``host:port``, by role."""
+    shown = f"[{host}]" if ":" in host else host
+    base = f"http://{shown}:{port}"
+    return {
+        "visitor page": f"{base}/",
+        "on-board screen": f"{base}/onboard",
+        "staff (admin)": f"{base}/admin",
+    }
+
+
+def run(
+    app: FastAPI, host: str, port: int, console: Console | None = None, *, fallback: bool = False
+) -> None:
+    """Serve until interrupted (Ctrl-C stops it cleanly); prints the addresses once it listens.
+
+    With ``fallback`` a taken port is replaced by a free one (said in one line); without, a taken
+    port is a :class:`TourbotError`.
+    """
     import uvicorn
 
-    console = console or Console()
-    base = f"http://{host}:{port}"
-    console.print(f"visitor page: [bold]{base}/[/]   on-board screen: {base}/onboard   staff: {base}/admin")
+    out = console or Console()
+    sock = listening_socket(host, port, fallback)
+    bound = int(sock.getsockname()[1])
+    if port and bound != port:
+        out.print(f"port {port} is in use: serving on port {bound} instead")
+
+    class _Server(uvicorn.Server):
+        async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+            await super().startup(sockets)
+            if self.started:
+                for role, url in addresses(host, bound).items():
+                    out.print(f"{role + ':':17} [bold]{url}[/]", soft_wrap=True)
+                out.print("serving; press Ctrl-C to stop", highlight=False)
+
     # Frames larger than 64 kB are refused by the protocol layer before any parsing.
-    uvicorn.run(
-        app, host=host, port=port, log_level="warning", ws_max_size=65536, ws_per_message_deflate=True
+    config = uvicorn.Config(
+        app, log_level="warning", ws_max_size=65536, ws_per_message_deflate=True, timeout_graceful_shutdown=5
     )
+    try:
+        _Server(config).run(sockets=[sock])
+    except KeyboardInterrupt:  # uvicorn re-raises the Ctrl-C it handled, once it has shut down
+        pass
+    finally:
+        sock.close()
+    out.print("stopped")

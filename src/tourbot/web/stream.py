@@ -37,6 +37,7 @@ __all__ = [
     "ROBOT_ID",
     "Body",
     "Scene",
+    "StreamBroadcast",
     "StreamConfig",
     "StreamDecoder",
     "StreamEncoder",
@@ -198,16 +199,9 @@ class StreamEncoder:
         if self._epoch is None:
             self._epoch = scene.t
             ticks, t_client = self._stamp(scene.t)
-            parts = [_EPOCH.pack(self._epoch)]
             encoded = [quantizer.body(t_client, b) for b in bodies.values()]
             self._held = {b.id: held for b, (_, held) in zip(bodies.values(), encoded, strict=True)}
-            return (
-                bytes([KEYFRAME])
-                + parts[0]
-                + struct.pack("<HB", ticks, len(encoded))
-                + b"".join(p for p, _ in encoded)
-                + b"\x00"
-            )
+            return _keyframe(self._epoch, ticks, [p for p, _ in encoded])
         ticks, t_client = self._stamp(scene.t)
         updates: list[bytes] = []
         for body in bodies.values():
@@ -228,6 +222,26 @@ class StreamEncoder:
             + b"".join(_ID.pack(i) for i in removed[:_MAX_BODIES])
         )
 
+    def keyframe(self, t: float) -> bytes:
+        """A keyframe bringing a new client to what this encoder's client holds, dead-reckoned to
+        ``t``: re-quantized, so within half a quantum of it; the deltas that follow apply to both.
+
+        Its epoch is moved by whole wraps of the 16-bit time so that its ``t`` decodes exactly.
+        """
+        if self._epoch is None:
+            raise StreamError("no keyframe before the first scene")
+        q = self.config.time_quantum
+        full = round((t - self._epoch) / q)
+        epoch = self._epoch + (full // 65536) * 65536 * q
+        ticks = full % 65536
+        t_client = self._epoch + full * q
+        quantizer = _Quantizer(self.config)
+        payloads = []
+        for i, h in self._held.items():
+            x, y, theta = h.at(t_client)
+            payloads.append(quantizer.body(t_client, Body(i, x, y, h.vx, h.vy, theta, h.omega))[0])
+        return _keyframe(epoch, ticks, payloads)
+
     def _stale(self, held: _Held, body: Body, t: float) -> bool:
         c = self.config
         if t - held.t >= c.refresh_period:
@@ -238,6 +252,55 @@ class StreamEncoder:
         if math.hypot(x - body.x, y - body.y) > c.position_tolerance:
             return True
         return body.id == ROBOT_ID and abs(_wrap(theta - body.theta)) > c.heading_tolerance
+
+
+def _keyframe(epoch: float, ticks: int, payloads: list[bytes]) -> bytes:
+    return (
+        bytes([KEYFRAME]) + _EPOCH.pack(epoch) + struct.pack("<HB", ticks, len(payloads)) + b"".join(payloads)
+    ) + b"\x00"
+
+
+@dataclass
+class StreamBroadcast:
+    """The stream of one robot to ALL its viewers: each state is encoded once and its bytes shared.
+
+    One :class:`StreamEncoder` keeps the model every up-to-date viewer holds. Each :meth:`push`
+    makes one delta (or nothing) for the viewers that had the previous state. A viewer that joins,
+    or that skipped a state because it was slow, gets a keyframe of that same model instead (made
+    at most once per state); the shared deltas then apply to it too. So a slow viewer gets the
+    latest state in one message, never a backlog, and the cost per state does not grow with the
+    number of viewers (only the sending does).
+    """
+
+    config: StreamConfig = field(default_factory=StreamConfig)
+    version: int = 0
+    _encoder: StreamEncoder = field(init=False)
+    _delta: bytes | None = None
+    _keyframe: bytes | None = None
+    _t: float = 0.0
+
+    def __post_init__(self) -> None:
+        self._encoder = StreamEncoder(self.config)
+
+    def push(self, scene: Scene) -> None:
+        """A new state of the robot and the people."""
+        message = self._encoder.encode(scene)
+        first = self.version == 0
+        self.version += 1
+        self._t = scene.t
+        self._keyframe = message if first else None
+        self._delta = None if first else message
+
+    def message_for(self, held: int) -> bytes | None:
+        """What a viewer holding state ``held`` (0: nothing yet) needs to hold the latest state;
+        ``None`` when it has it already or nothing changed."""
+        if self.version in (held, 0):
+            return None
+        if held and held == self.version - 1:
+            return self._delta
+        if self._keyframe is None:
+            self._keyframe = self._encoder.keyframe(self._t)
+        return self._keyframe
 
 
 @dataclass
