@@ -73,10 +73,13 @@ RADIUS_CAP = 1.0  # m: the circle through a straight segment has an infinite rad
 
 
 def _circle_fit(x: FloatArray, y: FloatArray) -> tuple[float, float]:
-    """Kasa's algebraic circle fit: (radius, RMS of the distances to the circle)."""
+    """Kasa's algebraic circle fit: (radius, RMS of the distances to the circle). The points are
+    centred on their mean first, which keeps the normal equations well conditioned."""
     n = x.shape[0]
     if n < 3:
         return float(np.hypot(x[-1] - x[0], y[-1] - y[0]) / 2.0), 0.0
+    x = x - x.mean()
+    y = y - y.mean()
     a = np.stack([x, y, np.ones(n)], -1)
     b = -(x * x + y * y)
     m = a.T @ a
@@ -202,15 +205,15 @@ def _features_kernel(
         x1 = r[j] * math.cos(angles[j])
         y1 = r[j] * math.sin(angles[j])
         width = math.hypot(x1 - x0, y1 - y0)
-        # Kasa circle fit: normal equations of [x y 1] [D E F]^T = -(x^2 + y^2)
+        # Kasa circle fit, about the centroid: normal equations of [x y 1] [D E F]^T = -(x^2 + y^2)
         radius = width / 2.0
         circle_rms = 0.0
         if n >= 3:
             m = np.zeros((3, 3))
             v = np.zeros(3)
             for k in range(i, j + 1):
-                x = r[k] * math.cos(angles[k])
-                y = r[k] * math.sin(angles[k])
+                x = r[k] * math.cos(angles[k]) - cx
+                y = r[k] * math.sin(angles[k]) - cy
                 row = (x, y, 1.0)
                 rhs = -(x * x + y * y)
                 for a in range(3):
@@ -230,8 +233,8 @@ def _features_kernel(
                     rad = math.sqrt(rad2)
                     acc = 0.0
                     for k in range(i, j + 1):
-                        x = r[k] * math.cos(angles[k])
-                        y = r[k] * math.sin(angles[k])
+                        x = r[k] * math.cos(angles[k]) - cx
+                        y = r[k] * math.sin(angles[k]) - cy
                         e = math.hypot(x - ccx, y - ccy) - rad
                         acc += e * e
                     circle_rms = math.sqrt(acc / n)
