@@ -97,7 +97,8 @@ def test_laser_marks_the_beams_that_hit_a_person_without_changing_the_ranges(hal
     g = sim.laser.geometry
     ahead = int(np.argmin(np.abs(g.angles)))
     left = int(np.argmin(np.abs(g.angles - math.pi / 2)))
-    assert person[ahead] and not person[left]  # the leg is a person, the circle on the left is not
+    assert person[ahead]  # the leg is a person
+    assert not person[left]  # the circle on the left is not
     # exactly the beams that end on the legs: without them those beams reach farther
     empty = sim.laser.scan(pose, legs[2:], radii[2:], np.random.default_rng(1))
     assert np.array_equal(person, marked < empty - 0.1)
