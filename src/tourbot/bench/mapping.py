@@ -301,10 +301,14 @@ def _people_maps(
         # the target: of the static cells the crowded map still has, how many filtering keeps
         "static_kept": after["static_kept"] / max(before["static_kept"], 1),
     }
+    ranges = np.stack([np.asarray(s.ranges, dtype=np.float64) for s in crowded.scans])
     for (lo, hi), n0, n1 in zip(RANGE_BANDS, bands_before, bands_after, strict=True):
         band = f"{lo:g}-{hi:g}m"
         result[f"people_cells_unfiltered_{band}"] = n0
         result[f"people_cells_filtered_{band}"] = n1
+        seen = corrupted & (ranges >= lo) & (ranges < hi)
+        result[f"person_beams_{band}"] = int(seen.sum())
+        result[f"person_beams_left_out_{band}"] = float(np.sum(seen & left_out)) / max(int(seen.sum()), 1)
     return _PeopleMaps(result, plain, filtered, truth)
 
 
@@ -326,7 +330,14 @@ def _summary(figures: dict[str, float]) -> str:
         f"{figures['people_cells_unfiltered']:.0f} -> {figures['people_cells_filtered']:.0f} "
         f"({100 * figures['people_cells_removed']:.1f} % removed, target >= 95 %); static cells kept "
         f"{100 * figures['static_kept']:.2f} % (target >= 99 %); people cells seen at <4 m, 4-8 m, >8 m "
-        f"(unfiltered, filtered): {bands}"
+        f"(unfiltered, filtered): {bands}; beams that hit a visitor left out "
+        f"{100 * figures['person_beams_left_out']:.1f} % ("
+        + ", ".join(
+            f"{100 * figures[f'person_beams_left_out_{lo:g}-{hi:g}m']:.0f} %" for lo, hi in RANGE_BANDS
+        )
+        + f" at <4 m, 4-8 m, >8 m), other beams kept "
+        f"{100 * figures['other_beams_kept']:.2f} %; endpoint cells "
+        f"{figures['endpoint_cells_unfiltered']:.0f} -> {figures['endpoint_cells_filtered']:.0f}"
     )
 
 
