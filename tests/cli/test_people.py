@@ -32,3 +32,21 @@ def test_track_missing_log_is_a_clear_error(tmp_path: Path, capsys: pytest.Captu
         main(["track", str(tmp_path / "nope.bag"), "-o", str(tmp_path / "t.csv")])
     assert exc.value.code == 2
     assert "nope.bag" in capsys.readouterr().err
+
+
+def test_track_without_odometry_uses_scan_matching(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "tracks.csv"
+    main(["track", str(shared_data / "leg_tracker" / "positive_4_extracted.bag"), "-o", str(out)])
+    assert "robot pose from scan-matching" in capsys.readouterr().out
+    assert len(list(csv.DictReader(out.open()))) > 0
+
+
+def test_train_legs_writes_a_model(shared_data: Path, tmp_path: Path) -> None:
+    from tourbot.people.leg_classifier import LegModel
+
+    out = tmp_path / "legs.json"
+    main(["train-legs", str(shared_data / "leg_tracker" / "positive_1_extracted.bag"), "-o", str(out)])
+    model = LegModel.load(out)
+    assert "positive_1_extracted.bag" in model.trained_on

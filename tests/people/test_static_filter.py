@@ -36,3 +36,31 @@ def test_features_on_the_map_are_static() -> None:
     f = StaticFilter(grid_map=grid)
     on = f.on_map(np.array([[0.52, 1.02], [1.5, 1.5], [-3.0, 0.0]]))
     assert on.tolist() == [True, False, False]
+
+
+def test_a_beam_without_a_reading_is_not_free_space() -> None:
+    from tourbot.people.static_filter import previous_occupancy
+
+    cfg = StaticConfig()
+    angles_min, inc = -np.pi / 2, np.pi / 180
+    ranges = np.full(181, 5.0)
+    point = np.array([[2.0, 0.0]])  # straight ahead, on beam 90
+    assert previous_occupancy(point, ranges, angles_min, inc, cfg)[0] == cfg.p_free
+    ranges[89:92] = 0.0  # dropouts: the laser says nothing about this place
+    assert previous_occupancy(point, ranges, angles_min, inc, cfg, 0.02)[0] == 0.5
+    ranges[89:92] = 2.0  # a return right there
+    assert previous_occupancy(point, ranges, angles_min, inc, cfg, 0.02)[0] == cfg.p_occupied
+
+
+def test_the_robots_own_body_is_learnt_only_while_it_moves() -> None:
+    from tourbot.people.static_filter import RobotBodyMask
+
+    mask = RobotBodyMask(StaticConfig(body_count=5.0))
+    bumper = np.array([[-0.3, 0.4]])  # fixed in the laser frame
+    still = np.zeros(3)
+    for _ in range(20):
+        mask.learn(bumper, still)  # a robot standing still: a person beside it looks the same
+    assert not mask.is_body(bumper)[0]
+    for k in range(6):
+        mask.learn(np.r_[bumper, [[1.0 + 0.3 * k, 0.5 * k]]], np.array([0.1 * (k + 1), 0.0, 0.0]))
+    assert mask.is_body(np.r_[bumper, [[1.0, 0.0]]]).tolist() == [True, False]

@@ -243,3 +243,40 @@ def test_onboard_screen_talks_and_staff_place_an_exhibit(
     for page in (onboard, staff):
         assert page.outside == []
         assert page.errors == []
+
+
+@pytest.mark.slow
+def test_visitor_sends_the_simulated_robot_to_an_exhibit(
+    browser: Any, sqlite_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The real thing, no fake robot: the FHW museum simulated with visitors, MCL and the navigator
+    in the robot's own process (4x real time, so that the test stays short), served as by
+    ``tourbot demo``. A visitor books, sends the robot to the Alexander map (12 m away), sees it
+    arrive, and the robot drawn on the page stands at the exhibit."""
+    from tourbot.web.serve import ServeSettings, build_site_app
+
+    if find_node_modules() is None:
+        pytest.skip("three.js is not installed (npm ci)")
+    monkeypatch.chdir(tmp_path)
+    settings = ServeSettings(
+        site="fhw", database=sqlite_url, crowd="5", particles=200, speedup=4.0,
+        staff_password="s3cret-pass", speech_dir=tmp_path / "speech",
+    )  # fmt: skip
+    app, db = build_site_app(settings)
+    target = db.exhibit("alexander-map")
+    with _Server(app) as url:
+        visitor = _Visitor(browser, url)
+        visitor.page.wait_for_selector("#exhibits button[data-exhibit='alexander-map']", timeout=30000)
+        visitor.page.click("#book")
+        visitor.slot("holder", timeout=30000)
+        visitor.page.click("#exhibits button[data-exhibit='alexander-map']")
+        visitor.page.wait_for_function(
+            f"() => document.getElementById('state').textContent.includes('Arrived at {target.name}')",
+            timeout=90000,
+        )
+        shown = visitor.page.evaluate("() => window.tourbot.live.scene(0).find(b => b.id === 0)")
+        # the estimated pose the robot acts on, at the exhibit's viewing pose (navigator's tolerance)
+        assert abs(shown["x"] - target.x) < 0.6, shown
+        assert abs(shown["y"] - target.y) < 0.6, shown
+        assert visitor.outside == []
+        assert visitor.errors == []

@@ -66,3 +66,17 @@ def test_a_robot_that_cannot_start_says_why() -> None:
     with pytest.raises(RobotProcessError, match="could not start: TourbotError: the site file is missing"):
         link.wait_ready(60)
     assert not link._process.is_alive()
+
+
+def test_a_robot_process_that_dies_shows_as_failed() -> None:
+    link = ProcessLink(FakeRobot, name="fragile")
+    try:
+        link.wait_ready(60)
+        assert link.view().nav.state == "idle"
+        link._process.kill()
+        _wait(lambda: link.view().nav.state == "failed")
+        assert "the robot stopped" in link.view().nav.message
+        with pytest.raises(RobotProcessError, match="fragile"):
+            link.send_goal(1.0, 1.0)
+    finally:
+        link.close()

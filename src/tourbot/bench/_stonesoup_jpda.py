@@ -1,12 +1,17 @@
 """The peer of the people tracker in ``tourbot bench tracking``: Stone Soup's JPDA tracker.
 
 Stone Soup (dstl, PyPI ``stonesoup``) is what people reach for today for JPDA: Kalman filters with a
-constant-velocity model, :class:`~stonesoup.dataassociator.probability.JPDA` over
-:class:`~stonesoup.hypothesiser.probability.PDAHypothesiser` hypotheses, the Gaussian mixture of
-each track's hypotheses reduced to one Gaussian by ``MultiTargetMixtureTracker``, tracks started by
-``MultiMeasurementInitiator`` (GNN over candidate tracks) and ended after missed updates. It is fed
-exactly the person features tourbot's tracker sees, in the world frame, so the comparison is of the
-trackers alone. Benchmark-only: Stone Soup is imported here and nowhere else.
+constant-velocity model, JPDA over :class:`~stonesoup.hypothesiser.probability.PDAHypothesiser`
+hypotheses (gated at ``prob_gate``), computed by default with
+:class:`~stonesoup.dataassociator.probability.JPDAwithEHM2`: Stone Soup's own exact JPDA that splits
+the tracks into clusters sharing gated detections and computes each cluster's marginal association
+probabilities with efficient hypothesis management (Horridge and Maskell 2006), the same
+probabilities as the plain :class:`~stonesoup.dataassociator.probability.JPDA`, which enumerates
+every joint event of all tracks at once and needs seconds per scan with 20 people; the Gaussian
+mixture of each track's hypotheses reduced to one Gaussian by ``MultiTargetMixtureTracker``, tracks
+started by ``MultiMeasurementInitiator`` (GNN over candidate tracks) and ended after missed updates.
+It is fed exactly the person features tourbot's tracker sees, in the world frame, so the comparison
+is of the trackers alone. Benchmark-only: Stone Soup is imported here and nowhere else.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ class StoneSoupConfig:
     init_points: int = 3
     max_misses: int = 10
     velocity_std: float = 0.5
+    associator: str = "ehm2"  # "ehm2" (exact, clustered: JPDAwithEHM2) or "jpda" (plain JPDA)
 
 
 class StoneSoupJPDA:
@@ -41,7 +47,7 @@ class StoneSoupJPDA:
 
     def __init__(self, config: StoneSoupConfig | None = None) -> None:
         from stonesoup.dataassociator.neighbour import GNNWith2DAssignment
-        from stonesoup.dataassociator.probability import JPDA
+        from stonesoup.dataassociator.probability import JPDA, JPDAwithEHM2
         from stonesoup.deleter.time import UpdateTimeStepsDeleter
         from stonesoup.hypothesiser.distance import DistanceHypothesiser
         from stonesoup.hypothesiser.probability import PDAHypothesiser
@@ -89,7 +95,7 @@ class StoneSoupJPDA:
             initiator=initiator,
             deleter=UpdateTimeStepsDeleter(cfg.max_misses),
             detector=None,
-            data_associator=JPDA(hypothesiser=hypothesiser),
+            data_associator=(JPDA if cfg.associator == "jpda" else JPDAwithEHM2)(hypothesiser=hypothesiser),
             updater=updater,
         )
         self._ids: dict[str, int] = {}

@@ -7,10 +7,11 @@ own process (``tourbot serve`` on the simulated site) and the bench is its visit
 1. bandwidth: one viewer behind a loopback relay that counts every byte the server sends (TCP
    payload: WebSocket framing and per-message deflate included, TCP/IP headers not), with the
    robot on a tour and 7 people;
-2. 200 concurrent viewers: the delay from the server sampling a state to a viewer holding it
-   (p50/p99), and the server's CPU;
+2. 200 concurrent viewers, spread over worker processes: the delay from the server sampling a
+   state to a viewer holding it (p50/p99), and the CPU of the web process, the robot's process
+   and the viewers;
 3. the slot holder's command-to-motion latency on loopback: from sending ``goto`` to the first
-   streamed state in which the robot moves.
+   streamed state in which the robot moves (drives or turns: it turns towards its path first).
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ def _cpu_seconds(pid: int) -> float:
 class _Server:
     """``tourbot serve`` in a child process on a fresh SQLite file."""
 
-    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1) -> None:
+    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1, robot_process: bool = True) -> None:
         self.port = _free_port()
         self.folder = tempfile.TemporaryDirectory(prefix="tourbot-bench-web-")
         db = f"sqlite:///{Path(self.folder.name) / 'site.db'}"
@@ -61,6 +62,7 @@ class _Server:
             sys.executable, "-m", "tourbot", "serve", "--site", site, "--port", str(self.port),
             "--database", db, "--crowd", crowd, "--seed", str(seed), "--robots", str(robots),
             "--staff-password", "bench-password",
+            "--robot-process" if robot_process else "--robot-in-server",
         ]  # fmt: skip
         env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), *sys.path])}
         self.process = subprocess.Popen(
@@ -118,7 +120,6 @@ class _Viewer:
         self.decoder = StreamDecoder(StreamConfig(**{k: v for k, v in stream.items() if k != "rate_hz"}))
         self.delays: list[tuple[float, float]] = []  # (received at, delay)
         self.naive = naive
-        self.light = False
         self._epoch = 0.0
         self._ticks = 0
         self.binary = self.text = 0
@@ -148,9 +149,6 @@ class _Viewer:
             except TimeoutError:
                 break
             now = time.time()
-            if isinstance(message, bytes) and self.light:
-                self.delays.append((now, now - self._stamp(message)))
-                continue
             if isinstance(message, bytes):
                 self.binary += len(message)
                 self.decoder.feed(message)
@@ -165,6 +163,17 @@ class _Viewer:
                 data = json.loads(message)
                 if data.get("type") in ("ack", "error"):
                     self.replies.put_nowait(data)
+
+    async def watch(self) -> None:
+        """Read until cancelled or closed, keeping only each frame's delay (no decoding: a
+        many-viewer run must not measure its own work)."""
+        from websockets.exceptions import ConnectionClosed
+
+        with suppress(ConnectionClosed):
+            async for message in self.ws:
+                if isinstance(message, bytes):
+                    now = time.time()
+                    self.delays.append((now, now - self._stamp(message)))
 
     def _stamp(self, message: bytes) -> float:
         """Only the message's time (a many-viewer run must not measure its own decoding)."""
@@ -262,39 +271,110 @@ async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
     }
 
 
-async def _viewers(server: _Server, n: int, seconds: float, pid: int) -> dict[str, Any]:
-    """``n`` viewers, each reading from the moment it connects; delays counted once all are in."""
-    site = await _site(server.base)
-    robot = site["robots"][0]
-    viewers = [_Viewer(server.port, robot, site["stream"]) for _ in range(n)]
-    for v in viewers:
-        v.light = True
-    await _staff(server, "DELETE", robot)
-    horizon = time.monotonic() + 3600.0
+def _children(pid: int) -> list[int]:
+    """The child processes of ``pid`` (Linux /proc): the server's robot processes."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        with suppress(OSError, IndexError, ValueError):
+            if int(stat.read_text().rsplit(")", 1)[1].split()[1]) == pid:
+                found.append(int(stat.parent.name))
+    return found
+
+
+def _viewer_worker(
+    port: int, base: str, robot: str, stream: dict[str, float], n: int, ready: Any, stop: Any, results: Any
+) -> None:
+    """One process of viewers: ``n`` light viewers read the stream until ``stop``; their delays (and
+    this process's CPU samples) go back on ``results``."""
+    asyncio.run(_watch(port, base, robot, stream, n, ready, stop, results))
+
+
+async def _watch(
+    port: int, base: str, robot: str, stream: dict[str, float], n: int, ready: Any, stop: Any, results: Any
+) -> None:
+    viewers = [_Viewer(port, robot, stream) for _ in range(n)]
     readers = []
-    for chunk in range(0, n, 20):
-        group = viewers[chunk : chunk + 20]
-        await asyncio.gather(*(v.open(server.base) for v in group))
-        readers += [asyncio.create_task(v.run(horizon)) for v in group]
-    await asyncio.sleep(2.0)  # keyframes and joining out of the way
-    start, cpu0, wall0 = time.time(), _cpu_seconds(pid), time.monotonic()
-    await asyncio.sleep(seconds)
-    cpu = (_cpu_seconds(pid) - cpu0) / (time.monotonic() - wall0)
-    end = time.time()
+    for chunk in range(0, n, 10):
+        group = viewers[chunk : chunk + 10]
+        await asyncio.gather(*(v.open(base) for v in group))
+        readers += [asyncio.create_task(v.watch()) for v in group]
+    ready.put(n)
+    cpu = [(time.time(), time.process_time())]
+    while not stop.is_set():
+        await asyncio.sleep(0.25)
+        cpu.append((time.time(), time.process_time()))
     for task in readers:
         task.cancel()
     await asyncio.gather(*readers, return_exceptions=True)
-    delays = sorted(d for v in viewers for (at, d) in v.delays if start <= at <= end)
-    at_server = await _staff(server, "GET", robot)
+    results.put(([d for v in viewers for d in v.delays], cpu))
     await asyncio.gather(*(v.close() for v in viewers))
+
+
+def _cpu_between(samples: list[tuple[float, float]], start: float, end: float) -> float:
+    """CPU seconds used between ``start`` and ``end`` from (wall, cpu) samples."""
+    inside = [c for t, c in samples if start <= t <= end]
+    return inside[-1] - inside[0] if len(inside) > 1 else math.nan
+
+
+async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes: int = 4) -> dict[str, Any]:
+    """``n`` viewers in ``processes`` worker processes (so that the viewers' own lag is not the
+    measure); each frame's delay is its arrival time minus the server's sampling time written in
+    the frame (one machine: one clock; the stream's 10 ms time quantum gives +-5 ms)."""
+    import multiprocessing
+
+    site = await _site(server.base)
+    robot = site["robots"][0]
+    if site["tours"]:  # the robot on a tour (moving, localizing, planning) while it is watched
+        driver = _Viewer(server.port, robot, site["stream"])
+        await driver.open(server.base)
+        await driver.send({"type": "book"})
+        await driver.send({"type": "tour", "tour": site["tours"][0]["slug"]})
+        await asyncio.sleep(1.0)
+        await driver.close()  # the robot goes on with the tour
+    ctx = multiprocessing.get_context("spawn")
+    ready, results, stop = ctx.Queue(), ctx.Queue(), ctx.Event()
+    shares = [n // processes + (1 if k < n % processes else 0) for k in range(processes)]
+    workers = [
+        ctx.Process(
+            target=_viewer_worker,
+            args=(server.port, server.base, robot, site["stream"], share, ready, stop, results),
+            daemon=True,
+        )
+        for share in shares
+        if share
+    ]
+    for w in workers:
+        w.start()
+    for _ in workers:
+        await asyncio.to_thread(ready.get, True, 600)
+    await asyncio.sleep(2.0)  # keyframes and joining out of the way
+    await _staff(server, "DELETE", robot)  # the server's own delays from here on
+    robots = _children(pid)
+    start, wall0 = time.time(), time.monotonic()
+    cpu0 = [_cpu_seconds(p) for p in [pid, *robots]]
+    await asyncio.sleep(seconds)
+    cpu1 = [_cpu_seconds(p) for p in [pid, *robots]]
+    wall, end = time.monotonic() - wall0, time.time()
+    stop.set()
+    gathered = [await asyncio.to_thread(results.get, True, 120) for _ in workers]
+    for w in workers:
+        w.join(30)
+    delays = sorted(d for found, _ in gathered for (at, d) in found if start <= at <= end)
+    viewer_cpu = sum(_cpu_between(samples, start, end) for _, samples in gathered) / (end - start)
+    at_server = await _staff(server, "GET", robot)
     if not delays:
         return {"viewers": n, "frames": 0}
     return {
         "viewers": n,
+        "viewer_processes": len(workers),
         "frames": len(delays),
+        "frames_per_viewer_s": len(delays) / n / (end - start),
         "p50_ms": 1000 * delays[len(delays) // 2],
         "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
-        "server_cpu": cpu,
+        "max_ms": 1000 * delays[-1],
+        "server_cpu": (cpu1[0] - cpu0[0]) / wall,
+        "robot_cpu": sum(b - a for a, b in zip(cpu0[1:], cpu1[1:], strict=True)) / wall,
+        "viewer_cpu": viewer_cpu,
         "server_p50_ms": at_server.get("p50_ms", math.nan),
         "server_p99_ms": at_server.get("p99_ms", math.nan),
     }
@@ -323,10 +403,13 @@ async def _latency(server: _Server, trials: int) -> dict[str, Any]:
         start = state["from"]
         if start is None:
             return
-        x0, y0 = start
+        x0, y0, th0 = start
+        turned = abs(math.remainder(scene.robot.theta - th0, 2 * math.pi))
         if (
             math.hypot(scene.robot.x - x0, scene.robot.y - y0) > 0.02
             or abs(scene.robot.vx) + abs(scene.robot.vy) > 0
+            or turned > math.radians(2.0)
+            or scene.robot.omega != 0.0
         ):
             moved.put_nowait(now)
             state["from"] = None
@@ -343,7 +426,7 @@ async def _latency(server: _Server, trials: int) -> dict[str, Any]:
         while not moved.empty():
             moved.get_nowait()
         scene = holder.decoder.scene()
-        state["from"] = (scene.robot.x, scene.robot.y)
+        state["from"] = (scene.robot.x, scene.robot.y, scene.robot.theta)
         target = exhibits[k % len(exhibits)]
         sent = time.time()
         await holder.send({"type": "exhibit", "exhibit": target["slug"]})
@@ -376,10 +459,18 @@ def register(bench: typer.Typer) -> None:
         viewers: Annotated[int, typer.Option(help="concurrent viewers")] = 200,
         viewer_seconds: Annotated[float, typer.Option(help="length of the viewers run")] = 20.0,
         trials: Annotated[int, typer.Option(help="command-to-motion trials")] = 10,
+        compare: Annotated[
+            bool, typer.Option(help="also measure the viewers with the robot in the server's process")
+        ] = True,
+        viewer_processes: Annotated[
+            int, typer.Option(min=1, max=32, help="processes the viewers are spread over")
+        ] = 4,
         seed: Annotated[int, typer.Option(help="seed of the simulated crowd")] = 0,
         output: Annotated[Path | None, typer.Option(help="JSON file")] = None,
     ) -> None:
         """Live-stream bandwidth, many viewers, command-to-motion latency (server in its own process)."""
+        if viewers < 1:
+            raise typer.BadParameter("at least one viewer", param_hint="--viewers")
         from rich.progress import Progress
 
         from tourbot.bench._report import BenchReport
@@ -397,13 +488,24 @@ def register(bench: typer.Typer) -> None:
                 progress.update(task, advance=1, description=f"bandwidth, one viewer, {seconds:.0f} s")
                 bandwidth = asyncio.run(_bandwidth(server, seconds))
                 progress.update(task, advance=1, description=f"{viewers} viewers, {viewer_seconds:.0f} s")
-                crowd = asyncio.run(_viewers(server, viewers, viewer_seconds, server.process.pid))
-                baseline = asyncio.run(_viewers(server, 1, min(10.0, viewer_seconds), server.process.pid))
+                pid = server.process.pid
+                crowd = asyncio.run(_viewers(server, viewers, viewer_seconds, pid, viewer_processes))
+                baseline = asyncio.run(_viewers(server, 1, min(10.0, viewer_seconds), pid, 1))
                 progress.update(task, advance=1, description="command-to-motion latency")
                 latency = asyncio.run(_latency(server, trials))
                 progress.update(task, advance=1)
         finally:
             server.close()
+        in_server: dict[str, Any] = {}
+        if compare:  # the same viewers against the earlier design: the robot steps in the server
+            old = _Server(site, "7", seed, robot_process=False)
+            try:
+                old.wait()
+                in_server = asyncio.run(
+                    _viewers(old, viewers, viewer_seconds, old.process.pid, viewer_processes)
+                )
+            finally:
+                old.close()
         kbit = bandwidth["kbit_s"]
         report.add(
             measure="live stream on the wire (1 viewer)",
@@ -434,25 +536,53 @@ def register(bench: typer.Typer) -> None:
             value=crowd.get("server_p99_ms", math.nan),
             unit="ms",
         )
+        report.add(measure=f"  max ({viewers} viewers)", value=crowd.get("max_ms", math.nan), unit="ms")
         report.add(
-            measure=f"server CPU ({viewers} viewers)",
+            measure=f"server CPU, web process ({viewers} viewers)",
             value=100 * crowd.get("server_cpu", math.nan),
             unit="% of a core",
         )
         report.add(
-            measure="server CPU (1 viewer)",
+            measure="server CPU, web process (1 viewer)",
             value=100 * baseline.get("server_cpu", math.nan),
             unit="% of a core",
         )
+        report.add(
+            measure="robot process CPU (simulator + MCL + navigator)",
+            value=100 * crowd.get("robot_cpu", math.nan),
+            unit="% of a core",
+        )
+        report.add(
+            measure=f"viewers' CPU ({crowd.get('viewer_processes', 0)} processes)",
+            value=100 * crowd.get("viewer_cpu", math.nan),
+            unit="% of a core",
+        )
         report.add(measure="update delay p99 (1 viewer)", value=baseline.get("p99_ms", math.nan), unit="ms")
+        if in_server:
+            report.add(
+                measure=f"  robot in the server's process: p50 / p99 ({viewers})",
+                value=f"{in_server.get('p50_ms', math.nan):.0f} / {in_server.get('p99_ms', math.nan):.0f}",
+                unit="ms",
+            )
+            report.add(
+                measure="  robot in the server's process: server CPU",
+                value=100 * in_server.get("server_cpu", math.nan),
+                unit="% of a core",
+            )
         report.add(measure="command acknowledged p50", value=latency["ack_p50_ms"], unit="ms")
         report.add(measure="command to motion seen p50", value=latency["motion_p50_ms"], unit="ms")
         report.add(measure="command to motion seen max", value=latency["motion_max_ms"], unit="ms")
-        report.meta.update(bandwidth=bandwidth, viewers_run=crowd, baseline_run=baseline, latency=latency)
+        report.meta.update(
+            bandwidth=bandwidth,
+            viewers_run=crowd,
+            baseline_run=baseline,
+            latency=latency,
+            in_server=in_server,
+        )
         report.notes.append(
-            "server = `tourbot serve` child process with the simulated robot (its CPU includes the simulator "
-            "and MCL); viewers run in the bench process on the same 2 cores; delays have +-5 ms from the "
-            "stream's 10 ms time quantum"
+            "server = `tourbot serve` child process (web server) with the simulated robot in its own "
+            "process; the viewers run in their own worker processes on the same 2 cores; a delay is a "
+            "frame's arrival minus the server's sampling time written in it (+-5 ms: 10 ms time quantum)"
         )
         if kbit > TARGET_KBIT:
             report.notes.append(f"MISSED: bandwidth {kbit:.2f} kbit/s > {TARGET_KBIT} kbit/s")

@@ -14,12 +14,16 @@ __all__ = ["PoseSource", "register"]
 class PoseSource(StrEnum):
     """Where the robot's pose at each scan comes from (tracks are in that pose's frame)."""
 
+    auto = "auto"
     odom = "odom"
+    scan_matching = "scan-matching"
     reference = "reference"
     none = "none"
 
 
 def register(app: typer.Typer) -> None:
+    _register_train(app)
+
     @app.command("track")
     def track(
         log: Annotated[Path, typer.Argument(help="A CARMEN log or a ROS bag.")],
@@ -31,9 +35,10 @@ def register(app: typer.Typer) -> None:
         pose: Annotated[
             PoseSource,
             typer.Option(
-                help="Robot pose per scan: odometry, the log's reference pose, or none (robot still)."
+                help="Robot pose per scan: odometry, scan-to-map matching (Burgard Sec. 2.1), the log's "
+                "reference pose, or none (robot still); auto: odometry if the log has it, else scan matching."
             ),
-        ] = PoseSource.odom,
+        ] = PoseSource.auto,
         tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
         plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
@@ -47,6 +52,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
         from tourbot.io.rosbag import read_bag
+        from tourbot.people.ego_motion import ScanMatchedPoses
         from tourbot.people.sjpdaf import PeopleTracker
 
         if log_kind(log) == "rosbag" and log.exists():
@@ -54,7 +60,12 @@ def register(app: typer.Typer) -> None:
         else:
             robot_log = load_log(log)
         grid = read_map(map_path) if map_path is not None else None
-        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed))
+        if pose is PoseSource.auto:
+            has_odom = bool(robot_log.scans) and all(s.odom is not None for s in robot_log.scans)
+            pose = PoseSource.odom if has_odom else PoseSource.scan_matching
+            typer.echo(f"robot pose from {pose.value}")
+        ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
+        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
         output.parent.mkdir(parents=True, exist_ok=True)
         rows = 0
         ids: set[int] = set()
@@ -64,10 +75,12 @@ def register(app: typer.Typer) -> None:
             writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
             task = progress.add_task(f"tracking {log.name}", total=len(robot_log.scans))
             for k, scan in enumerate(robot_log.scans):
-                chosen = scan.odom if pose is PoseSource.odom else scan.reference
-                robot = np.asarray(
-                    chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
-                )
+                robot = None
+                if ego is None:
+                    chosen = scan.odom if pose is PoseSource.odom else scan.reference
+                    robot = np.asarray(
+                        chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
+                    )
                 for tr in tracker.update(scan, robot):
                     if tr.confirmed or tentative:
                         writer.writerow(
@@ -82,6 +95,32 @@ def register(app: typer.Typer) -> None:
         if plot is not None:
             _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")
             typer.echo(f"picture -> {plot}")
+
+
+def _register_train(app: typer.Typer) -> None:
+    @app.command("train-legs")
+    def train_legs(
+        bags: Annotated[list[Path], typer.Argument(help="Annotated leg_tracker bags (*_extracted.bag).")],
+        output: Annotated[
+            Path | None,
+            typer.Option("-o", "--output", help="Model JSON to write (default: the shipped model file)."),
+        ] = None,
+        match: Annotated[
+            float, typer.Option(help="Metres within which a candidate is an annotated leg.")
+        ] = 0.25,
+    ) -> None:
+        """Fit the leg model (P(leg) from a segment's shape) to annotated bags and write it as JSON."""
+        from tourbot.io.errors import BagError
+        from tourbot.people.leg_classifier import DEFAULT_MODEL
+        from tourbot.people.leg_training import train_leg_model
+
+        for bag in bags:
+            if not bag.exists():
+                raise BagError("no such bag", path=bag)
+        model = train_leg_model(bags, match=match)
+        out = output or DEFAULT_MODEL
+        model.save(out)
+        typer.echo(f"leg model ({model.trained_on}) -> {out}")
 
 
 def _plot_tracks(paths: dict[int, list[tuple[float, float]]], out: Path, title: str) -> None:

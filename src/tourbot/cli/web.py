@@ -45,13 +45,20 @@ def register(app: typer.Typer) -> None:
         staff_password: Annotated[
             str | None, typer.Option(envvar="TOURBOT_STAFF_PASSWORD", help="password of user 'staff'")
         ] = None,
+        robot_process: Annotated[
+            bool,
+            typer.Option(
+                "--robot-process/--robot-in-server",
+                help="run each simulated robot in its own process (the default), or in the server's",
+            ),
+        ] = True,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
         from tourbot.web.serve import ServeSettings, build_site_app, run
 
         settings = ServeSettings(
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
-            slot_minutes=slot_minutes, staff_password=staff_password,
+            slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
         )  # fmt: skip
         web, _ = build_site_app(settings)
         run(web, host, port)

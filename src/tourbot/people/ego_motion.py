@@ -30,9 +30,14 @@ FloatArray = NDArray[np.float64]
 
 
 def _no_odometry_mapper() -> MapperParams:
-    # Without odometry the prior is a constant-velocity guess: 25 cm and 0.15 rad of spread (a
-    # robot at 1 m/s and 7.5 Hz moves 13 cm per scan) instead of the odometry prior's 5 cm.
-    return MapperParams(match=MatchParams(sigma_xy=0.1, sigma_theta=0.08))
+    # Without odometry the prior is a constant-velocity guess with 10 cm and 0.08 rad of spread
+    # (plus the mapper's share of the motion) instead of the odometry prior's 5 cm and 0.02 rad;
+    # a wider prior (25 cm was tried on negative_2.bag) lets the match jump to wrong optima.
+    # Every beam and the full hill climbing at every level (not the mapper's faster defaults): a
+    # pose error here is a static object seen moving, and there is no odometry to fall back on.
+    return MapperParams(
+        match=MatchParams(sigma_xy=0.1, sigma_theta=0.08), match_beams=None, level_halvings=None
+    )
 
 
 @dataclass(frozen=True)

@@ -13,13 +13,14 @@ The segmentation is a numba kernel over the beams with a vectorised numpy refere
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import transform_points
+from tourbot.people.leg_classifier import FEATURE_NAMES, LegModel, candidate_features, default_model
 from tourbot.records import Scan
 
 __all__ = [
@@ -28,11 +29,13 @@ __all__ = [
     "PersonFeatures",
     "detect_legs",
     "group_legs",
+    "leg_candidates",
     "leg_segments",
     "leg_segments_reference",
 ]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,6 +53,8 @@ class LegConfig:
     near the laser that they are the robot's own body (a person's leg centre cannot come nearer
     than the robot's skin around the laser).
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
+    ``model``: the learnt P(leg) of :mod:`tourbot.people.leg_classifier` (None: the rule above),
+    for segments of at least ``model_min_points`` points (fewer have no shape: the rule decides).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
     laser sees only the near side of a leg (about 2/3 of a 6 cm radius behind the visible arc).
     """
@@ -67,6 +72,8 @@ class LegConfig:
     max_leg_separation: float = 0.55
     depth_offset: float = 0.04
     min_probability: float = 0.1
+    model: LegModel | None = field(default_factory=default_model)
+    model_min_points: int = 4
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,28 +117,54 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     """Leg candidates of ``scan`` (Burgard et al. Fig. 5, middle): segments that are local minima.
 
     Returns features in the laser frame with ``probability >= config.min_probability``; the numba
-    kernel :func:`leg_segments` does the work.
+    kernel :func:`leg_segments` finds the candidates, and with ``config.model`` (by default the
+    shipped one, :func:`~tourbot.people.leg_classifier.default_model`) P(leg) is that model's
+    probability from the candidate's shape and neighbours instead of the width and contrast rule.
     """
+    cfg = config or LegConfig()
+    legs, features = leg_candidates(scan, cfg, with_features=cfg.model is not None)
+    if cfg.model is None or len(legs) == 0:
+        return legs
+    # Segments of a few points have no shape to speak of (a line and a circle fit them exactly):
+    # the model, learnt on legs seen near the laser with many beams each, would call them clutter.
+    shaped = features[:, FEATURE_NAMES.index("points")] >= math.log(cfg.model_min_points)
+    prob = np.where(shaped, cfg.model.probability(features), legs.probability)
+    keep = prob >= cfg.min_probability
+    return LegFeatures(legs.points[keep], legs.width[keep], prob[keep])
+
+
+def leg_candidates(
+    scan: Scan, config: LegConfig | None = None, *, with_features: bool = True
+) -> tuple[LegFeatures, FloatArray]:
+    """The candidates of the width and contrast rule (P(leg) from that rule) and, with
+    ``with_features``, their classifier features ``(M, F)`` (:func:`~tourbot.people.
+    leg_classifier.candidate_features`; an empty array otherwise)."""
     cfg = config or LegConfig()
     r = np.asarray(scan.ranges, dtype=np.float64)
     valid = _valid_ranges(scan, np.inf)
-    pts, width, prob = leg_segments(r, scan.geometry.angles, valid, cfg)
+    angles = scan.geometry.angles
+    pts, width, prob, first, last = leg_segments(r, angles, valid, cfg)
     if pts.shape[0]:
         d = np.linalg.norm(pts, axis=1, keepdims=True)
         pts = pts + cfg.depth_offset * pts / np.maximum(d, 1e-9)
         far = d[:, 0] >= cfg.min_range
-        pts, width, prob = pts[far], width[far], prob[far]
-    return LegFeatures(pts, width, prob)
+        pts, width, prob, first, last = pts[far], width[far], prob[far], first[far], last[far]
+    features = np.zeros((0, 0))
+    if with_features:
+        features = candidate_features(r, angles, valid, first, last, pts)
+    return LegFeatures(pts, width, prob), features
 
 
 def leg_segments_reference(
     r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Vectorised numpy reference of :func:`leg_segments`: centroids ``(S, 2)``, widths, P(leg)."""
+) -> tuple[FloatArray, FloatArray, FloatArray, IntArray, IntArray]:
+    """Vectorised numpy reference of :func:`leg_segments`: centroids ``(S, 2)``, widths, P(leg),
+    and each segment's first and last beam."""
     near = valid & (r < cfg.max_range)
     B = r.shape[0]
     if B < 2 or not near.any():
-        return np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+        e = np.zeros(0, dtype=np.int64)
+        return np.zeros((0, 2)), np.zeros(0), np.zeros(0), e, e.copy()
     rr = np.where(valid, r, np.inf)
     xy = np.stack([np.cos(angles) * np.where(valid, r, 0.0), np.sin(angles) * np.where(valid, r, 0.0)], -1)
     step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
@@ -168,7 +201,7 @@ def leg_segments_reference(
     keep &= prob >= cfg.min_probability
     idx = np.flatnonzero(keep)
     pts = np.stack([sx[idx] / count[idx], sy[idx] / count[idx]], -1)
-    return pts, width[idx], prob[idx]
+    return pts, width[idx], prob[idx], starts[idx].astype(np.int64), ends[idx].astype(np.int64)
 
 
 @numba.njit(cache=True)
@@ -194,11 +227,13 @@ def _leg_segments_kernel(
     min_contrast: float,
     contrast_scale: float,
     min_probability: float,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
+) -> tuple[FloatArray, FloatArray, FloatArray, IntArray, IntArray]:
     B = r.shape[0]
     pts = np.empty((B, 2))
     width = np.empty(B)
     prob = np.empty(B)
+    first = np.empty(B, dtype=np.int64)
+    last = np.empty(B, dtype=np.int64)
     n = 0
     i = 0
     while i < B:
@@ -240,15 +275,18 @@ def _leg_segments_kernel(
                     pts[n, 1] = sy / cnt
                     width[n] = w
                     prob[n] = p
+                    first[n] = i
+                    last[n] = j
                     n += 1
         i = j + 1
-    return pts[:n].copy(), width[:n].copy(), prob[:n].copy()
+    return pts[:n].copy(), width[:n].copy(), prob[:n].copy(), first[:n].copy(), last[:n].copy()
 
 
 def leg_segments(
     r: FloatArray, angles: FloatArray, valid: NDArray[np.bool_], cfg: LegConfig
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Segments of a scan that look like legs: centroids ``(S, 2)`` (laser frame), widths, P(leg).
+) -> tuple[FloatArray, FloatArray, FloatArray, IntArray, IntArray]:
+    """Segments of a scan that look like legs: centroids ``(S, 2)`` (laser frame), widths, P(leg),
+    and the first and last beam of each.
 
     A segment is a run of valid beams whose consecutive points are within ``cluster_distance``;
     it is a leg candidate when it has ``min_points``, lies within ``max_range``, is

@@ -530,6 +530,7 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: boo
     held = 0  # the stream state this client holds (0: none yet)
     seen = -1
     last_status: dict[str, Any] | None = None
+    status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
@@ -542,14 +543,18 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: boo
         if message is not None:
             await ws.send_bytes(message)
             hub.send_delays.append(time.time() - scene.t)
-        slot = hub.arbiter.view(client.session, time.time()).as_dict()
-        status: dict[str, Any] = {"type": "status", "slot": slot, "nav": hub.nav_status}
-        if onboard:
-            status["face"] = hub.face()
-        comparable = {**status, "slot": {k: v for k, v in slot.items() if k != "time_left"}}
-        if comparable != last_status:
-            await ws.send_text(json.dumps(status, separators=(",", ":")))
-            last_status = comparable
+        now = time.time()
+        key = (hub.status_version, hub.arbiter.onboard_active(now))
+        if key != status_key or onboard:  # (the on-board face changes with every state)
+            status_key = key
+            slot = hub.arbiter.view(client.session, now).as_dict()
+            status: dict[str, Any] = {"type": "status", "slot": slot, "nav": hub.nav_status}
+            if onboard:
+                status["face"] = hub.face()
+            comparable = {**status, "slot": {k: v for k, v in slot.items() if k != "time_left"}}
+            if comparable != last_status:
+                await ws.send_text(json.dumps(status, separators=(",", ":")))
+                last_status = comparable
         path = hub.path_message
         if path is not None and path is not sent_path:
             await ws.send_text(path)

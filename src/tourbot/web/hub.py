@@ -114,6 +114,8 @@ class RobotHub:
         self.scene: Scene | None = None
         self.stream = StreamBroadcast(self.stream_config)  # each state encoded once for all viewers
         self.nav_status: dict[str, Any] = nav_status(None)
+        self.status_version = 0  # changes when the navigation status or the slots changed
+        self._status_key: object = None
         self.path_message: str | None = None  # the path as the pages get it (JSON), shared
         self._path: list[tuple[float, float]] = []
         self._path_goal: object = None
@@ -126,12 +128,12 @@ class RobotHub:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._task: asyncio.Task[None] | None = None
-        self._changed: asyncio.Condition | None = None
+        self._changed: asyncio.Event | None = None  # set at a change, then replaced by a fresh one
         self._last_state: tuple[str, str | None] = ("idle", None)
 
     # --- lifecycle --------------------------------------------------------------------------
     async def start(self) -> None:
-        self._changed = asyncio.Condition()
+        self._changed = asyncio.Event()
         self._slot_lock = asyncio.Lock()
         self._pending: set[asyncio.Future[None]] = set()
         if self.drive:
@@ -211,16 +213,23 @@ class RobotHub:
 
     async def notify(self) -> None:
         self.version += 1
+        a = self.arbiter
+        key = (a.holder, tuple(a.queue), a.staff_stopped, self.nav_status)
+        if key != self._status_key:
+            self._status_key, self.status_version = key, self.status_version + 1
         if self._changed is not None:
-            async with self._changed:
-                self._changed.notify_all()
+            changed, self._changed = self._changed, asyncio.Event()
+            changed.set()  # wakes every waiting connection at once (no lock to pass along)
 
-    async def wait_change(self, seen: int, timeout: float = 5.0) -> int:
-        """Wait until the state is newer than ``seen`` (or ``timeout``); the current version."""
+    async def wait_change(self, seen: int, timeout: float | None = None) -> int:
+        """Wait until the state is newer than ``seen`` (or ``timeout`` s); the current version."""
         assert self._changed is not None
-        async with self._changed:
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(self._changed.wait_for(lambda: self.version != seen), timeout)
+        if self.version == seen:
+            if timeout is None:
+                await self._changed.wait()
+            else:
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._changed.wait(), timeout)
         return self.version
 
     async def _arrived(self, exhibit: str) -> None:

@@ -2,7 +2,8 @@
 
 The server never reaches into the robot's estimators: it reads a plain :class:`RobotView` (pose
 estimate, people tracks, navigation status) and sends goals, tours and stops. The simulator
-runtime and the real robot plug in through :mod:`tourbot.web.runtime_link`.
+runtime and the real robot plug in through :mod:`tourbot.web.runtime_link`;
+:mod:`tourbot.web.process_link` runs such a link in a process of its own.
 """
 
 from __future__ import annotations

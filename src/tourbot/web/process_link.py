@@ -26,6 +26,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from multiprocessing.connection import Connection
 from typing import Any
 
@@ -161,9 +162,14 @@ class ProcessLink:
         """Nothing: the robot steps in its own process."""
 
     def view(self) -> RobotView:
+        """The latest state; once the robot's process has stopped, that state at rest, marked failed."""
         self.wait_ready()
-        assert self._view is not None
-        return self._view
+        view = self._view
+        assert view is not None
+        if self.failure is not None:
+            nav = replace(view.nav, state="failed", message=f"the robot stopped: {self.failure}")
+            return replace(view, v=0.0, omega=0.0, nav=nav)
+        return view
 
     def send_goal(self, x: float, y: float, theta: float | None = None, exhibit: str | None = None) -> None:
         self._call("send_goal", x, y, theta, exhibit)
