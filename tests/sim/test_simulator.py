@@ -85,6 +85,37 @@ def test_laser_sees_walls_and_legs_but_not_glass(hall: Site) -> None:
     assert ranges[ahead] == pytest.approx(9.0, abs=0.1)
 
 
+def test_laser_marks_the_beams_that_hit_a_person_without_changing_the_ranges(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(dynamic_objects=False), seed=0, start=(11.0, 6.0, 0.0))
+    legs = np.array([[12.0, 6.05], [12.0, 5.95], [11.0, 7.0]])  # two legs, then a door-like circle
+    radii = np.array([0.06, 0.06, 0.1])
+    pose = (11.0, 6.0, 0.0)
+    plain = sim.laser.scan(pose, legs, radii, np.random.default_rng(1))
+    marked = sim.laser.scan(pose, legs, radii, np.random.default_rng(1), people=2)
+    assert np.array_equal(plain, marked)
+    person = sim.laser.last_person_hits
+    g = sim.laser.geometry
+    ahead = int(np.argmin(np.abs(g.angles)))
+    left = int(np.argmin(np.abs(g.angles - math.pi / 2)))
+    assert person[ahead]  # the leg is a person
+    assert not person[left]  # the circle on the left is not
+    # exactly the beams that end on the legs: without them those beams reach farther
+    empty = sim.laser.scan(pose, legs[2:], radii[2:], np.random.default_rng(1))
+    assert np.array_equal(person, marked < empty - 0.1)
+
+
+def test_recorded_runs_keep_the_person_hits_of_each_scan(hall: Site) -> None:
+    cfg = SimConfig(crowd=CrowdConfig(num_people=15), record=True)
+    sim = Simulator(hall, cfg, seed=2, start=(2.0, 6.0, 0.0))
+    for _ in range(20):
+        sim.poll()
+    log = sim.to_robot_log()
+    assert len(sim.person_hit_history) == len(log.scans) == 20
+    assert any(m.any() for m in sim.person_hit_history)
+    for scan, person in zip(log.scans, sim.person_hit_history, strict=True):
+        assert np.all(scan.ranges[person] < scan.geometry.max_range)
+
+
 def test_bumping_the_glass_case_counts_and_stops(hall: Site) -> None:
     sim = Simulator(hall, SimConfig(dynamic_objects=False), seed=0, start=(12.0, 6.0, 0.0))
     sim.command(0.5, 0.0)

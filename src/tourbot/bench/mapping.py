@@ -4,7 +4,9 @@ For each log: the mean relative translational and rotational error between conse
 against the corrected reference (Kummerle et al. 2009 style; raw odometry given for comparison),
 how well the map agrees with the reference map built from the corrected poses, the time per scan
 and the real-time factor. Then, on FHW with the peak crowd overlay: the occupied cells caused by
-people in maps built with and without people filtering (Burgard et al. Fig. 10), with a picture.
+people in maps built with and without people filtering (Burgard et al. Fig. 10), with a picture;
+and (``--people-sim``) the same on a simulated 10 Hz tour in the peak crowd, where the laser knows
+which beams hit a visitor.
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
@@ -21,9 +23,12 @@ from rich.console import Console
 from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.records import RobotLog
+from tourbot.records import RobotLog, Scan
 
-__all__ = ["map_agreement", "people_cells", "register"]
+if TYPE_CHECKING:
+    from tourbot.mapping.people_filter import PeopleFilterParams
+
+__all__ = ["clean_map", "map_agreement", "people_cells", "register", "simulated_crowd_log"]
 
 LOGS = ("intel", "aces", "freiburg-079", "fhw")
 
@@ -146,6 +151,14 @@ def register(bench: typer.Typer) -> None:
             int | None, typer.Option(help="Only the first N scans of each log (quick runs).")
         ] = None,
         seed: Annotated[int, typer.Option(help="Seed of the crowd and the people tracker.")] = 0,
+        people_sim: Annotated[
+            bool,
+            typer.Option(help="Also measure people filtering on a simulated tour in the peak crowd (10 Hz)."),
+        ] = False,
+        sim_seconds: Annotated[
+            float, typer.Option(help="Simulated seconds of each --people-sim run.")
+        ] = 180.0,
+        sim_seeds: Annotated[int, typer.Option(help="Number of --people-sim runs (seeds 0, 1, ...).")] = 1,
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
         picture: Annotated[
             Path, typer.Option(help="Picture of the maps with and without people filtering.")
@@ -197,22 +210,30 @@ def register(bench: typer.Typer) -> None:
         )
         if people:
             report.meta["people_filter"] = _people_experiment(seed, max_scans, picture, console)
+        if people_sim:
+            sim_picture = picture.with_name(picture.stem + "-sim" + picture.suffix)
+            report.meta["people_filter_sim"] = _people_sim_experiment(
+                sim_seeds, sim_seconds, sim_picture, console
+            )
         report.finish(output, console)
 
 
-def _known_pose_maps(log: RobotLog, seed: int) -> tuple[OccupancyGrid, OccupancyGrid, int]:
-    """Maps of ``log`` at its reference poses, without and with people filtering; beams removed."""
+def _known_pose_maps(
+    log: RobotLog, seed: int, params: PeopleFilterParams | None = None
+) -> tuple[OccupancyGrid, OccupancyGrid, NDArray[np.bool_]]:
+    """Maps of ``log`` at its reference poses, without and with people filtering; the beams the
+    filter left out ``(S, B)``."""
     from tourbot.mapping.incremental import IncrementalMapper
     from tourbot.mapping.people_filter import PeopleFilteredMapper
 
     ref = log.reference_poses
     plain = IncrementalMapper(start=ref[0])
-    filtered = PeopleFilteredMapper.create(start=ref[0], seed=seed)
+    filtered = PeopleFilteredMapper.create(start=ref[0], seed=seed, params=params)
     for scan, pose in zip(log.scans, ref, strict=True):
         plain.integrate(scan, pose)
         filtered.add_scan(scan, pose=pose)
     filtered.finish()
-    return plain.grid(), filtered.mapper.grid(), filtered.removed_beams
+    return plain.grid(), filtered.mapper.grid(), np.asarray(filtered.left_out, dtype=bool)
 
 
 def _align_to(grid: OccupancyGrid, like: OccupancyGrid) -> OccupancyGrid:
@@ -229,28 +250,48 @@ def _align_to(grid: OccupancyGrid, like: OccupancyGrid) -> OccupancyGrid:
     return OccupancyGrid(out, res, like.origin, like.occupied_thresh, like.free_thresh)
 
 
-def _people_experiment(seed: int, max_scans: int | None, picture: Path, console: Console) -> dict[str, float]:
-    """Burgard et al. Fig. 10 on FHW with the peak crowd: people cells with and without filtering."""
-    from tourbot.maps.reference import build_reference_map
-    from tourbot.sim.overlay import OverlayConfig, overlay_crowd
+@dataclass
+class _PeopleMaps:
+    """The figures of one people-filtering case and the maps they come from."""
 
-    log = _read("fhw", max_scans)
-    console.print("people filtering: laying the peak crowd over FHW ...")
-    peak = OverlayConfig.preset("peak")
-    crowded = overlay_crowd(log, build_reference_map(log), peak, seed=seed, preset="peak")
-    corrupted = float(crowded.truth.fraction.mean())
-    console.print("people filtering: maps at the reference poses ...")
-    clean, _, _ = _known_pose_maps(log, seed)
-    plain, filtered, removed = _known_pose_maps(crowded.log, seed)
+    figures: dict[str, float]
+    plain: OccupancyGrid
+    filtered: OccupancyGrid
+    truth: NDArray[np.bool_]  # cells where a beam that hit a visitor ended
+
+
+def _people_maps(
+    crowded: RobotLog,
+    corrupted: NDArray[np.bool_],
+    clean: OccupancyGrid,
+    seed: int,
+    params: PeopleFilterParams | None = None,
+) -> _PeopleMaps:
+    """Maps of the ``crowded`` log at its reference poses without and with people filtering, scored
+    against the ``clean`` map (the same poses without people) with the beams known to have hit a
+    visitor (``corrupted`` ``(S, B)``): people cells removed, static cells kept (Fig. 10)."""
+    plain, filtered, left_out = _known_pose_maps(crowded, seed, params)
     plain, filtered = _align_to(plain, clean), _align_to(filtered, clean)
-    nearest = _person_cells(crowded.log, crowded.truth.corrupted, clean)
+    nearest = _person_cells(crowded, corrupted, clean)
     truth = np.isfinite(nearest)
+    # the endpoints alone (the paper's Fig. 10 draws them): cells far from the walls holding the
+    # endpoint of a visitor's beam, before and after the filter left its beams out
+    far = _occupied_distance(clean) > 0.05
+    kept = np.isfinite(_person_cells(crowded, corrupted & ~left_out, clean))
+    returned = np.stack([_returned(s) for s in crowded.scans])
+    others = returned & ~corrupted
     before = people_cells(plain, clean, truth)
     after = people_cells(filtered, clean, truth)
     bands_before, bands_after = _by_range(plain, clean, nearest), _by_range(filtered, clean, nearest)
     result: dict[str, float] = {
-        "corrupted_beams": corrupted,
-        "beams_removed": removed,
+        "corrupted_beams": float(np.mean(corrupted)),
+        "corrupted_beam_count": int(np.sum(corrupted)),
+        "beams_removed": int(left_out.sum()),
+        # beams: of those that hit a visitor, the share left out; of the others, the share kept
+        "person_beams_left_out": float(np.sum(left_out & corrupted)) / max(int(np.sum(corrupted)), 1),
+        "other_beams_kept": float(np.sum(others & ~left_out)) / max(int(np.sum(others)), 1),
+        "endpoint_cells_unfiltered": int(np.sum(truth & far)),
+        "endpoint_cells_filtered": int(np.sum(kept & far)),
         "people_cells_unfiltered": before["people"],
         "people_cells_filtered": after["people"],
         "people_cells_removed": 1.0 - after["people"] / max(before["people"], 1),
@@ -260,22 +301,142 @@ def _people_experiment(seed: int, max_scans: int | None, picture: Path, console:
         # the target: of the static cells the crowded map still has, how many filtering keeps
         "static_kept": after["static_kept"] / max(before["static_kept"], 1),
     }
+    ranges = np.stack([np.asarray(s.ranges, dtype=np.float64) for s in crowded.scans])
     for (lo, hi), n0, n1 in zip(RANGE_BANDS, bands_before, bands_after, strict=True):
         band = f"{lo:g}-{hi:g}m"
         result[f"people_cells_unfiltered_{band}"] = n0
         result[f"people_cells_filtered_{band}"] = n1
+        seen = corrupted & (ranges >= lo) & (ranges < hi)
+        result[f"person_beams_{band}"] = int(seen.sum())
+        result[f"person_beams_left_out_{band}"] = float(np.sum(seen & left_out)) / max(int(seen.sum()), 1)
+    return _PeopleMaps(result, plain, filtered, truth)
+
+
+def _returned(scan: Scan) -> NDArray[np.bool_]:
+    r = np.asarray(scan.ranges)
+    return np.asarray((r > scan.geometry.min_range) & (r < scan.geometry.max_range))
+
+
+def _summary(figures: dict[str, float]) -> str:
+    bands = [
+        (
+            int(figures[f"people_cells_unfiltered_{lo:g}-{hi:g}m"]),
+            int(figures[f"people_cells_filtered_{lo:g}-{hi:g}m"]),
+        )
+        for lo, hi in RANGE_BANDS
+    ]
+    return (
+        f"{100 * figures['corrupted_beams']:.0f} % of beams hit a visitor: people cells "
+        f"{figures['people_cells_unfiltered']:.0f} -> {figures['people_cells_filtered']:.0f} "
+        f"({100 * figures['people_cells_removed']:.1f} % removed, target >= 95 %); static cells kept "
+        f"{100 * figures['static_kept']:.2f} % (target >= 99 %); people cells seen at <4 m, 4-8 m, >8 m "
+        f"(unfiltered, filtered): {bands}; beams that hit a visitor left out "
+        f"{100 * figures['person_beams_left_out']:.1f} % ("
+        + ", ".join(
+            f"{100 * figures[f'person_beams_left_out_{lo:g}-{hi:g}m']:.0f} %" for lo, hi in RANGE_BANDS
+        )
+        + f" at <4 m, 4-8 m, >8 m), other beams kept "
+        f"{100 * figures['other_beams_kept']:.2f} %; endpoint cells "
+        f"{figures['endpoint_cells_unfiltered']:.0f} -> {figures['endpoint_cells_filtered']:.0f}"
+    )
+
+
+def _people_experiment(seed: int, max_scans: int | None, picture: Path, console: Console) -> dict[str, float]:
+    """Burgard et al. Fig. 10 on FHW with the peak crowd: people cells with and without filtering."""
+    from tourbot.maps.reference import build_reference_map
+    from tourbot.sim.overlay import OverlayConfig, overlay_crowd
+
+    log = _read("fhw", max_scans)
+    console.print("people filtering: laying the peak crowd over FHW ...")
+    peak = OverlayConfig.preset("peak")
+    crowded = overlay_crowd(log, build_reference_map(log), peak, seed=seed, preset="peak")
+    console.print("people filtering: maps at the reference poses ...")
+    clean, _, _ = _known_pose_maps(log, seed)
+    case = _people_maps(crowded.log, crowded.truth.corrupted, clean, seed)
+    result = case.figures
     console.print("people filtering: scan matching on the crowded log, with and without Eq. 12 ...")
     result.update(_crowded_slam(crowded.log, seed))
-    _draw_people_maps(plain, filtered, clean, truth, picture)
+    _draw_people_maps(case.plain, case.filtered, clean, case.truth, picture, "FHW, peak crowd")
     console.print(
-        f"people filtering (FHW, peak crowd, {100 * corrupted:.0f} % of beams corrupted): people cells "
-        f"{before['people']} -> {after['people']} ({100 * result['people_cells_removed']:.1f} % removed, "
-        f"target >= 95 %); static cells kept {100 * result['static_kept']:.2f} % (target >= 99 %); "
-        f"people cells by the range they were seen at (<4 m, 4-8 m, >8 m): {bands_before} -> {bands_after}; "
+        f"people filtering (FHW, peak crowd): {_summary(result)}; "
         f"crowded SLAM relative error {result['slam_trans_plain']:.3f} m plain, "
         f"{result['slam_trans_filtered']:.3f} m with Eq. 12; picture: {picture}"
     )
     return result
+
+
+def simulated_crowd_log(
+    seconds: float, seed: int = 0, crowd: str = "peak", tour: str = "highlights"
+) -> tuple[RobotLog, NDArray[np.bool_]]:
+    """A guided ``tour`` of ``seconds`` in the shipped FHW site among ``crowd``, as ``tourbot
+    simulate`` runs it (10 Hz, 360 beams); the log (true poses as reference) and, per scan, which
+    beams returned from a visitor ``(S, B)``."""
+    from tourbot.cli._tour_view import start_pose_for
+    from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+    from tourbot.sim.simulator import SimConfig
+    from tourbot.site.default import default_site
+
+    site = default_site()
+    settings = SimulationSettings(crowd=crowd, seed=seed, sim=SimConfig(record=True))
+    robot = simulated_runtime(site, settings, start=start_pose_for(site, tour), record=False)
+    robot.runtime.start_tour(tour)
+    robot.runtime.run(max_time=seconds)
+    sim = robot.simulator
+    return sim.to_robot_log(), np.asarray(sim.person_hit_history, dtype=bool)
+
+
+def clean_map(log: RobotLog, person: NDArray[np.bool_]) -> OccupancyGrid:
+    """The map of ``log`` at its reference poses without the beams in ``person`` ``(S, B)``."""
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    ref = log.reference_poses
+    mapper = IncrementalMapper(start=ref[0])
+    for scan, pose, hit in zip(log.scans, ref, person, strict=True):
+        mapper.integrate(scan, pose, keep=~hit)
+    return mapper.grid()
+
+
+SIM_WINDOWS = (0, 3)  # the filter's own setting, and the paper's 3 scans before and after
+
+
+def _people_sim_experiment(
+    seeds: int, seconds: float, picture: Path, console: Console
+) -> dict[str, float | list[dict[str, float]]]:
+    """People filtering on the simulator's peak crowd at 10 Hz, where the tracker can follow the
+    visitors: the same mapper, filter and metric as the FHW case, with the laser's ground truth."""
+    from dataclasses import replace
+
+    from tourbot.mapping.people_filter import PeopleFilterParams
+
+    runs: list[dict[str, float]] = []
+    for seed in range(seeds):
+        console.print(
+            f"people filtering, simulated: {seconds:g} s of a tour in the peak crowd, seed {seed} ..."
+        )
+        log, person = simulated_crowd_log(seconds, seed)
+        clean = clean_map(log, person)
+        for window in SIM_WINDOWS:
+            params = replace(PeopleFilterParams(), window=window)
+            t0 = time.process_time()
+            case = _people_maps(log, person, clean, seed, params)
+            cpu = time.process_time() - t0
+            figures = {"seed": seed, "window": window, "scans": len(log), "cpu_s": cpu, **case.figures}
+            runs.append(figures)
+            console.print(
+                f"people filtering, simulated, seed {seed}, window +-{window} scans: {_summary(figures)}"
+            )
+            if seed == 0 and window == 0:
+                _draw_people_maps(
+                    case.plain, case.filtered, clean, case.truth, picture, "simulated FHW, peak crowd, 10 Hz"
+                )
+    out: dict[str, float | list[dict[str, float]]] = {"runs": runs, "seconds": seconds}
+    for window in SIM_WINDOWS:
+        mine = [r for r in runs if r["window"] == window]
+        before = sum(r["people_cells_unfiltered"] for r in mine)
+        after = sum(r["people_cells_filtered"] for r in mine)
+        out[f"people_cells_removed_window{window}"] = 1.0 - after / max(before, 1)
+        out[f"static_kept_window{window}"] = float(np.mean([r["static_kept"] for r in mine]))
+    return out
 
 
 def _crowded_slam(log: RobotLog, seed: int) -> dict[str, float]:
@@ -303,7 +464,12 @@ def _crowded_slam(log: RobotLog, seed: int) -> dict[str, float]:
 
 
 def _draw_people_maps(
-    plain: OccupancyGrid, filtered: OccupancyGrid, clean: OccupancyGrid, truth: NDArray[np.bool_], path: Path
+    plain: OccupancyGrid,
+    filtered: OccupancyGrid,
+    clean: OccupancyGrid,
+    truth: NDArray[np.bool_],
+    path: Path,
+    what: str,
 ) -> None:
     import matplotlib
 
@@ -320,7 +486,7 @@ def _draw_people_maps(
         people = grid.occupied() & truth & far
         pts = grid.cell_to_world(np.argwhere(people))
         ax.plot(pts[:, 0], pts[:, 1], ".", color="crimson", ms=2, label=f"cells caused by people: {len(pts)}")
-        ax.set_title(f"FHW, peak crowd: {title}")
+        ax.set_title(f"{what}: {title}")
         ax.legend(loc="upper right")
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=110)

@@ -17,7 +17,9 @@ When the map is built, the beams ending in a person's bounding box are left out.
 written ``scans_around`` scans late, so that the tracker's delay is covered: a track counts as a
 person in scan ``t`` when it is confirmed by scan ``t + scans_around`` (its position in scan ``t``
 is used, so a visitor standing still is removed from the scans before the confirmation too), or
-when it had been detected a few times by scan ``t`` (a tentative track).
+when it had been detected a few times by scan ``t`` (a tentative track). With
+``PeopleFilterParams.window`` its boxes in a few scans before and after count too (the paper's
+setting: "several previous and next scans").
 Besides the tracks, the person features of the scan itself count (a person walks several metres
 between the scans of a sparse log, and no track can follow): those the tracker's static filter
 sees moving, and those standing where the map so far has seen free floor (the difference of the
@@ -69,6 +71,9 @@ class PeopleFilterParams:
     at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
     them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
     passed the person and is kept.
+    ``window``: a counted track's boxes at its positions in the ``window`` scans before and after
+    also count in a scan (the paper's "several previous and next scans", to cope with the tracker's
+    delay; the scans after are those still waiting, so at most ``scans_around``; 0: the scan's own).
     ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
     occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
     ``keep_free_space``: a person's beam still marks the cells in front of the person free.
@@ -80,6 +85,7 @@ class PeopleFilterParams:
     body_radius: float = 0.3
     box_half_size: float = 0.3
     scans_around: int = 3
+    window: int = 0
     tentative_hits: int | None = 2
     feature_half_size: float = 0.25
     feature_moving: float = 0.8
@@ -194,10 +200,12 @@ class PeopleFilteredMapper:
     tracker: PeopleTracker
     params: PeopleFilterParams = field(default_factory=PeopleFilterParams)
     removed_beams: int = 0
+    left_out: list[NDArray[np.bool_]] = field(default_factory=list)  # per scan written: beams left out
 
     def __post_init__(self) -> None:
         self._confirmed: set[int] = set()  # ids of every track confirmed so far
         self._pending: collections.deque[_Pending] = collections.deque()
+        self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
         self._index = 0
 
     @classmethod
@@ -261,18 +269,26 @@ class PeopleFilteredMapper:
         """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
         features only, without ``tracks``)."""
         p = self.params
-        tentative = p.tentative_hits if p.tentative_hits is not None else np.inf
-        tracked = [
-            tracks and (i in self._confirmed or hits >= tentative)
-            for i, hits in zip(item.track_ids, item.track_hits, strict=True)
-        ]
-        centres = item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
+        centres = np.zeros((0, 2))
+        if tracks:
+            # the scan's own tracks, and those of the scans within the window (before and after)
+            near = [o for o in (*self._written, *self._pending) if 0 < abs(o.index - item.index) <= p.window]
+            centres = np.concatenate([self._track_centres(o) for o in (item, *near)])
         features = item.features
         if len(features):
             seen_free = self._evidence_around(features) <= p.feature_free
             features = features[(item.moving >= p.feature_moving) | seen_free]
         half = np.r_[np.full(len(centres), p.box_half_size), np.full(len(features), p.feature_half_size)]
         return np.concatenate([centres, features]), half
+
+    def _track_centres(self, item: _Pending) -> FloatArray:
+        """Positions ``(K, 2)`` in a waiting scan of the tracks that count as people."""
+        tentative = self.params.tentative_hits if self.params.tentative_hits is not None else np.inf
+        tracked = [
+            i in self._confirmed or hits >= tentative
+            for i, hits in zip(item.track_ids, item.track_hits, strict=True)
+        ]
+        return item.track_positions[np.asarray(tracked, dtype=bool).reshape(-1)]
 
     def _evidence_around(self, points: FloatArray) -> FloatArray:
         """The largest log-odds of the map so far in the 3 x 3 cells around each point."""
@@ -294,7 +310,9 @@ class PeopleFilteredMapper:
     def _write(self, item: _Pending) -> None:
         person = self._person_beams(item)
         self.removed_beams += int(person.sum())
+        self.left_out.append(person)
         self._integrate(item, person, "map")
+        self._written.append(item)
 
     def _integrate(
         self, item: _Pending, person: NDArray[np.bool_], into: Literal["map", "alignment"]

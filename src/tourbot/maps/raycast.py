@@ -601,6 +601,15 @@ class RayCaster:
         """Like :meth:`cast`, with ``K`` circles (people's legs) ``circles_xy (K, 2)``, ``radii (K,)``
         in the world also blocking the beams."""
         out = self.cast(poses, angles)
+        self.lower_to_circles(out, poses, angles, circles_xy, radii)
+        return out
+
+    def lower_to_circles(
+        self, out: Float32Array, poses: ArrayLike, angles: ArrayLike, circles_xy: ArrayLike, radii: ArrayLike
+    ) -> None:
+        """Lower the ranges ``out`` ``(N, B)`` of :meth:`cast` in place to ``K`` circles
+        ``circles_xy (K, 2)``, ``radii (K,)`` that also block the beams (a minimum: circles may be
+        added in several calls with the same result)."""
         c = np.asarray(circles_xy, dtype=np.float64).reshape(-1, 2)
         r = np.ascontiguousarray(np.asarray(radii, dtype=np.float64).ravel())
         if r.shape[0] != c.shape[0]:
@@ -617,7 +626,6 @@ class RayCaster:
                 r,
                 out,
             )
-        return out
 
     def cast_reference(self, poses: ArrayLike, angles: ArrayLike) -> Float32Array:
         """:meth:`cast` computed by :func:`cast_rays_reference` (slow; for tests)."""

@@ -55,6 +55,7 @@ class SimLaser:
         self.config = config
         self.geometry = config.geometry()
         self._angles = self.geometry.angles
+        self.last_person_hits: NDArray[np.bool_] = np.zeros(config.num_beams, dtype=bool)
         self.set_world(grid)
 
     def set_world(self, grid: OccupancyGrid) -> None:
@@ -70,14 +71,26 @@ class SimLaser:
         circles_xy: NDArray[np.float64],
         radii: NDArray[np.float64],
         rng: np.random.Generator,
+        people: int = 0,
     ) -> NDArray[np.float64]:
-        """One scan ``(num_beams,)`` from the robot at ``robot_pose`` among circles (legs)."""
+        """One scan ``(num_beams,)`` from the robot at ``robot_pose`` among circles (legs).
+
+        The first ``people`` circles are people's legs: :attr:`last_person_hits` then tells which
+        beams of this scan returned from a person (ground truth for metrics, e.g. people-filtered
+        mapping); the ranges are the same whatever ``people`` is.
+        """
         laser_pose = compose(np.asarray(robot_pose, dtype=np.float64), np.asarray(self.geometry.offset))
-        ranges = self._caster.cast_with_circles(laser_pose[None, :], self._angles, circles_xy, radii)[0]
-        r = ranges.astype(np.float64)
+        poses = laser_pose[None, :]
+        c = np.asarray(circles_xy, dtype=np.float64).reshape(-1, 2)
+        rad = np.asarray(radii, dtype=np.float64).ravel()
+        cast = self._caster.cast_with_circles(poses, self._angles, c[people:], rad[people:])
+        without_people = cast[0].copy()
+        self._caster.lower_to_circles(cast, poses, self._angles, c[:people], rad[:people])
+        r = cast[0].astype(np.float64)
         hit = r < self.config.max_range
         r = r + self.config.sigma * rng.standard_normal(r.shape[0])
         r = np.where(hit, np.clip(r, 0.0, self.config.max_range), self.config.max_range)
         if self.config.dropout > 0:
             r[rng.random(r.shape[0]) < self.config.dropout] = self.config.max_range
+        self.last_person_hits = (cast[0] < without_people) & (r < self.config.max_range)
         return r

@@ -116,6 +116,8 @@ class Simulator:
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
         self.people_history: list[NDArray[np.float64]] = []
+        # per recorded scan: which beams returned from a visitor (ground truth for metrics)
+        self.person_hit_history: list[NDArray[np.bool_]] = []
         self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
 
     # -- DrivableSource ---------------------------------------------------------------------------
@@ -146,7 +148,8 @@ class Simulator:
         out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
         if self._steps % self._scan_every == 0:
             centres, radii = self.legs()
-            ranges = self.laser.scan(self.robot.pose, centres, radii, self._rng_laser)
+            people = len(self._crowd_circles()[1]) if self.crowd is not None else 0
+            ranges = self.laser.scan(self.robot.pose, centres, radii, self._rng_laser, people=people)
             out.append(
                 Scan(self._time, ranges, self.laser.geometry, odom=odom_pose, reference=self.robot.pose)
             )
@@ -154,6 +157,7 @@ class Simulator:
                 self.truth_times.append(self._time)
                 self.truth_poses.append(self.robot.pose)
                 self.people_history.append(self.people_positions())
+                self.person_hit_history.append(self.laser.last_person_hits.copy())
                 self.objects_history.append((self.objects.door_states(), self.objects.furniture_states()))
         if self.config.record:
             self.records.extend(out)
