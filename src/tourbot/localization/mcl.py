@@ -64,7 +64,7 @@ from tourbot.localization.beam_filters import (
     BeamFilter,
     BeamFilterConfig,
     entropy_filter,
-    novelty_filter,
+    novelty_filter_staged,
 )
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel, _wrap
@@ -187,6 +187,7 @@ class MCLConfig:
     global_long_fraction: float = 0.5
     global_done: float = 0.95
     injection_stages: int = 3
+    injection_long_fraction: float = 0.5
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -342,7 +343,8 @@ class MonteCarloLocalization:
             w = np.exp(logw)
             self.weights = w / w.sum()
             # 4. Recovery: augmented MCL's short- and long-term averages of that fit.
-            if n_used < cfg.recovery_min_used * valid.sum():
+            evidence = n_used >= cfg.recovery_min_used * valid.sum()
+            if not evidence:
                 pass  # too few beams to judge the fit (a crowd all around): no evidence either way
             elif self._w_slow == 0.0:
                 self._w_slow = self._w_fast = w_best
@@ -350,7 +352,8 @@ class MonteCarloLocalization:
                 self._w_slow += cfg.alpha_slow * (w_best - self._w_slow)
                 self._w_fast += cfg.alpha_fast * (w_best - self._w_fast)
             ratio = self._w_fast / (cfg.recovery_ratio * self._w_slow) if self._w_slow > 0 else 1.0
-            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - ratio))
+            # No injection on a scan that is no evidence (the averages are those of older scans).
+            inject_fraction = min(cfg.max_injection, max(0.0, 1.0 - ratio)) if evidence else 0.0
             info["w_best"] = w_best
             info["inject_fraction"] = inject_fraction
         else:
@@ -422,12 +425,24 @@ class MonteCarloLocalization:
             # short beams would then not look "shorter than expected" enough to be dropped.
             w_est = self._established_weights()
             idx = low_variance_resample(w_est, m, float(self.rng.random()))
+            # The drawn hypotheses on the paper's grid (entropy_cell, 15 cm x 2 deg): one ray cast
+            # per occupied cell, weighted by its share of the draws, heaviest first.
+            cells = _cell_keys(self.samples[idx], cfg.entropy_cell[0], cfg.entropy_cell[1])
+            _, first, counts = np.unique(cells, return_index=True, return_counts=True)
+            order = np.argsort(-counts, kind="stable")
+            idx, hyp_w = idx[first[order]], counts[order] / m
             laser = compose(self.samples[idx], np.asarray(geometry.offset, dtype=np.float64))
             angles = geometry.angles[valid]
-            expected = self._caster(float(geometry.max_range)).cast(laser, angles)
+            measured = ranges[valid]
+            caster = self._caster(float(geometry.max_range))
             model = BeamModel(sigma_hit=cfg.sigma_hit)
-            p_short = model.prob_shorter(expected, ranges[valid], float(geometry.max_range))
-            keep = novelty_filter(p_short, np.ones(m), cfg.filters.theta)
+
+            def p_rows(lo: int, hi: int, beams: IntArray) -> FloatArray:
+                expected = caster.cast(laser[lo:hi], angles[beams])
+                return model.prob_shorter(expected, measured[beams], float(geometry.max_range))
+
+            # Eq. 6 in stages: only beams that may still be dropped are ray cast for more samples.
+            keep = novelty_filter_staged(p_rows, int(valid.sum()), hyp_w, cfg.filters.theta)
         used = np.zeros_like(valid)
         used[np.flatnonzero(valid)[keep]] = True
         return used
@@ -598,7 +613,7 @@ class MonteCarloLocalization:
         )
         cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
         cand = cand[self._in_free_space(cand)]
-        beams = _longest(ranges, valid, cfg.global_long_fraction)
+        beams = _longest(ranges, valid, cfg.injection_long_fraction)
         if not beams.any():
             return cand[:n]
         return self._anneal(cand, n, ranges, geometry, field_, beams, cfg.injection_stages)[0]
