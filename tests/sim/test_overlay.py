@@ -139,6 +139,25 @@ def test_a_log_without_reference_is_refused() -> None:
         overlay_crowd(bare, grid)
 
 
+def test_scans_stamped_out_of_order_are_walked_through_with_a_warning() -> None:
+    grid = _room()
+    log = _log(grid, 12)
+    stamps = [s.timestamp for s in log.scans]
+    stamps[6] = stamps[5] - 0.3  # as in the Intel log: a scan stamped before the one it follows
+    shuffled = RobotLog(
+        "shuffled",
+        [
+            Scan(t, s.ranges, s.geometry, odom=s.odom, reference=s.reference)
+            for t, s in zip(stamps, log.scans, strict=True)
+        ],
+    )
+    result = overlay_crowd(shuffled, grid, _busy(), seed=1)
+    assert len(result.log.scans) == 12
+    assert [s.timestamp for s in result.log.scans] == stamps  # the log keeps its own stamps
+    assert np.all(np.diff(result.truth.times) >= 0)  # the crowd's clock never goes back
+    assert any("go backwards 1 times" in w for w in result.log.warnings)
+
+
 def test_crowd_command(tmp_path: Path) -> None:
     grid = _room()
     write_carmen(_log(grid, 10), tmp_path / "in.log.gz")
