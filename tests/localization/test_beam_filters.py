@@ -12,9 +12,13 @@ from tourbot.localization.beam_filters import (
     entropy_change_reference,
     entropy_filter,
     novelty_filter,
+    novelty_filter_cast,
     novelty_filter_staged,
     novelty_probability,
 )
+from tourbot.maps.beam_model import p_shorter_than_expected
+from tourbot.maps.grid import UNKNOWN, OccupancyGrid
+from tourbot.maps.raycast import DDACaster, DistanceCaster
 
 
 @st.composite
@@ -117,3 +121,53 @@ def test_staged_novelty_filter_is_the_novelty_filter(p: np.ndarray, w: np.ndarra
     staged = novelty_filter_staged(rows, p.shape[1], w, 0.99, first=first)
     np.testing.assert_array_equal(staged, novelty_filter(p, w, 0.99))
     assert sum(asked) <= p.size
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n=st.integers(1, 24),
+    spread=st.floats(0.0, 1.0),
+    crowd=st.floats(0.0, 1.0),
+    sigma=st.floats(0.03, 0.3),
+    unknown_blocks=st.booleans(),
+)
+@pytest.mark.parametrize("caster_cls", [DDACaster, DistanceCaster])
+def test_novelty_cast_kernel_matches_the_numpy_filter(
+    caster_cls: type[DDACaster],
+    seed: int,
+    n: int,
+    spread: float,
+    crowd: float,
+    sigma: float,
+    unknown_blocks: bool,
+) -> None:
+    """The fused kernel (ray casts + Eq. 5 + Eq. 6 with early exits) against Eq. 5-6 in numpy on
+    the caster's ranges for every hypothesis and beam."""
+    rng = np.random.default_rng(seed)
+    prob = np.zeros((50, 60), dtype=np.float32)
+    prob[:2, :] = prob[-2:, :] = prob[:, :2] = prob[:, -2:] = 1.0
+    for _ in range(8):
+        r, c = rng.integers(0, 50), rng.integers(0, 60)
+        prob[r : r + rng.integers(1, 6), c : c + rng.integers(1, 6)] = 1.0
+    prob[rng.integers(5, 40) :][:3, 10:20] = UNKNOWN
+    origin = (rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-3, 3))
+    grid = OccupancyGrid(prob, resolution=0.1, origin=origin)
+    max_range = 4.0
+    caster = caster_cls(grid, max_range, unknown_blocks=unknown_blocks)
+    centre = grid.grid_to_world(np.array([rng.uniform(1, 5), rng.uniform(1, 4), rng.uniform(-np.pi, np.pi)]))
+    laser = centre + rng.normal(0.0, 1.0, (n, 3)) * spread * np.array([0.3, 0.3, 0.3])
+    w = rng.uniform(0.01, 1.0, n)
+    w = np.sort(w)[::-1]
+    angles = np.linspace(-np.pi / 2, np.pi / 2, 37)
+    # readings: the first hypothesis's ranges with noise, a share of them shortened (people)
+    z = caster.cast(laser[:1], angles)[0].astype(np.float64) + rng.normal(0.0, sigma, angles.size)
+    people = rng.random(angles.size) < crowd
+    z[people] *= rng.uniform(0.1, 0.9, int(people.sum()))
+    z = np.clip(z, 0.0, max_range + 0.5)  # some readings at or beyond the maximum range
+    expected = caster.cast(laser, angles)
+    p = p_shorter_than_expected(expected, z[None, :], sigma, max_range)
+    p_n = novelty_probability(p, w)
+    fast = novelty_filter_cast(caster, laser, w, angles, z, sigma, max_range, 0.99)
+    decided = np.abs(p_n - 0.99) > 1e-9  # a sum within rounding of theta may go either way
+    np.testing.assert_array_equal(fast[decided], novelty_filter(p, w, 0.99)[decided])

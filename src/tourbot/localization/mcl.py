@@ -64,11 +64,10 @@ from tourbot.localization.beam_filters import (
     BeamFilter,
     BeamFilterConfig,
     entropy_filter,
-    novelty_filter_staged,
+    novelty_filter_cast,
 )
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel, _wrap
-from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from tourbot.maps.raycast import DistanceCaster, RayCaster
@@ -432,17 +431,17 @@ class MonteCarloLocalization:
             order = np.argsort(-counts, kind="stable")
             idx, hyp_w = idx[first[order]], counts[order] / m
             laser = compose(self.samples[idx], np.asarray(geometry.offset, dtype=np.float64))
-            angles = geometry.angles[valid]
-            measured = ranges[valid]
-            caster = self._caster(float(geometry.max_range))
-            model = BeamModel(sigma_hit=cfg.sigma_hit)
-
-            def p_rows(lo: int, hi: int, beams: IntArray) -> FloatArray:
-                expected = caster.cast(laser[lo:hi], angles[beams])
-                return model.prob_shorter(expected, measured[beams], float(geometry.max_range))
-
-            # Eq. 6 in stages: only beams that may still be dropped are ray cast for more samples.
-            keep = novelty_filter_staged(p_rows, int(valid.sum()), hyp_w, cfg.filters.theta)
+            # Eq. 5-6 in one kernel: a beam is ray cast for more hypotheses only while undecided.
+            keep = novelty_filter_cast(
+                self._caster(float(geometry.max_range)),
+                laser,
+                hyp_w,
+                geometry.angles[valid],
+                ranges[valid],
+                cfg.sigma_hit,
+                float(geometry.max_range),
+                cfg.filters.theta,
+            )
         used = np.zeros_like(valid)
         used[np.flatnonzero(valid)[keep]] = True
         return used

@@ -45,6 +45,7 @@ __all__ = [
     "p_short",
     "p_shorter_than_expected",
     "shorter_than_expected_kernel",
+    "shorter_than_expected_one",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -171,6 +172,20 @@ def beam_probabilities_kernel(
             out[i, b] = p
 
 
+@numba.njit(cache=True, inline="always")
+def shorter_than_expected_one(e: float, z: float, sigma_hit: float, max_range: float) -> float:
+    """:func:`p_shorter_than_expected` of one reading ``z`` at expected range ``e`` (numba)."""
+    if z >= max_range:
+        return 0.0
+    lo = _ndtr(-e / sigma_hit)
+    hi = _ndtr((max_range - e) / sigma_hit)
+    if hi - lo <= 0.0:
+        return 0.0
+    zc = min(max(z, 0.0), max_range)
+    sf = 1.0 - (_ndtr((zc - e) / sigma_hit) - lo) / (hi - lo)
+    return min(max(sf, 0.0), 1.0)
+
+
 @numba.njit(cache=True)
 def shorter_than_expected_kernel(
     expected: NDArray[np.float32], measured: FloatArray, sigma_hit: float, max_range: float, out: FloatArray
@@ -179,19 +194,7 @@ def shorter_than_expected_kernel(
     n, nb = expected.shape
     for i in range(n):
         for b in range(nb):
-            e = float(expected[i, b])
-            z = measured[b]
-            if z >= max_range:
-                out[i, b] = 0.0
-                continue
-            lo = _ndtr(-e / sigma_hit)
-            hi = _ndtr((max_range - e) / sigma_hit)
-            if hi - lo <= 0.0:
-                out[i, b] = 0.0
-                continue
-            zc = min(max(z, 0.0), max_range)
-            sf = 1.0 - (_ndtr((zc - e) / sigma_hit) - lo) / (hi - lo)
-            out[i, b] = min(max(sf, 0.0), 1.0)
+            out[i, b] = shorter_than_expected_one(float(expected[i, b]), measured[b], sigma_hit, max_range)
 
 
 @dataclass(frozen=True)
