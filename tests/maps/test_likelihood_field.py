@@ -58,6 +58,27 @@ def test_matches_reference(seed: int, sigma: float, max_dist: float) -> None:
     )
 
 
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000), longest=st.floats(0.2, 2.5), edge=st.floats(0.0, 1.0))
+def test_scan_sums_match_reference_inside_and_near_the_edges(seed: int, longest: float, edge: float) -> None:
+    # Poses in the middle of the grid, whose beams all end on it (the kernel's unchecked path), and
+    # poses near or beyond its edges (the checked path), against the numpy Table 6.3.
+    grid = small_grid(seed)
+    rng = np.random.default_rng(seed)
+    params = LikelihoodFieldParams(sigma_hit=0.2, max_dist=1.0, max_range=GEOM.max_range)
+    field = LikelihoodField.from_grid(grid, params)
+    middle = np.column_stack([rng.uniform(1.6, 2.4, 4), rng.uniform(1.1, 1.9, 4), rng.uniform(-4, 4, 4)])
+    near = np.column_stack(
+        [rng.uniform(-0.5, 4.5, 4) * edge, rng.uniform(-0.5, 3.5, 4) * edge, rng.uniform(-4, 4, 4)]
+    )
+    poses = grid.grid_to_world(np.vstack([middle, near]))
+    ranges = rng.uniform(0.0, longest, GEOM.num_beams)
+    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM)
+    np.testing.assert_allclose(
+        field.log_likelihood(poses, ranges, GEOM), ref.sum(axis=1), rtol=1e-5, atol=1e-4
+    )
+
+
 def test_skips_no_return_and_masked_beams() -> None:
     grid = small_grid(1)
     field = LikelihoodField.from_grid(grid, max_range=GEOM.max_range)

@@ -140,20 +140,36 @@ def sum_log_likelihoods(
     ly: FloatArray,
     out: FloatArray,
 ) -> None:
-    """``out[i]`` = sum of the table values under the endpoints seen from robot pose ``i``."""
+    """``out[i]`` = sum of the table values under the endpoints seen from robot pose ``i``.
+
+    When every endpoint of pose ``i`` is certainly on the grid (the laser is farther from the
+    edges than the longest beam, plus a cell), the bounds checks are skipped: a branch-free loop
+    over the beams that the compiler turns into vector gathers. Same values otherwise.
+    """
     rows, cols = table.shape
     fr = float(rows)
     fc = float(cols)
+    flat = table.ravel()
+    reach = 0.0
+    for k in range(lx.shape[0]):
+        reach = max(reach, math.sqrt(lx[k] * lx[k] + ly[k] * ly[k]))
+    reach += 1.0
     for i in range(poses.shape[0]):
         x, y, c, s = _laser_pose_in_cells(poses, frame, i)
         acc = 0.0
-        for k in range(lx.shape[0]):
-            ex = x + c * lx[k] - s * ly[k]
-            ey = y + s * lx[k] + c * ly[k]
-            if ex >= 0.0 and ex < fc and ey >= 0.0 and ey < fr:
-                acc += table[int(ey), int(ex)]
-            else:
-                acc += outside
+        if x - reach >= 0.0 and x + reach < fc and y - reach >= 0.0 and y + reach < fr:
+            for k in range(lx.shape[0]):
+                ex = x + c * lx[k] - s * ly[k]
+                ey = y + s * lx[k] + c * ly[k]
+                acc += flat[np.int64(ey) * cols + np.int64(ex)]
+        else:
+            for k in range(lx.shape[0]):
+                ex = x + c * lx[k] - s * ly[k]
+                ey = y + s * lx[k] + c * ly[k]
+                if ex >= 0.0 and ex < fc and ey >= 0.0 and ey < fr:
+                    acc += table[int(ey), int(ex)]
+                else:
+                    acc += outside
         out[i] = acc
 
 
