@@ -76,6 +76,21 @@ def test_clustering_matches_reference(p: np.ndarray) -> None:
     )
 
 
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 6), st.integers(50, 2000))
+def test_clustering_of_many_samples_matches_reference(seed: int, groups: int, n: int) -> None:
+    # Sample sets like a filter's: a few blobs of various spreads (the hash table fills up).
+    rng = np.random.default_rng(seed)
+    centres = rng.uniform(-6.0, 6.0, (groups, 3))
+    spread = rng.uniform(0.05, 1.5, (groups, 1)) * np.array([1.0, 1.0, 0.5])
+    which = rng.integers(0, groups, n)
+    p = centres[which] + rng.standard_normal((n, 3)) * spread[which]
+    p[:, 2] = wrap_angle(p[:, 2])
+    assert np.array_equal(
+        cluster_bins(p, 0.5, math.radians(10)), cluster_bins_reference(p, 0.5, math.radians(10))
+    )
+
+
 @settings(max_examples=60, deadline=None)
 @given(poses_strategy, st.integers(0, 2**31 - 1))
 def test_cluster_estimate_matches_reference(p: np.ndarray, seed: int) -> None:

@@ -732,17 +732,25 @@ def _best_cluster_kernel(
     pose[0] = mx
     pose[1] = my
     pose[2] = mth
-    cov[:, :] = 0.0
-    d = np.empty(3)
+    c00 = c01 = c02 = c10 = c11 = c12 = c20 = c21 = c22 = 0.0
     for i in range(labels.shape[0]):
         if labels[i] == best:
             w = weights[i] / total
-            d[0] = samples[i, 0] - mx
-            d[1] = samples[i, 1] - my
-            d[2] = _wrap(samples[i, 2] - mth)
-            for a in range(3):
-                for b in range(3):
-                    cov[a, b] += w * d[a] * d[b]
+            d0 = samples[i, 0] - mx
+            d1 = samples[i, 1] - my
+            d2 = _wrap(samples[i, 2] - mth)
+            c00 += w * d0 * d0
+            c01 += w * d0 * d1
+            c02 += w * d0 * d2
+            c10 += w * d1 * d0
+            c11 += w * d1 * d1
+            c12 += w * d1 * d2
+            c20 += w * d2 * d0
+            c21 += w * d2 * d1
+            c22 += w * d2 * d2
+    cov[0, 0], cov[0, 1], cov[0, 2] = c00, c01, c02
+    cov[1, 0], cov[1, 1], cov[1, 2] = c10, c11, c12
+    cov[2, 0], cov[2, 1], cov[2, 2] = c20, c21, c22
     return total
 
 
@@ -904,21 +912,42 @@ def _find(parent: IntArray, i: int) -> int:
     return root
 
 
+_EMPTY = -1  # an empty slot of the bin hash table (bin keys are >= 0, see _bin_keys_kernel)
+
+
+@numba.njit(cache=True, inline="always")
+def _slot(table: IntArray, key: int, mask: int) -> int:
+    """The slot of ``key`` in the open-addressing hash table ``table`` (linear probing): where it
+    is, or the empty slot where it would go."""
+    h = (np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(32)
+    j = np.int64(h) & mask
+    while table[j] != _EMPTY and table[j] != key:
+        j = (j + 1) & mask
+    return j
+
+
 @numba.njit(cache=True)
 def _cluster_kernel(keys: IntArray, ny: int, n_th: int) -> IntArray:
-    order = np.argsort(keys)
-    sk = keys[order]
-    # unique bins
+    """Union-find over the occupied bins, found through a hash table of their keys (no sort):
+    each bin is joined with its 26 neighbours that hold samples."""
     n = keys.shape[0]
+    cap = 16
+    while cap < 2 * n:
+        cap *= 2
+    mask = cap - 1
+    table = np.full(cap, _EMPTY, np.int64)
+    bin_at = np.empty(cap, np.int64)  # bin index of the key in each occupied slot
     bin_of = np.empty(n, np.int64)
     uniq = np.empty(n, np.int64)
     m = 0
-    for j in range(n):
-        if j == 0 or sk[j] != sk[j - 1]:
-            uniq[m] = sk[j]
+    for i in range(n):
+        j = _slot(table, keys[i], mask)
+        if table[j] == _EMPTY:
+            table[j] = keys[i]
+            bin_at[j] = m
+            uniq[m] = keys[i]
             m += 1
-        bin_of[order[j]] = m - 1
-    uniq = uniq[:m]
+        bin_of[i] = bin_at[j]
     parent = np.arange(m)
     for b in range(m):
         key = uniq[b]
@@ -931,13 +960,13 @@ def _cluster_kernel(keys: IntArray, ny: int, n_th: int) -> IntArray:
                 for dt in range(-1, 2):
                     t = (it + dt) % n_th
                     nk = ((ix + dx) * ny + (iy + dy)) * n_th + t
-                    pos = np.searchsorted(uniq, nk)
-                    if pos < m and uniq[pos] == nk:
+                    j = _slot(table, nk, mask)
+                    if table[j] != _EMPTY:
                         ra = _find(parent, b)
-                        rb = _find(parent, pos)
+                        rb = _find(parent, bin_at[j])
                         if ra != rb:
                             parent[max(ra, rb)] = min(ra, rb)
-    # compact labels
+    # compact labels, numbered in order of first appearance
     label_of_root = np.full(m, -1, np.int64)
     labels = np.empty(n, np.int64)
     nl = 0

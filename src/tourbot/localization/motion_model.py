@@ -216,7 +216,13 @@ def _stds(
 
 @numba.njit(cache=True)
 def _wrap(a: float) -> float:
-    return math.pi - ((math.pi - a) % (2.0 * math.pi))
+    """:func:`tourbot.geometry.wrap_angle` of one angle: ``pi - ((pi - a) mod 2 pi)``. When
+    ``pi - a`` is already in ``[0, 2 pi)`` the modulo is the identity and is skipped (the same
+    bits, without the division)."""
+    u = math.pi - a
+    if 0.0 <= u < 2.0 * math.pi:
+        return math.pi - u
+    return math.pi - (u % (2.0 * math.pi))
 
 
 @numba.njit(cache=True)
