@@ -916,7 +916,7 @@ _EMPTY = -1  # an empty slot of the bin hash table (bin keys are >= 0, see _bin_
 
 
 @numba.njit(cache=True, inline="always")
-def _slot(table: IntArray, key: int, mask: int) -> int:
+def _slot(table: IntArray, key: int, mask: int) -> np.int64:
     """The slot of ``key`` in the open-addressing hash table ``table`` (linear probing): where it
     is, or the empty slot where it would go."""
     h = (np.uint64(key) * np.uint64(0x9E3779B97F4A7C15)) >> np.uint64(32)
