@@ -77,8 +77,8 @@ class MapperParams:
     match: MatchParams = field(default_factory=MatchParams)
     cells: ReferenceMapParams = field(default_factory=lambda: ReferenceMapParams(hit="endpoint"))
     free_sectors: bool = False
-    sector_margin: float = 0.15
-    sector_slope: float = 0.0
+    sector_margin: float = 0.10
+    sector_slope: float = 0.04
     sector_width: float = math.inf
     sector_range: float = 25.0
 
