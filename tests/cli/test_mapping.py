@@ -45,3 +45,29 @@ def test_slam_missing_log_is_one_clear_line(tmp_path: Path, capsys: pytest.Captu
     err = capsys.readouterr().err
     assert "nope.log" in err
     assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("mode", ["paper", "sectors"])
+def test_slam_with_a_people_filter_mode(tmp_path: Path, mode: str) -> None:
+    log = drive(building(), n=12)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "map.yaml"
+    main(["slam", str(path), "-o", str(out), "--people-filter", "--people-mode", mode])
+    assert read_map(out).occupied().sum() > 100
+
+
+def test_slam_unknown_people_mode_is_one_clear_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = drive(building(), n=3)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(path), "-o", str(tmp_path / "m.yaml"), "--people-filter", "--people-mode", "magic"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "--people-mode" in err
+    assert "Traceback" not in err

@@ -1,13 +1,18 @@
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.mapping.incremental import IncrementalMapper
 from tourbot.mapping.metrics import relative_pose_error
 from tourbot.mapping.people_filter import (
+    FILTER_MODES,
     PeopleFilteredMapper,
+    PeopleFilterParams,
     hit_probability,
     in_boxes,
     person_beams,
@@ -161,3 +166,40 @@ def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: Ro
     b = relative_pose_error(np.asarray(filtered.mapper.poses), ref).trans_mean
     assert b < 1.5 * a + 0.005
     assert filtered.mapper.grid().occupied().sum() > 0.8 * plain.grid().occupied().sum()
+
+
+def test_the_modes() -> None:
+    paper = PeopleFilterParams.mode("paper")
+    assert not paper.free_sectors
+    assert not paper.far_blobs
+    assert PeopleFilterParams.mode("sectors").free_sectors
+    assert PeopleFilterParams.mode("blobs").far_blobs
+    assert set(FILTER_MODES) == {"paper", "sectors", "blobs"}
+    assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
+    with pytest.raises(ValueError, match="unknown people filter mode"):
+        PeopleFilterParams.mode("magic")
+
+
+def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> None:
+    """A visitor 9 m away in front of a wall is one or two beams: no leg feature. The blob mode
+    leaves those beams out; a blob seen at one spot scan after scan (a pole) is mapped from its
+    fourth scan on."""
+    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
+    wall = 12.0 / np.cos(geom.angles)
+    pole = wall.copy()
+    pole[10:12] = 8.0
+    visitor = pole.copy()
+    visitor[40:42] = 9.0
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([pole] * 4 + [visitor])]
+    left = {}
+    for mode in ("paper", "blobs"):
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+        for scan in scans:
+            filtered.add_scan(scan, pose=np.zeros(3))
+        filtered.finish()
+        left[mode] = np.asarray(filtered.left_out)
+    assert not left["paper"].any()
+    assert left["blobs"][4, 40:42].all()  # the visitor
+    assert left["blobs"][:3, 10:12].all()  # the pole the first three times
+    assert not left["blobs"][3:, 10:12].any()  # ... then it is static
+    assert left["blobs"].sum() == 8

@@ -163,6 +163,13 @@ def register(bench: typer.Typer) -> None:
         picture: Annotated[
             Path, typer.Option(help="Picture of the maps with and without people filtering.")
         ] = Path("bench-results/mapping-people.png"),
+        people_modes: Annotated[
+            str,
+            typer.Option(
+                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs); "
+                "the first is drawn and used for scan matching."
+            ),
+        ] = "paper,sectors,blobs",
     ) -> None:
         """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
         from tourbot.bench._report import BenchReport
@@ -209,11 +216,16 @@ def register(bench: typer.Typer) -> None:
             "(built from the corrected poses)"
         )
         if people:
-            report.meta["people_filter"] = _people_experiment(seed, max_scans, picture, console)
+            modes = [m.strip() for m in people_modes.split(",") if m.strip()]
+            report.meta["people_filter"] = _people_experiment(seed, max_scans, picture, console, modes)
         if people_sim:
             sim_picture = picture.with_name(picture.stem + "-sim" + picture.suffix)
             report.meta["people_filter_sim"] = _people_sim_experiment(
-                sim_seeds, sim_seconds, sim_picture, console
+                sim_seeds,
+                sim_seconds,
+                sim_picture,
+                console,
+                [m.strip() for m in people_modes.split(",") if m.strip()],
             )
         report.finish(output, console)
 
@@ -341,8 +353,14 @@ def _summary(figures: dict[str, float]) -> str:
     )
 
 
-def _people_experiment(seed: int, max_scans: int | None, picture: Path, console: Console) -> dict[str, float]:
-    """Burgard et al. Fig. 10 on FHW with the peak crowd: people cells with and without filtering."""
+def _people_experiment(
+    seed: int, max_scans: int | None, picture: Path, console: Console, modes: list[str]
+) -> dict[str, object]:
+    """Burgard et al. Fig. 10 on FHW with the peak crowd: people cells with and without filtering,
+    for each filter mode (the first one's figures at the top level, its maps drawn); and the free
+    sectors alone, without the tracker."""
+    from tourbot.mapping.incremental import IncrementalMapper, MapperParams
+    from tourbot.mapping.people_filter import PeopleFilterParams
     from tourbot.maps.reference import build_reference_map
     from tourbot.sim.overlay import OverlayConfig, overlay_crowd
 
@@ -352,15 +370,45 @@ def _people_experiment(seed: int, max_scans: int | None, picture: Path, console:
     crowded = overlay_crowd(log, build_reference_map(log), peak, seed=seed, preset="peak")
     console.print("people filtering: maps at the reference poses ...")
     clean, _, _ = _known_pose_maps(log, seed)
-    case = _people_maps(crowded.log, crowded.truth.corrupted, clean, seed)
-    result = case.figures
-    console.print("people filtering: scan matching on the crowded log, with and without Eq. 12 ...")
-    result.update(_crowded_slam(crowded.log, seed))
-    _draw_people_maps(case.plain, case.filtered, clean, case.truth, picture, "FHW, peak crowd")
+    result: dict[str, object] = {}
+    per_mode: dict[str, dict[str, float]] = {}
+    for k, mode in enumerate(modes):
+        t0 = time.process_time()
+        case = _people_maps(crowded.log, crowded.truth.corrupted, clean, seed, PeopleFilterParams.mode(mode))
+        figures = {**case.figures, "cpu_s": time.process_time() - t0}
+        per_mode[mode] = figures
+        console.print(f"people filtering (FHW, peak crowd), mode {mode}: {_summary(figures)}")
+        if k == 0:
+            result.update(figures)
+            result["mode"] = mode
+            _draw_people_maps(
+                case.plain, case.filtered, clean, case.truth, picture, f"FHW, peak crowd ({mode})"
+            )
+    result["modes"] = per_mode
+    # the free sectors alone: no tracker, no beam left out
+    sectors = IncrementalMapper(MapperParams(free_sectors=True), start=crowded.log.reference_poses[0])
+    for scan, pose in zip(crowded.log.scans, crowded.log.reference_poses, strict=True):
+        sectors.integrate(scan, pose)
+    plain = IncrementalMapper(start=crowded.log.reference_poses[0])
+    for scan, pose in zip(crowded.log.scans, crowded.log.reference_poses, strict=True):
+        plain.integrate(scan, pose)
+    truth = np.isfinite(_person_cells(crowded.log, crowded.truth.corrupted, clean))
+    before = people_cells(_align_to(plain.grid(), clean), clean, truth)
+    after = people_cells(_align_to(sectors.grid(), clean), clean, truth)
+    result["sectors_only_people_cells"] = after["people"]
+    result["sectors_only_static_kept"] = after["static_kept"] / max(before["static_kept"], 1)
     console.print(
-        f"people filtering (FHW, peak crowd): {_summary(result)}; "
-        f"crowded SLAM relative error {result['slam_trans_plain']:.3f} m plain, "
-        f"{result['slam_trans_filtered']:.3f} m with Eq. 12; picture: {picture}"
+        f"people filtering (FHW, peak crowd), free sectors alone (no tracker): people cells "
+        f"{before['people']} -> {after['people']}, static cells kept "
+        f"{100 * after['static_kept'] / max(before['static_kept'], 1):.2f} %"
+    )
+    console.print("people filtering: scan matching on the crowded log, with and without Eq. 12 ...")
+    slam_params = PeopleFilterParams.mode(modes[0]) if modes else None
+    result.update(_crowded_slam(crowded.log, seed, slam_params))
+    console.print(
+        f"people filtering (FHW, peak crowd): crowded SLAM relative error "
+        f"{result['slam_trans_plain']:.3f} m plain, {result['slam_trans_filtered']:.3f} m with "
+        f"Eq. 12 ({modes[0] if modes else 'default'}); picture: {picture}"
     )
     return result
 
@@ -396,50 +444,43 @@ def clean_map(log: RobotLog, person: NDArray[np.bool_]) -> OccupancyGrid:
     return mapper.grid()
 
 
-SIM_WINDOWS = (0, 3)  # the filter's own setting, and the paper's 3 scans before and after
-
-
 def _people_sim_experiment(
-    seeds: int, seconds: float, picture: Path, console: Console
-) -> dict[str, float | list[dict[str, float]]]:
+    seeds: int, seconds: float, picture: Path, console: Console, modes: list[str]
+) -> dict[str, float | list[dict[str, float | str]]]:
     """People filtering on the simulator's peak crowd at 10 Hz, where the tracker can follow the
-    visitors: the same mapper, filter and metric as the FHW case, with the laser's ground truth."""
-    from dataclasses import replace
-
+    visitors: the same mapper, filter and metric as the FHW case, with the laser's ground truth,
+    for each filter mode (the first one's maps drawn)."""
     from tourbot.mapping.people_filter import PeopleFilterParams
 
-    runs: list[dict[str, float]] = []
+    runs: list[dict[str, float | str]] = []
     for seed in range(seeds):
         console.print(
             f"people filtering, simulated: {seconds:g} s of a tour in the peak crowd, seed {seed} ..."
         )
         log, person = simulated_crowd_log(seconds, seed)
         clean = clean_map(log, person)
-        for window in SIM_WINDOWS:
-            params = replace(PeopleFilterParams(), window=window)
+        for k, mode in enumerate(modes):
             t0 = time.process_time()
-            case = _people_maps(log, person, clean, seed, params)
+            case = _people_maps(log, person, clean, seed, PeopleFilterParams.mode(mode))
             cpu = time.process_time() - t0
-            figures = {"seed": seed, "window": window, "scans": len(log), "cpu_s": cpu, **case.figures}
-            runs.append(figures)
-            console.print(
-                f"people filtering, simulated, seed {seed}, window +-{window} scans: {_summary(figures)}"
-            )
-            if seed == 0 and window == 0:
+            figures = {"seed": seed, "scans": len(log), "cpu_s": cpu, **case.figures}
+            runs.append({**figures, "mode": mode})
+            console.print(f"people filtering, simulated, seed {seed}, mode {mode}: {_summary(figures)}")
+            if seed == 0 and k == 0:
                 _draw_people_maps(
                     case.plain, case.filtered, clean, case.truth, picture, "simulated FHW, peak crowd, 10 Hz"
                 )
-    out: dict[str, float | list[dict[str, float]]] = {"runs": runs, "seconds": seconds}
-    for window in SIM_WINDOWS:
-        mine = [r for r in runs if r["window"] == window]
-        before = sum(r["people_cells_unfiltered"] for r in mine)
-        after = sum(r["people_cells_filtered"] for r in mine)
-        out[f"people_cells_removed_window{window}"] = 1.0 - after / max(before, 1)
-        out[f"static_kept_window{window}"] = float(np.mean([r["static_kept"] for r in mine]))
+    out: dict[str, float | list[dict[str, float | str]]] = {"runs": runs, "seconds": seconds}
+    for mode in modes:
+        mine = [r for r in runs if r["mode"] == mode]
+        before = sum(float(r["people_cells_unfiltered"]) for r in mine)
+        after = sum(float(r["people_cells_filtered"]) for r in mine)
+        out[f"people_cells_removed_{mode}"] = 1.0 - after / max(before, 1)
+        out[f"static_kept_{mode}"] = float(np.mean([float(r["static_kept"]) for r in mine]))
     return out
 
 
-def _crowded_slam(log: RobotLog, seed: int) -> dict[str, float]:
+def _crowded_slam(log: RobotLog, seed: int, params: PeopleFilterParams | None = None) -> dict[str, float]:
     """Scan matching on the crowded log without and with the people tracker (Eq. 12 weights)."""
     from tourbot.mapping.incremental import IncrementalMapper
     from tourbot.mapping.metrics import relative_pose_error
@@ -447,7 +488,7 @@ def _crowded_slam(log: RobotLog, seed: int) -> dict[str, float]:
 
     start = log.reference_poses[0]
     plain = IncrementalMapper(start=start)
-    filtered = PeopleFilteredMapper.create(start=start, seed=seed)
+    filtered = PeopleFilteredMapper.create(start=start, seed=seed, params=params)
     poses = []
     for scan in log.scans:
         plain.add_scan(scan)

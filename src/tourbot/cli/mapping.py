@@ -27,6 +27,13 @@ def register(app: typer.Typer) -> None:
                 help="Track people and leave them out of the alignment and the map (Burgard et al. Sec. 5).",
             ),
         ] = False,
+        people_mode: Annotated[
+            str,
+            typer.Option(
+                help="With --people-filter: paper (tracks and person features), sectors (and the space "
+                "seen between beams cleared), blobs (and far person-sized blobs left out)."
+            ),
+        ] = "blobs",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
@@ -42,17 +49,23 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.mapserver import write_map
         from tourbot.io.tum import write_tum
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
-        from tourbot.mapping.people_filter import PeopleFilteredMapper
+        from tourbot.mapping.people_filter import FILTER_MODES, PeopleFilteredMapper, PeopleFilterParams
 
         if not resolution > 0:
             raise MappingError(f"--resolution must be positive, got {resolution}")
+        if people_mode not in FILTER_MODES:
+            raise MappingError(f"--people-mode must be one of {', '.join(FILTER_MODES)}, got {people_mode!r}")
         robot_log = load_log(log, lenient=lenient)
         for warning in robot_log.warnings:
             typer.echo(f"warning: {warning}", err=True)
         if not robot_log.scans:
             raise MappingError(f"{log}: the log has no laser scans")
         params = MapperParams(resolution=resolution)
-        filtered = PeopleFilteredMapper.create(params, seed=seed) if people_filter else None
+        filtered = (
+            PeopleFilteredMapper.create(params, seed=seed, params=PeopleFilterParams.mode(people_mode))
+            if people_filter
+            else None
+        )
         mapper = filtered.mapper if filtered is not None else IncrementalMapper(params)
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
         with Progress(*columns, TimeRemainingColumn()) as progress:

@@ -27,6 +27,7 @@ from numpy.typing import NDArray
 
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
+from tourbot.mapping.free_space import free_sectors
 from tourbot.mapping.scan_matching import MatchParams, hill_climb
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import ReferenceMapParams, grid_from_counts, trace_beams
@@ -54,6 +55,12 @@ class MapperParams:
     parameters' ``halvings`` at every level); a coarse level needs no millimetres. The defaults
     (180 beams, 3 / 3 / 5 halvings) were chosen on the Intel, ACES and Freiburg 079 logs: as
     accurate as all beams and 6 halvings everywhere, and 1.3-1.4x faster on 360-beam scans.
+
+    ``free_sectors``: a cell inside a scan's free sectors (:mod:`tourbot.mapping.free_space`: between
+    two beams, nearer than both, within ``sector_width`` of one of them and ``sector_range`` of the
+    laser, ``sector_margin`` short of the nearer end) that no beam of the scan crossed or ended in
+    gets one miss too, so that what a laser saw around on both sides is cleared (None: misses
+    only along the beams, the default).
     """
 
     resolution: float = 0.05
@@ -69,6 +76,11 @@ class MapperParams:
     grow_margin: float = 15.0
     match: MatchParams = field(default_factory=MatchParams)
     cells: ReferenceMapParams = field(default_factory=lambda: ReferenceMapParams(hit="endpoint"))
+    free_sectors: bool = False
+    sector_margin: float = 0.10
+    sector_slope: float = 0.04
+    sector_width: float = math.inf
+    sector_range: float = 25.0
 
     def __post_init__(self) -> None:
         if self.level_halvings is not None and len(self.level_halvings) != len(self.smoothing):
@@ -296,6 +308,22 @@ class IncrementalMapper:
             (r1 - r0, c1 - c0),
             crossing=p.cells.hit == "crossing",
         )
+        if p.free_sectors:
+            # every beam's free length (0 for beams left out), to clear what lies between beams
+            seen = np.where(is_hit, ranges, np.minimum(ranges, p.max_free_range))
+            seen = np.where(keep, seen * (1.0 - p.sector_slope), 0.0)
+            free = free_sectors(
+                hits.shape,
+                (laser[0] - bx) * inv,
+                (laser[1] - by) * inv,
+                laser[2] + float(g.angles[0]),
+                g.angle_increment,
+                seen * inv,
+                margin=p.sector_margin * inv,
+                width=p.sector_width * inv,
+                cap=p.sector_range * inv,
+            )
+            misses[free & (misses == 0) & (hits == 0)] = 1
         lr, lc, dh, dm = _counted_cells(hits, misses)
         rr, cc = r0 + lr, c0 + lc
         c = p.cells

@@ -39,11 +39,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
+from tourbot.mapping.blobs import BlobParams, person_blobs
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
 __all__ = [
+    "FILTER_MODES",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
     "beam_endpoints",
@@ -53,6 +55,7 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+FILTER_MODES = ("paper", "sectors", "blobs")
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,16 @@ class PeopleFilterParams:
     ``keep_free_space``: a person's beam still marks the cells in front of the person free.
     ``align_features``: beams ending on the scan's person features get no weight in alignment
     (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
+
+    Beyond the paper (see :meth:`mode`): ``free_sectors``: the map also clears the cells between
+    neighbouring beams that the laser saw past on both sides (:mod:`tourbot.mapping.free_space`),
+    so that a visitor hit once at a distance is cleared by the later scans that saw the floor
+    around the spot, although none of their beams crossed its cell. ``far_blobs``: the beams on a
+    person-sized blob beyond the leg detector's reach (:mod:`tourbot.mapping.blobs`, ``blobs``) are
+    left out like a person's, unless the map so far has a log-odds of ``blob_evidence`` or more in
+    the 3 x 3 cells around their end (something static seen there before), and fewer than
+    ``blob_repeats`` blobs were left out there before: a pole seen from afar is a blob in scan
+    after scan at one spot, and is mapped from its ``blob_repeats + 1``-th scan on.
     """
 
     bin_size: float = 0.15
@@ -94,6 +107,19 @@ class PeopleFilterParams:
     static_evidence: float = 3.0
     keep_free_space: bool = True
     align_features: bool = True
+    free_sectors: bool = False
+    far_blobs: bool = False
+    blobs: BlobParams = field(default_factory=BlobParams)
+    blob_evidence: float = 0.5
+    blob_repeats: int = 3
+
+    @classmethod
+    def mode(cls, name: str) -> PeopleFilterParams:
+        """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
+        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too)."""
+        if name not in FILTER_MODES:
+            raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
+        return cls(free_sectors=name != "paper", far_blobs=name == "blobs")
 
 
 def hit_probability(
@@ -207,6 +233,7 @@ class PeopleFilteredMapper:
         self._pending: collections.deque[_Pending] = collections.deque()
         self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
         self._index = 0
+        self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
 
     @classmethod
     def create(
@@ -217,10 +244,14 @@ class PeopleFilteredMapper:
         start: FloatArray | None = None,
         seed: int = 0,
     ) -> PeopleFilteredMapper:
+        params = params or PeopleFilterParams()
+        mapper_params = mapper_params or MapperParams()
+        if params.free_sectors:
+            mapper_params = replace(mapper_params, free_sectors=True)
         return cls(
             mapper=IncrementalMapper(mapper_params, start=start),
             tracker=tracker or PeopleTracker(rng=np.random.default_rng(seed)),
-            params=params or PeopleFilterParams(),
+            params=params,
         )
 
     def add_scan(self, scan: Scan, pose: FloatArray | None = None) -> FloatArray:
@@ -297,18 +328,41 @@ class PeopleFilteredMapper:
         around = (points[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
         return np.asarray(self.mapper.evidence(around).reshape(len(points), -1).max(axis=1))
 
-    def _person_beams(self, item: _Pending, tracks: bool = True) -> NDArray[np.bool_]:
-        """The beams of a scan that ended on a person, with the tracks confirmed so far."""
+    def _person_beams(
+        self, item: _Pending, tracks: bool = True, into: Literal["map", "alignment"] = "alignment"
+    ) -> NDArray[np.bool_]:
+        """The beams of a scan that ended on a person, with the tracks confirmed so far (``into``:
+        for the map that is returned, where blob spots are counted, or for alignment)."""
         centres, half = self._people(item, tracks)
         pts, hit = beam_endpoints(item.scan, item.pose)
         laser = compose(item.pose, item.scan.geometry.offset)
         person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
         if person.any():
             person[person] = self.mapper.evidence(pts[person]) < self.params.static_evidence
+        if self.params.far_blobs:
+            blob = hit & ~person & person_blobs(item.scan, self.params.blobs)
+            if blob.any():  # nothing seen occupied around it yet: not a pole or an exhibit's edge
+                blob[blob] = self._evidence_around(pts[blob]) < self.params.blob_evidence
+            if blob.any() and into == "map":
+                blob[blob] = self._new_blob_spots(pts[blob])
+            person |= blob
         return person
 
+    def _new_blob_spots(self, points: FloatArray) -> NDArray[np.bool_]:
+        """Which blob ends lie where fewer than ``blob_repeats`` blobs were left out before (in the
+        3 x 3 cells around); counts them. A blob seen again and again at one spot is static."""
+        res = self.mapper.params.resolution
+        cells = np.floor(points / res).astype(np.int64)
+        new = np.zeros(len(cells), dtype=bool)
+        for k, (cx, cy) in enumerate(cells.tolist()):
+            seen = sum(self._blob_spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
+            new[k] = seen < self.params.blob_repeats
+        for cx, cy in cells[new].tolist():
+            self._blob_spots[(cx, cy)] = self._blob_spots.get((cx, cy), 0) + 1
+        return new
+
     def _write(self, item: _Pending) -> None:
-        person = self._person_beams(item)
+        person = self._person_beams(item, into="map")
         self.removed_beams += int(person.sum())
         self.left_out.append(person)
         self._integrate(item, person, "map")
