@@ -423,9 +423,15 @@ class MonteCarloLocalization:
         if cfg.beam_filter == BeamFilter.NONE or not valid.any():
             return valid
         if cfg.beam_filter == BeamFilter.ENTROPY:
-            lik = np.exp(field_.beam_log_likelihoods(self.samples, ranges, geometry)[:, valid])
+            # H(l | s) of Eq. 4 is the entropy of the belief after integrating s as the update
+            # integrates it: with the tempered likelihood p(s | l) ** likelihood_exponent.
+            ll = field_.beam_log_likelihoods(self.samples, ranges, geometry)[:, valid]
+            lik = np.exp(cfg.likelihood_exponent * ll.astype(np.float64))
             groups = _cell_keys(self.samples, cfg.entropy_cell[0], cfg.entropy_cell[1])
-            keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance)
+            # Beams equally likely under every sample (a visitor far from any mapped surface: the
+            # field is flat there) change nothing and are not counted as integrated: the recovery
+            # below would read them as a scan that the best sample explains badly.
+            keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance, informative_only=True)
         else:
             m = min(cfg.novelty_samples, self.samples.shape[0])
             # Eq. 6 averages over the belief that has earned it: freshly injected samples (a
