@@ -431,7 +431,9 @@ class MonteCarloLocalization:
             # Beams equally likely under every sample (a visitor far from any mapped surface: the
             # field is flat there) change nothing and are not counted as integrated: the recovery
             # below would read them as a scan that the best sample explains badly.
-            keep = entropy_filter(lik, self.weights, groups, cfg.filters.entropy_tolerance, informative_only=True)
+            keep = entropy_filter(
+                lik, self.weights, groups, cfg.filters.entropy_tolerance, informative_only=True
+            )
         else:
             m = min(cfg.novelty_samples, self.samples.shape[0])
             # Eq. 6 averages over the belief that has earned it: freshly injected samples (a

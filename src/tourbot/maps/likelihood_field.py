@@ -88,9 +88,7 @@ def surface_distance(grid: OccupancyGrid, to_occupied: FloatArray | None = None)
     res = grid.resolution
     if to_occupied is None:
         occ = grid.occupied()
-        to_occupied = (
-            ndimage.distance_transform_edt(~occ) * res if occ.any() else np.full(occ.shape, np.inf)
-        )
+        to_occupied = ndimage.distance_transform_edt(~occ) * res if occ.any() else np.full(occ.shape, np.inf)
     free = grid.free()
     if free.any():
         to_free = ndimage.distance_transform_edt(~free) * res
