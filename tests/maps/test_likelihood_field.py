@@ -128,7 +128,7 @@ def _thick_walled_room() -> tuple[OccupancyGrid, float, float, float, float]:
 
 
 def test_surface_field_is_not_pulled_into_thick_walls() -> None:
-    grid, x0, x1, y0, y1 = _thick_walled_room()
+    grid, _, x1, y0, y1 = _thick_walled_room()
     geom = LaserGeometry(num_beams=181, angle_min=-math.pi / 2, angle_increment=math.pi / 180, max_range=20.0)
     px, py = 1.7512, 2.0133  # robot facing +x, the wall at x1 ahead
     a = geom.angles
