@@ -243,18 +243,14 @@ class LikelihoodField:
         from scipy import ndimage
 
         base = params or LikelihoodFieldParams()
-        overrides = {
-            k: v
-            for k, v in {
-                "sigma_hit": sigma_hit,
-                "max_dist": max_dist,
-                "z_hit": z_hit,
-                "z_rand": z_rand,
-                "max_range": max_range,
-            }.items()
-            if v is not None
-        }
-        prm = replace(base, **overrides)
+        prm = replace(
+            base,
+            sigma_hit=base.sigma_hit if sigma_hit is None else sigma_hit,
+            max_dist=base.max_dist if max_dist is None else max_dist,
+            z_hit=base.z_hit if z_hit is None else z_hit,
+            z_rand=base.z_rand if z_rand is None else z_rand,
+            max_range=base.max_range if max_range is None else max_range,
+        )
         occ = grid.occupied()
         if occ.any():
             dist = ndimage.distance_transform_edt(~occ) * grid.resolution
