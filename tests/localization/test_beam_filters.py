@@ -53,6 +53,21 @@ def test_constant_beam_changes_nothing(case: tuple[np.ndarray, np.ndarray, np.nd
     assert abs(entropy_change(lik, w)[0]) < 1e-9
 
 
+def test_uninformative_beams_are_not_reported_as_integrated() -> None:
+    w = np.array([0.5, 0.5, 0.0])
+    lik = np.array(
+        [
+            [0.3, 0.3, 2.0],  # beam 0: the same everywhere; beam 1: the same wherever Bel > 0
+            [0.3, 0.3, 1.0],
+            [0.3, 9.0, 1.0],
+        ]
+    )
+    assert entropy_filter(lik, w).tolist() == [True, True, True]
+    assert entropy_filter(lik, w, informative_only=True).tolist() == [False, False, True]
+    # Beam 2 sharpens the belief: Eq. 4 keeps it with or without the flag.
+    assert entropy_change(lik, w)[2] > 0
+
+
 def test_entropy_filter_keeps_confirming_beams_and_drops_confusing_ones() -> None:
     # A belief concentrated on hypothesis 0.
     w = np.array([0.7, 0.1, 0.1, 0.1])

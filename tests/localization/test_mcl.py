@@ -269,6 +269,31 @@ def test_filters_drop_beams_that_hit_people(room: OccupancyGrid, kind: BeamFilte
     assert max(errors) < 0.3
 
 
+def test_entropy_filter_does_not_report_beams_that_change_nothing(room: OccupancyGrid) -> None:
+    # With the default, narrow field (sigma_hit 0.1 m) most beams that end on a person far from
+    # every wall are equally likely at every sample: integrating them is a no-op, and they are not
+    # reported as integrated (the recovery judges the fit of the integrated beams).
+    truth = waypoints_path(30)
+    drive = simulate(room, truth, seed=7, circles=_people_in_front(truth, np.random.default_rng(7)))
+    clean = simulate(room, truth, seed=7)
+    mcl = MonteCarloLocalization(
+        room, MCLConfig(max_samples=1000, min_samples=300, beam_filter=BeamFilter.ENTROPY), seed=8
+    )
+    mcl.reset_tracking(truth[0])
+    kept_people = people = kept_other = other = 0
+    for k, (s, c) in enumerate(zip(drive.scans, clean.scans, strict=True)):
+        est = mcl.update(np.asarray(s.odom), s)
+        assert np.hypot(*(est.pose[:2] - truth[k, :2])) < 0.3
+        hit_person = c.ranges - s.ranges > 0.3
+        returns = ~hit_person & (s.ranges < s.geometry.max_range)
+        kept_people += int((est.used_beams & hit_person).sum())
+        people += int(hit_person.sum())
+        kept_other += int((est.used_beams & returns).sum())
+        other += int(returns.sum())
+    assert kept_people / people < 0.5
+    assert kept_other / other > 0.9
+
+
 def test_unfiltered_uses_every_return(room: OccupancyGrid) -> None:
     drive = simulate(room, waypoints_path(5), seed=9)
     mcl = MonteCarloLocalization(

@@ -14,6 +14,7 @@ from tourbot.maps.likelihood_field import (
     LikelihoodField,
     LikelihoodFieldParams,
     beam_log_likelihoods_reference,
+    surface_distance,
 )
 from tourbot.records import LaserGeometry
 
@@ -117,3 +118,71 @@ def test_bad_input_is_reported() -> None:
         field.log_likelihood(np.zeros((2, 3)), np.zeros(5), GEOM)
     with pytest.raises(MapError):
         LikelihoodFieldParams(sigma_hit=0.0)
+
+
+def test_surface_distance_counts_depth_behind_the_surface() -> None:
+    # One row: free cells 0-9, a wall of three occupied cells 10-12, unknown cells 13-15 behind it.
+    prob = np.full((1, 16), -1.0, dtype=np.float32)
+    prob[0, :10] = 0.0
+    prob[0, 10:13] = 1.0
+    grid = OccupancyGrid(prob, resolution=0.05)
+    got = surface_distance(grid)[0]
+    cells = {5: 4.5, 9: 0.5, 10: 0.5, 11: 1.5, 12: 2.5, 13: 3.5, 15: 5.5}
+    np.testing.assert_allclose([got[c] for c in cells], [0.05 * v for v in cells.values()], atol=1e-9)
+    # The book's field is zero anywhere inside the wall, the surface field grows with the depth.
+    centre = LikelihoodField.from_grid(grid, LikelihoodFieldParams(sigma_hit=0.1)).table[0]
+    surface = LikelihoodField.from_grid(grid, LikelihoodFieldParams(sigma_hit=0.1, distance="surface")).table[
+        0
+    ]
+    assert centre[10] == centre[11] == centre[12]
+    assert surface[10] > surface[11] > surface[12]
+    assert surface[9] == pytest.approx(surface[10])
+
+
+def _thick_walled_room() -> tuple[OccupancyGrid, float, float, float, float]:
+    """Free space x in [0.5, 3.0), y in [0.5, 3.5) m, walls 4 cells (20 cm) thick, unknown beyond."""
+    res = 0.05
+    prob = np.full((80, 80), -1.0, dtype=np.float32)
+    prob[6:74, 6:64] = 1.0
+    prob[10:70, 10:60] = 0.0
+    return OccupancyGrid(prob, resolution=res), 0.5, 3.0, 0.5, 3.5
+
+
+def test_surface_field_is_not_pulled_into_thick_walls() -> None:
+    grid, _, x1, y0, y1 = _thick_walled_room()
+    geom = LaserGeometry(num_beams=181, angle_min=-math.pi / 2, angle_increment=math.pi / 180, max_range=20.0)
+    px, py = 1.7512, 2.0133  # robot facing +x, the wall at x1 ahead
+    a = geom.angles
+    c, s = np.cos(a), np.sin(a)
+    with np.errstate(divide="ignore"):
+        tx = np.where(c > 1e-9, (x1 - px) / c, np.inf)
+        ty = np.where(s > 1e-9, (y1 - py) / s, np.where(s < -1e-9, (y0 - py) / s, np.inf))
+    ranges = np.minimum(tx, ty)  # exact ranges to the free-space surface
+    ranges[np.abs(a) > math.radians(40.0)] = geom.max_range  # only the wall ahead: no corners
+    shifts = np.arange(-0.10, 0.1001, 0.005)
+    poses = np.column_stack([px + shifts, np.full(shifts.size, py), np.zeros(shifts.size)])
+    ll = {
+        d: LikelihoodField.from_grid(
+            grid, LikelihoodFieldParams(sigma_hit=0.1, max_range=20.0, distance=d)
+        ).log_likelihood(poses, ranges, geom)
+        for d in ("centre", "surface")
+    }
+    at = {round(v, 3): i for i, v in enumerate(shifts)}
+
+    def plateau_middle(v: np.ndarray) -> float:
+        top = shifts[v >= v.max() - 1e-6]  # 5 cm cells: the best poses form a plateau
+        return float(0.5 * (top.min() + top.max()))
+
+    # The book's field: 10 cm into the wall ahead scores as well as the true pose; its best poses
+    # lie ahead of the true one.
+    assert ll["centre"][at[0.1]] >= ll["centre"][at[0.0]] - 1e-6
+    assert plateau_middle(ll["centre"]) >= 0.05
+    # The surface field's best poses are centred on the true pose, and it falls off on both sides.
+    assert abs(plateau_middle(ll["surface"])) <= 0.01
+    assert ll["surface"][at[0.1]] < ll["surface"][at[0.0]] - 5.0
+    assert ll["surface"][at[-0.1]] < ll["surface"][at[0.0]] - 5.0
+
+
+def test_distance_kind_is_checked() -> None:
+    with pytest.raises(MapError, match="distance"):
+        LikelihoodFieldParams(distance="edge")  # type: ignore[arg-type]

@@ -206,6 +206,7 @@ def entropy_filter(
     weights: ArrayLike,
     groups: ArrayLike | None = None,
     tolerance: float = BeamFilterConfig.entropy_tolerance,
+    informative_only: bool = False,
 ) -> BoolArray:
     """The entropy filter (Fox et al. 1998, Eq. 3-4): the beams whose integration does not raise the entropy.
 
@@ -216,8 +217,26 @@ def entropy_filter(
     the cell of the paper's 15 cm x 2 deg grid holding each sample): with equal weights right after
     resampling, the entropy of the weights alone is at its maximum and *every* informative beam
     would lower it, whereas the entropy of the belief the samples represent is what Eq. 3 means.
+
+    ``informative_only``: a beam whose likelihood is the same at every hypothesis of non-zero
+    belief leaves the belief exactly as it is (``Delta H = 0``); Eq. 4 lets it through, but
+    integrating it is a no-op, so with this flag it is reported as not integrated. This matters
+    to a localizer that reads the integrated beams for more than the Bayes update: with a
+    likelihood field, whose value is flat beyond a few ``sigma_hit`` of any obstacle, most beams
+    that a visitor cut short are such no-ops, and MCL's recovery (how well the best sample
+    explains the integrated beams) would otherwise take them for evidence of a kidnap.
     """
-    return entropy_change(beam_lik, weights, groups) >= -tolerance
+    keep = entropy_change(beam_lik, weights, groups) >= -tolerance
+    if informative_only:
+        keep &= ~_uninformative(beam_lik, weights)
+    return keep
+
+
+def _uninformative(beam_lik: ArrayLike, weights: ArrayLike) -> BoolArray:
+    """``(B,)``: beams whose likelihood is equal at every hypothesis with non-zero weight."""
+    lik = np.asarray(beam_lik, dtype=np.float64)
+    held = lik[_normalized(weights) > 0]
+    return np.asarray(held.max(axis=0) == held.min(axis=0), dtype=np.bool_)
 
 
 def novelty_probability(p_shorter: ArrayLike, weights: ArrayLike) -> FloatArray:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Literal
 
 import numba
 import numpy as np
@@ -32,6 +33,7 @@ __all__ = [
     "beam_log_likelihoods_reference",
     "endpoint_log_likelihoods",
     "sum_log_likelihoods",
+    "surface_distance",
     "used_beams",
 ]
 
@@ -45,7 +47,8 @@ class LikelihoodFieldParams:
     Defaults are Nav2 AMCL's for its ``likelihood_field`` model: ``sigma_hit`` 0.2 m, ``z_hit``
     0.95 (the book's mixture weight of the Gaussian), ``z_rand`` 0.05, ``max_dist`` 2.0 m
     (``laser_likelihood_max_dist``); ``max_range`` (``z_max`` in the book) is the laser's, 8 m
-    here unless given.
+    here unless given. ``distance``: ``"centre"`` (the book's) or ``"surface"`` (see the module
+    docstring).
     """
 
     sigma_hit: float = 0.2
@@ -53,8 +56,11 @@ class LikelihoodFieldParams:
     z_rand: float = 0.05
     max_dist: float = 2.0
     max_range: float = 8.0
+    distance: Literal["centre", "surface"] = "centre"
 
     def __post_init__(self) -> None:
+        if self.distance not in ("centre", "surface"):
+            raise MapError(f"likelihood field: distance must be 'centre' or 'surface', got {self.distance!r}")
         for name in ("sigma_hit", "max_dist", "max_range"):
             if not getattr(self, name) > 0:
                 raise MapError(f"likelihood field: {name} must be positive, got {getattr(self, name)}")
@@ -67,6 +73,29 @@ class LikelihoodFieldParams:
         s = self.sigma_hit
         gauss = np.exp(-0.5 * (d / s) ** 2) / (s * math.sqrt(2.0 * math.pi))
         return np.asarray(np.log(self.z_hit * gauss + self.z_rand / self.max_range), dtype=np.float64)
+
+
+def surface_distance(grid: OccupancyGrid, to_occupied: FloatArray | None = None) -> FloatArray:
+    """Per cell, the distance (m) to the surface between the known free space and the rest.
+
+    ``to_occupied``: the distance of each cell centre to the nearest occupied cell centre (computed
+    here when not given). Free cells: that distance; occupied and unknown cells: the larger of it
+    and the distance to the nearest free cell centre; both less half a cell, floored at zero.
+    Without free cells, ``to_occupied`` less half a cell.
+    """
+    from scipy import ndimage
+
+    res = grid.resolution
+    if to_occupied is None:
+        occ = grid.occupied()
+        to_occupied = ndimage.distance_transform_edt(~occ) * res if occ.any() else np.full(occ.shape, np.inf)
+    free = grid.free()
+    if free.any():
+        to_free = ndimage.distance_transform_edt(~free) * res
+        dist = np.where(free, to_occupied, np.maximum(to_occupied, to_free))
+    else:
+        dist = to_occupied
+    return np.asarray(np.maximum(dist - 0.5 * res, 0.0), dtype=np.float64)
 
 
 def used_beams(
@@ -251,23 +280,21 @@ class LikelihoodField:
         from scipy import ndimage
 
         base = params or LikelihoodFieldParams()
-        overrides = {
-            k: v
-            for k, v in {
-                "sigma_hit": sigma_hit,
-                "max_dist": max_dist,
-                "z_hit": z_hit,
-                "z_rand": z_rand,
-                "max_range": max_range,
-            }.items()
-            if v is not None
-        }
-        prm = replace(base, **overrides)
+        prm = replace(
+            base,
+            sigma_hit=base.sigma_hit if sigma_hit is None else sigma_hit,
+            max_dist=base.max_dist if max_dist is None else max_dist,
+            z_hit=base.z_hit if z_hit is None else z_hit,
+            z_rand=base.z_rand if z_rand is None else z_rand,
+            max_range=base.max_range if max_range is None else max_range,
+        )
         occ = grid.occupied()
         if occ.any():
             dist = ndimage.distance_transform_edt(~occ) * grid.resolution
         else:
             dist = np.full(occ.shape, np.inf)
+        if prm.distance == "surface":
+            dist = surface_distance(grid, dist)
         table = prm.log_p(dist).astype(np.float32)
         outside = float(prm.log_p(np.inf))
         return cls(grid=grid, params=prm, table=table, outside=outside)
