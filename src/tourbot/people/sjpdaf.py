@@ -72,6 +72,8 @@ class SJPDAFConfig:
     person lost for good), or leave ``max_range`` of the robot, or after ``max_unseen`` seconds
     without a detection, occluded or not (the occlusion map keeps a hidden person's track alive
     for a while, Fig. 7, but a track coasting longer drifts off the person and is a false alarm).
+    With scan-matched poses (``ego_motion``) and ``map_without_people``, beams ending on a
+    confirmed person are left out of the map built on the fly.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends (a person seen as
     two separate legs may start two). ``confirm_hits`` (2), ``max_unseen`` (1.5 s) and
     ``merge_distance`` (0.35 m) were chosen on simulated crowds of 20 (crowd seeds 100-105, not
@@ -102,6 +104,7 @@ class SJPDAFConfig:
     max_misses: int = 10
     max_position_std: float = 1.0
     max_unseen: float = 1.5
+    map_without_people: bool = True
     max_range: float = 8.0
     merge_distance: float = 0.35
     max_dt: float = 1.0
@@ -211,7 +214,14 @@ class PeopleTracker:
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
         self._manage(assoc, features, moving, detect, pose)  # start, confirm, end tracks
         if self.ego_motion is not None:
-            self.ego_motion.integrate(scan, pose)  # the scan joins the map built on the fly
+            # The scan joins the map built on the fly, but for the beams that end on a confirmed
+            # person (Burgard et al. Sec. 5): a person walking where they walked before would
+            # otherwise stand on "static" cells of their own making.
+            people = None
+            if self.config.map_without_people:
+                confirmed = np.array([st.confirmed for st in self._states], dtype=bool)
+                people = self._samples[confirmed, :, 0:2].mean(axis=1) if confirmed.any() else None
+            self.ego_motion.integrate(scan, pose, people)
         return self.tracks()
 
     def tracks(self) -> list[Track]:
