@@ -181,7 +181,6 @@ class PeopleTracker:
         self._states: list[_TrackState] = []
         self._next_id = 1
         self._time: float | None = None
-        self._dt = 0.0
         self.last_legs = LegFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros(0))
         self.last_features = PersonFeatures(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64))
         self.last_moving = np.zeros(0)  # P(moving) of each of ``last_features`` (static filter)
@@ -206,13 +205,12 @@ class PeopleTracker:
             pose = np.asarray(robot_pose, dtype=np.float64)
         self.last_pose = pose
         dt = self._advance_time(scan.timestamp)
-        self._dt = dt
         features, moving = self._features(scan, pose)  # legs -> person features z_j(t), world frame
         self._predict(dt)  # p(x_i^t | x_i^{t-1}, dt) for every sample
         detect = self._detection_probability(scan, pose)  # P_D per sample, 0 where occluded
         assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
-        self._manage(assoc, features, moving, detect, pose)  # start, confirm, end tracks
+        self._manage(assoc, features, moving, detect, pose, dt)  # start, confirm, end tracks
         if self.ego_motion is not None:
             # The scan joins the map built on the fly, but for the beams that end on a confirmed
             # person (Burgard et al. Sec. 5): a person walking where they walked before would
@@ -347,6 +345,7 @@ class PeopleTracker:
         moving: FloatArray,
         detect: FloatArray,
         pose: FloatArray,
+        dt: float,
     ) -> None:
         cfg = self.config
         K = len(self._states)
@@ -374,7 +373,7 @@ class PeopleTracker:
                 st.moving_hits += int(moved[k] >= 0.5)
                 st.unseen = 0.0
             else:
-                st.unseen += self._dt
+                st.unseen += dt
                 if visible[k]:
                     st.misses += 1  # an occluded person is not missed: its samples just spread out
             seen_moving = (
