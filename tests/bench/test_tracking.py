@@ -37,3 +37,17 @@ def test_stonesoup_peer_follows_a_walker() -> None:
     assert len(out) == 1
     assert abs(out[0][1] - 2.9) < 0.1
     assert abs(out[0][2] - 2.0) < 0.1
+
+
+def test_parse_seeds_reads_ranges_and_lists() -> None:
+    from tourbot.bench.tracking import parse_seeds
+
+    assert parse_seeds("0") == [0]
+    assert parse_seeds("0-3") == [0, 1, 2, 3]
+    assert parse_seeds("0-1, 7") == [0, 1, 7]
+    for bad in ["", "x", "1-"]:
+        try:
+            parse_seeds(bad)
+        except ValueError:
+            continue
+        raise AssertionError(f"{bad!r} was accepted")

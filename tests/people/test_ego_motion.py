@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from tourbot.geometry import relative
+from tourbot.geometry import invert, relative, transform_points
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DDACaster
 from tourbot.people.ego_motion import ScanMatchedPoses
@@ -94,3 +94,20 @@ def test_a_person_walking_past_is_still_tracked(drive: tuple[list[Scan], np.ndar
         live = Scan(scan.timestamp, r[0].astype(np.float64), GEOMETRY)
         seen += any(t.confirmed for t in tracker.update(live))
     assert seen > len(scans) // 2
+
+
+def test_beams_ending_on_a_tracked_person_stay_out_of_the_map(drive: tuple[list[Scan], np.ndarray]) -> None:
+    # A person standing at the first post (as the tracker would give it) is not written into the
+    # map; the other posts are.
+    scans, truth = drive
+    # The world frame of the poses starts at the first scan: the posts in it.
+    posts = transform_points(invert(truth[0]), POSTS[[0, 2]])
+
+    def on_map(people: np.ndarray | None) -> list[bool]:
+        ego = ScanMatchedPoses()
+        for scan in scans[:10]:
+            ego.integrate(scan, ego.match(scan), people)
+        return ego.on_map(posts).tolist()
+
+    assert on_map(None) == [True, True]
+    assert on_map(posts[:1]) == [False, True]

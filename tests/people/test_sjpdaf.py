@@ -84,3 +84,58 @@ def test_a_static_leg_like_post_starts_no_track() -> None:
 
 def test_empty_scans_give_no_tracks() -> None:
     assert all(len(tracks) == 0 for tracks in _walk([], 5))
+
+
+def _hidden_walker(config: SJPDAFConfig, steps: int) -> list[list[Track]]:
+    """A person walks for 2 s, then stops behind a wide pillar between them and the robot."""
+    tracker = PeopleTracker(config, rng=np.random.default_rng(3))
+    out = []
+    for k in range(steps):
+        t = 0.1 * k
+        x = -1.0 + min(t, 2.0)  # walks along y = 3 up to x = 1, then stands there
+        circles = legs_of(x, 3.0, 0.0, 6.0 * min(t, 2.0))
+        if t > 2.0:
+            circles.append((0.5, 1.5, 0.4))  # the pillar hides the person from then on
+        out.append(tracker.update(scan_with_circles(t, (0.0, 0.0, 0.0), circles), np.zeros(3)))
+    return out
+
+
+def test_a_track_unseen_for_max_unseen_seconds_ends() -> None:
+    # Occluded, the track is never "missed"; it ends once unseen for max_unseen (1.5 s).
+    history = _hidden_walker(SJPDAFConfig(), 45)
+    assert any(t.confirmed for t in history[19])
+    assert any(t.confirmed and t.occluded for t in history[25])
+    assert not any(t.confirmed for tracks in history[38:] for t in tracks)
+    # Without the limit it coasts on, its samples spreading (Fig. 7).
+    coasting = _hidden_walker(SJPDAFConfig(max_unseen=float("inf")), 45)
+    assert any(t.confirmed for t in coasting[38])
+
+
+def _walker_without_map(config: SJPDAFConfig, speed: float, every: int = 1) -> list[list[Track]]:
+    """A person walking at ``speed`` m/s along y = 2.5, seen in one scan of ``every``."""
+    tracker = PeopleTracker(config, rng=np.random.default_rng(3))
+    out = []
+    for k in range(30):
+        t = 0.1 * k
+        circles = legs_of(-1.5 + speed * t, 2.5, 0.0, 6.0 * speed * t) if k % every == 0 else []
+        out.append(tracker.update(scan_with_circles(t, (0.0, 0.0, 0.0), circles), np.zeros(3)))
+    return out
+
+
+def test_without_a_map_a_slow_drift_is_not_confirmed() -> None:
+    # Something drifting at 0.4 m/s moves far enough to pass the other rules, but not fast enough.
+    slow = _walker_without_map(SJPDAFConfig(), 0.4)
+    assert not any(t.confirmed for tracks in slow for t in tracks)
+    assert any(t.confirmed for t in _walker_without_map(SJPDAFConfig(confirm_speed=0.0), 0.4)[-1])
+    assert any(t.confirmed for t in _walker_without_map(SJPDAFConfig(), 1.0)[-1])
+
+
+def test_without_a_map_a_feature_seen_on_and_off_is_not_confirmed() -> None:
+    # Seen in every other scan: a hit rate of 0.5, below confirm_hit_rate (0.6).
+    flicker = _walker_without_map(SJPDAFConfig(), 1.0, every=2)
+    assert not any(t.confirmed for tracks in flicker for t in tracks)
+    assert any(
+        t.confirmed
+        for tracks in _walker_without_map(SJPDAFConfig(confirm_hit_rate=0.0), 1.0, every=2)
+        for t in tracks
+    )

@@ -173,6 +173,19 @@ def score_frames(
     return {n: float(summary[n].iloc[0]) for n in names}
 
 
+def parse_seeds(text: str) -> list[int]:
+    """Seeds from ``"0-9"``, ``"0,3,5"`` or a mix (``"0-2,7"``); ValueError on anything else."""
+    out: list[int] = []
+    for part in (p.strip() for p in text.split(",")):
+        if not part:
+            continue
+        lo, sep, hi = part.partition("-")
+        out.extend(range(int(lo), int(hi) + 1) if sep else [int(part)])
+    if not out:
+        raise ValueError(f"no seeds in {text!r}")
+    return out
+
+
 def run_sjpdaf(
     run: SimRun,
 ) -> tuple[list[list[tuple[int, float, float]]], list[FloatArray], tuple[float, float]]:
@@ -258,11 +271,12 @@ def leg_detection_scores(bag: Path, match: float = 0.25, model: Any = None) -> d
     }
 
 
-def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH) -> dict[str, float]:
+def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int = 0) -> dict[str, float]:
     """The people tracker on an annotated bag (poses by scan matching: the bag has no odometry),
     its confirmed tracks against the annotated legs, in the laser frame of each scan: precision =
     share of confirmed tracks with an annotated leg within ``match`` m, recall = share of annotated
-    legs with a confirmed track within ``match`` m (a track is a person, between the two legs)."""
+    legs with a confirmed track within ``match`` m (a track is a person, between the two legs);
+    ``seed`` seeds the tracker's particle filters."""
     from dataclasses import replace
 
     from tourbot.geometry import invert, transform_points
@@ -272,7 +286,7 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH) -> dict[str
     from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 
     cfg = SJPDAFConfig(legs=replace(LegConfig(), model=model))
-    tracker = PeopleTracker(cfg, rng=np.random.default_rng(0), ego_motion=ScanMatchedPoses())
+    tracker = PeopleTracker(cfg, rng=np.random.default_rng(seed), ego_motion=ScanMatchedPoses())
     good_tracks = n_tracks = covered = n_legs = scans = 0
     for scan, truth in annotated_scans(bag):
         scans += 1
@@ -292,10 +306,10 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH) -> dict[str
     }
 
 
-def negative_false_alarms(bag: Path) -> list[dict[str, float | str]]:
+def negative_false_alarms(bag: Path, seed: int = 0) -> list[dict[str, float | str]]:
     """Confirmed tracks per scan on each laser of a people-free bag. The bag has no odometry or
     tf while the robot drives: poses come from scan-to-map matching (:mod:`tourbot.people.
-    ego_motion`)."""
+    ego_motion`). ``seed`` seeds the tracker's particle filters."""
     from tourbot.io.rosbag import bag_topics, read_bag
     from tourbot.people.ego_motion import ScanMatchedPoses
     from tourbot.people.sjpdaf import PeopleTracker
@@ -307,7 +321,7 @@ def negative_false_alarms(bag: Path) -> list[dict[str, float | str]]:
         log = read_bag(bag, scan_topic=topic)
         odometry = all(s.odom is not None for s in log.scans)
         ego = None if odometry else ScanMatchedPoses()
-        tracker = PeopleTracker(rng=np.random.default_rng(0), ego_motion=ego)
+        tracker = PeopleTracker(rng=np.random.default_rng(seed), ego_motion=ego)
         confirmed = legs = 0
         ids: set[int] = set()
         cpu = time.process_time()
@@ -338,23 +352,46 @@ def register(bench: typer.Typer) -> None:
     def tracking(
         people: Annotated[str, typer.Option(help="Crowd sizes, comma-separated.")] = "5,20,50",
         scans: Annotated[int, typer.Option(help="Scans per crowd (10 Hz).")] = 300,
-        seed: Annotated[int, typer.Option(help="Seed of the crowd and the laser noise.")] = 0,
+        seeds: Annotated[
+            str, typer.Option(help="Seeds of the crowd and the laser noise: '0', '0-9', '0,3,5'.")
+        ] = "0",
         stonesoup: Annotated[bool, typer.Option(help="Run the Stone Soup JPDA peer.")] = True,
         peer_budget: Annotated[
             float, typer.Option(help="CPU seconds the peer may take per crowd before it is stopped.")
         ] = 300.0,
         real: Annotated[bool, typer.Option(help="Also score the real leg_tracker bags.")] = True,
+        real_seeds: Annotated[
+            str, typer.Option(help="Seeds of the tracker's particle filters on the real bags.")
+        ] = "0",
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
     ) -> None:
         """People tracking: SJPDAF vs Stone Soup JPDA on simulated crowds; legs on the real bags."""
         from rich.progress import Progress
 
         from tourbot.data import data_dir
+        from tourbot.errors import InputError
 
-        sizes = [int(s) for s in people.split(",") if s.strip()]
-        report = BenchReport("tracking", ["tracker", "people", *_COLUMNS])
+        try:
+            sizes = [int(s) for s in people.split(",") if s.strip()]
+        except ValueError:
+            raise InputError(f"expected comma-separated integers, got {people!r}", field="--people") from None
+        parsed: dict[str, list[int]] = {}
+        for name, text in (("--seeds", seeds), ("--real-seeds", real_seeds)):
+            try:
+                parsed[name] = parse_seeds(text)
+            except ValueError:
+                raise InputError(
+                    f"expected seeds like '0', '0-9' or '0,3,5', got {text!r}", field=name
+                ) from None
+        crowd_seeds, bag_seeds = parsed["--seeds"], parsed["--real-seeds"]
+        report = BenchReport("tracking", ["tracker", "people", "seed", *_COLUMNS])
         report.meta.update(
-            {"scans": scans, "seed": seed, "targets": {"mota": TARGET_MOTA, "motp": TARGET_MOTP}}
+            {
+                "scans": scans,
+                "seeds": crowd_seeds,
+                "real_seeds": bag_seeds,
+                "targets": {"mota": TARGET_MOTA, "motp": TARGET_MOTP},
+            }
         )
         report.notes.append(
             "time per scan is CPU time of the tracking process (the 2-core machine is shared; wall "
@@ -362,21 +399,27 @@ def register(bench: typer.Typer) -> None:
             "map, stonesoup's only its tracker (fed sjpdaf's features)"
         )
         with Progress(transient=True) as progress:
-            task = progress.add_task("crowds", total=len(sizes) * (2 if stonesoup else 1))
+            steps = len(sizes) * len(crowd_seeds) * (2 if stonesoup else 1)
+            task = progress.add_task("crowds", total=steps)
             for n in sizes:
-                run = simulate_crowd(n, scans, seed)
-                hyps, feats, cost = run_sjpdaf(run)
-                m = score_frames(run, hyps)
-                report.add(tracker="sjpdaf", people=n, **_row(m, cost))
-                progress.advance(task)
-                if stonesoup:
-                    _peer(report, run, feats, n, m, cost, peer_budget)
+                ours: list[dict[str, float]] = []
+                peers: list[dict[str, float]] = []
+                for seed in crowd_seeds:
+                    run = simulate_crowd(n, scans, seed)
+                    hyps, feats, cost = run_sjpdaf(run)
+                    m = score_frames(run, hyps)
+                    report.add(tracker="sjpdaf", people=n, seed=seed, **_row(m, cost))
+                    ours.append(_row(m, cost))
                     progress.advance(task)
-                if n == 20:
-                    _target_note(report, m, cost)
+                    if stonesoup:
+                        peer_row = _peer(report, run, feats, n, seed, peer_budget)
+                        if peer_row is not None:
+                            peers.append(peer_row)
+                        progress.advance(task)
+                _summary(report, n, crowd_seeds, ours, peers)
         root = data_dir()
         if real and root is not None:
-            _real_bags(report, root / "leg_tracker")
+            _real_bags(report, root / "leg_tracker", bag_seeds)
         elif real:
             report.notes.append("real bags not found (../shared/data/leg_tracker): skipped")
         report.finish(output)
@@ -390,36 +433,74 @@ def _peer(
     run: SimRun,
     feats: list[FloatArray],
     n: int,
-    m: dict[str, float],
-    cost: tuple[float, float],
+    seed: int,
     budget: float,
-) -> None:
+) -> dict[str, float] | None:
+    """Stone Soup on one crowd: its row (None when it ran out of budget)."""
     peer_hyps, peer_cost, done = run_stonesoup(run, feats, budget)
     if done:
         pm = score_frames(run, peer_hyps)
-        report.add(tracker="stonesoup-jpda", people=n, **_row(pm, peer_cost))
-        report.notes.append(
-            f"{n} people: MOTA sjpdaf {m['mota']:.3f} vs stonesoup {pm['mota']:.3f}; CPU time per scan "
-            f"stonesoup / sjpdaf = {peer_cost[0] / cost[0]:.1f}x"
-        )
-    else:
-        report.add(tracker="stonesoup-jpda", people=n, **{"ms/scan": peer_cost[0] * 1e3})
-        report.notes.append(
-            f"{n} people: Stone Soup JPDA stopped in scan {len(peer_hyps) + 1} of {len(run.scans)} "
-            f"(at least {peer_cost[0] * 1e3:.0f} ms/scan CPU, over the {budget:.0f} CPU s budget): not scored"
-        )
-
-
-def _target_note(report: BenchReport, m: dict[str, float], cost: tuple[float, float]) -> None:
-    rate = 1.0 / cost[0]
-    ok = m["mota"] >= TARGET_MOTA and m["motp"] <= TARGET_MOTP and rate >= TARGET_RATE
+        row = _row(pm, peer_cost)
+        report.add(tracker="stonesoup-jpda", people=n, seed=seed, **row)
+        return row
+    report.add(tracker="stonesoup-jpda", people=n, seed=seed, **{"ms/scan": peer_cost[0] * 1e3})
     report.notes.append(
-        f"target, 20 people (MOTA >= {TARGET_MOTA}, MOTP <= {TARGET_MOTP} m, >= {TARGET_RATE:.0f} scans/s): "
-        f"{'met' if ok else 'MISSED'} (MOTA {m['mota']:.3f}, MOTP {m['motp']:.3f} m, {rate:.0f} scans/s)"
+        f"{n} people, seed {seed}: Stone Soup JPDA stopped in scan {len(peer_hyps) + 1} of {len(run.scans)} "
+        f"(at least {peer_cost[0] * 1e3:.0f} ms/scan CPU, over the {budget:.0f} CPU s budget): not scored"
     )
+    return None
 
 
-def _real_bags(report: BenchReport, folder: Path) -> None:
+def _summary(
+    report: BenchReport,
+    n: int,
+    seeds: list[int],
+    ours: list[dict[str, float]],
+    peers: list[dict[str, float]],
+) -> None:
+    """Means over the seeds with 95 % confidence intervals (Student t), the paired MOTA difference
+    to the peer, and the 20-person target."""
+    from tourbot.bench.localization import mean_ci
+
+    def col(rows: list[dict[str, float]], key: str) -> list[float]:
+        return [r[key] for r in rows]
+
+    for name, rows in (("sjpdaf", ours), ("stonesoup-jpda", peers)):
+        if rows:
+            means = {k: mean_ci(col(rows, k))[0] for k in rows[0]}
+            means["scans/s"] = 1e3 / means["ms/scan"]
+            report.add(tracker=f"{name} mean", people=n, seed=f"{len(rows)} seeds", **means)
+    mota, mota_ci = mean_ci(col(ours, "MOTA"))
+    motp, _ = mean_ci(col(ours, "MOTP m"))
+    line = f"{n} people, seeds {','.join(map(str, seeds))}: MOTA sjpdaf {mota:.4f} +- {mota_ci:.4f}"
+    if len(peers) == len(ours) and peers:
+        p, p_ci = mean_ci(col(peers, "MOTA"))
+        d, d_ci = mean_ci(np.subtract(col(ours, "MOTA"), col(peers, "MOTA")))
+        ratio = mean_ci(col(peers, "ms/scan"))[0] / mean_ci(col(ours, "ms/scan"))[0]
+        wins = int(np.sum(np.greater(col(ours, "MOTA"), col(peers, "MOTA"))))
+        line += (
+            f", stonesoup {p:.4f} +- {p_ci:.4f}; difference {d:+.4f} +- {d_ci:.4f} (paired, 95 % CI; "
+            f"sjpdaf better on {wins} of {len(ours)} seeds); CPU per scan stonesoup / sjpdaf = {ratio:.1f}x"
+        )
+    report.notes.append(line)
+    if n == 20:
+        rate = 1e3 / mean_ci(col(ours, "ms/scan"))[0]
+        ok = mota >= TARGET_MOTA and motp <= TARGET_MOTP and rate >= TARGET_RATE
+        report.notes.append(
+            f"target, 20 people (MOTA >= {TARGET_MOTA}, MOTP <= {TARGET_MOTP} m, >= {TARGET_RATE:.0f} "
+            f"scans/s): {'met' if ok else 'MISSED'} (mean MOTA {mota:.3f}, MOTP {motp:.3f} m, "
+            f"{rate:.0f} scans/s)"
+        )
+
+
+def _seed_mean(runs: list[dict[str, float]]) -> dict[str, float]:
+    """Each score averaged over the tracker seeds (the per-seed values under ``"per_seed"``)."""
+    out: dict[str, Any] = {k: float(np.nanmean([r[k] for r in runs])) for k in runs[0]}
+    out["per_seed"] = runs
+    return out
+
+
+def _real_bags(report: BenchReport, folder: Path, seeds: list[int]) -> None:
     from tourbot.people.leg_classifier import default_model
     from tourbot.people.leg_training import train_leg_model
 
@@ -433,11 +514,11 @@ def _real_bags(report: BenchReport, folder: Path) -> None:
         report.add(
             tracker=f"legs model({other[:10]}) {name}", precision=learnt["precision"], recall=learnt["recall"]
         )
-        rule_tracks = track_scores(folder / name, None)
+        rule_tracks = _seed_mean([track_scores(folder / name, None, seed=s) for s in seeds])
         report.add(
             tracker=f"tracks rule {name}", precision=rule_tracks["precision"], recall=rule_tracks["recall"]
         )
-        tracks = track_scores(folder / name, model)
+        tracks = _seed_mean([track_scores(folder / name, model, seed=s) for s in seeds])
         report.add(
             tracker=f"tracks model({other[:10]}) {name}",
             precision=tracks["precision"],
@@ -456,18 +537,23 @@ def _real_bags(report: BenchReport, folder: Path) -> None:
         "rule, 'model(X)' = P(leg) >= 0.5 with the leg model trained on bag X only. tracks: confirmed "
         f"tracks within {PERSON_MATCH} m of an annotated leg (precision) and annotated legs within "
         f"{PERSON_MATCH} m of a confirmed track (recall), poses by scan matching, same held-out model. "
-        f"negative_2 uses the shipped model ({shipped.trained_on if shipped else 'none'}): held out."
+        f"negative_2 uses the shipped model ({shipped.trained_on if shipped else 'none'}): held out. "
+        f"Track figures are means over the tracker seeds {','.join(map(str, seeds))}."
     )
-    for row in negative_false_alarms(folder / "negative_2.bag"):
-        rate = float(row["tracks_per_scan"])
+    per_seed = [negative_false_alarms(folder / "negative_2.bag", seed=s) for s in seeds]
+    for k, row in enumerate(per_seed[0]):
+        rates = [float(rows[k]["tracks_per_scan"]) for rows in per_seed]
+        rate, worst = float(np.mean(rates)), max(rates)
         report.add(tracker=f"negative_2 {row['topic']}")
-        verdict = "met" if rate <= NEGATIVE_RATE_LIMIT else "MISSED"
+        verdict = "met" if worst <= NEGATIVE_RATE_LIMIT else "MISSED"
         report.notes.append(
             f"negative_2.bag {row['topic']}: {rate:.4f} confirmed tracks per scan over {row['scans']:.0f} "
-            f"scans ({row['track_ids']:.0f} track ids, {row['legs_per_scan']:.2f} leg candidates per scan; "
-            f"poses by {row['pose']}, path {row['path_m']:.1f} m); limit {NEGATIVE_RATE_LIMIT}: {verdict}"
+            f"scans (mean of {len(rates)} tracker seeds, worst {worst:.4f}; "
+            f"{sum(float(rows[k]['track_ids']) for rows in per_seed):.0f} track ids in all; "
+            f"{row['legs_per_scan']:.2f} leg candidates per scan; poses by {row['pose']}, path "
+            f"{row['path_m']:.1f} m); limit {NEGATIVE_RATE_LIMIT}: {verdict}"
         )
-        report.meta[f"negative_2 {row['topic']}"] = row
+        report.meta[f"negative_2 {row['topic']}"] = {**row, "tracks_per_scan_by_seed": rates}
 
 
 def _row(m: dict[str, float], cost: tuple[float, float]) -> dict[str, float]:

@@ -48,7 +48,8 @@ class EgoMotionConfig:
     (2.5: three hits of the inverse sensor model's p = 0.7 with no miss, about 0.4 s at 7.5 Hz).
     ``max_speed`` (m/s) and ``max_turn_rate`` (rad/s) cap the constant-velocity prediction.
     Beams shorter than ``near_range`` (m) neither align nor enter the map: the robot's own body
-    (seen at the edges of a wide field of view) would leave a trail of obstacles along its path."""
+    (seen at the edges of a wide field of view) would leave a trail of obstacles along its path.
+    Beams ending within ``person_radius`` (m) of a person being tracked stay out of the map too."""
 
     mapper: MapperParams = field(default_factory=_no_odometry_mapper)
     static_log_odds: float = 2.5
@@ -56,6 +57,7 @@ class EgoMotionConfig:
     max_speed: float = 1.0
     near_range: float = 1.0
     max_turn_rate: float = 1.5
+    person_radius: float = 0.3
 
 
 class ScanMatchedPoses:
@@ -102,9 +104,20 @@ class ScanMatchedPoses:
         self._poses = [*self._poses[-1:], pose]
         return pose
 
-    def integrate(self, scan: Scan, pose: FloatArray) -> None:
-        """Write ``scan`` into the map at ``pose`` (its :meth:`match` result)."""
-        self.mapper.integrate(scan, pose, keep=self._far(scan))
+    def integrate(self, scan: Scan, pose: FloatArray, people: FloatArray | None = None) -> None:
+        """Write ``scan`` into the map at ``pose`` (its :meth:`match` result), but for the beams
+        that end within ``person_radius`` of one of ``people`` ``(P, 2)`` (world frame): a person
+        is no part of the static world (Burgard et al. Sec. 5)."""
+        keep = self._far(scan)
+        if people is not None and len(people):
+            g = scan.geometry
+            sensor = compose(pose, np.asarray(g.offset, dtype=np.float64))
+            r = np.asarray(scan.ranges, dtype=np.float64)
+            a = g.angles + sensor[2]
+            ends = np.stack([sensor[0] + r * np.cos(a), sensor[1] + r * np.sin(a)], -1)
+            d = np.linalg.norm(ends[:, None, :] - people[None, :, :], axis=-1).min(axis=1)
+            keep = keep & ~(d <= self.config.person_radius)
+        self.mapper.integrate(scan, pose, keep=keep)
 
     def _far(self, scan: Scan) -> NDArray[np.bool_]:
         """Beams beyond ``near_range``: the nearer ones see the robot's own body, which moves along."""
