@@ -51,6 +51,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from statistics import NormalDist
 
@@ -188,6 +189,11 @@ class MCLConfig:
     global_done: float = 0.95
     injection_stages: int = 3
     injection_long_fraction: float = 0.5
+    injection_survivors: int = 1000
+    lost_margin: float = 0.5
+    lost_fraction: float = 0.3
+    lost_min_beams: int = 20
+    global_after: int = 3
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -235,6 +241,7 @@ class MonteCarloLocalization:
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        self._lost_scans = 0  # consecutive scans whose estimate has readings through mapped walls
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
@@ -278,6 +285,7 @@ class MonteCarloLocalization:
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        self._lost_scans = 0
         self._global_cells = None
         self._global_phase = False
 
@@ -359,13 +367,32 @@ class MonteCarloLocalization:
         else:
             inject_fraction = 0.0
 
-        # 6. Estimate, before resampling (the weights carry the scan).
-        pose, cov, cluster_weight = self._estimate()
+        # 6. Estimate, before resampling (the weights carry the scan). Readings that pass through
+        # mapped walls at the tracked estimate (a crowd cannot lengthen a beam) say it is wrong,
+        # however many beams the filter dropped: only then may a recovery guess replace it.
+        judged = bool(n_used) and not global_start and not self._global_phase
+
+        def judge(p: FloatArray) -> float:
+            return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
+
+        pose, cov, cluster_weight, too_long = self._estimate(judge)
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
         if self._global_phase and not global_start and cluster_weight >= cfg.global_done:
             self._global_phase = False
+
+        # 4b. Recovery on too-long readings: sensor resetting, first around the estimate.
+        if judged:
+            info["too_long"] = too_long
+            if math.isnan(too_long):
+                pass  # the crowd hides the building: no evidence either way
+            elif too_long > cfg.lost_fraction:
+                self._lost_scans += 1
+                inject_fraction = cfg.max_injection
+            else:
+                self._lost_scans = 0
+        info["lost_scans"] = float(self._lost_scans)
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if (
@@ -527,27 +554,36 @@ class MonteCarloLocalization:
         w = np.where(self._fresh, 0.0, self.weights)
         return w if w.sum() > 0 else self.weights
 
-    def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
-        """The heaviest cluster's mean and covariance.
+    def _estimate(self, judge: Callable[[FloatArray], float]) -> tuple[FloatArray, FloatArray, float, float]:
+        """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
+        estimate (the fraction of too-long readings there, NaN when not judged).
 
         Freshly injected samples count only once they have *won a scan*: when, after the weight
-        update, the heaviest cluster holds more weight of fresh samples than of established ones,
-        the recovery guess has beaten the tracked belief and every sample becomes established;
-        until then the estimate is the heaviest cluster of the established samples.
+        update, the heaviest cluster holds more weight of fresh samples than of established ones
+        *and* the scan contradicts the tracked estimate (more than ``lost_fraction`` of its
+        readings pass through mapped walls there; outside global localization), the recovery
+        guess has beaten the tracked belief. After ``fresh_wins`` such scans in a row every
+        sample becomes established; until then the estimate is the heaviest cluster of the
+        established samples. A crowd makes a look-alike place fit some scans better than the
+        true one, but it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
+        pose, cov, weight = best_cluster_estimate(self.samples, self._established_weights(), labels)
+        too_long = judge(pose)
         if self._fresh.any():
             w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
             w_old = np.bincount(
                 labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
             )
             best = int(np.argmax(w_fresh + w_old))
-            self._fresh_won = self._fresh_won + 1 if w_fresh[best] > w_old[best] else 0
+            contradicted = self._global_phase or too_long > cfg.lost_fraction
+            self._fresh_won = self._fresh_won + 1 if w_fresh[best] > w_old[best] and contradicted else 0
             if self._fresh_won >= cfg.fresh_wins:
                 self._fresh[:] = False
                 self._fresh_won = 0
-        return best_cluster_estimate(self.samples, self._established_weights(), labels)
+                pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+        return pose, cov, weight, too_long
 
     def _resample(
         self,
@@ -603,7 +639,11 @@ class MonteCarloLocalization:
         the part that can be trusted)."""
         cfg = self.config
         m = cfg.injection_candidates
-        n_local = round(cfg.injection_local * m)
+        # Local first: a wrong estimate is most often near the truth (a drift in a crowd, a
+        # kidnap by a metre); the whole free space is searched once it stays wrong.
+        searching = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
+        local_share = cfg.injection_local if searching else 1.0
+        n_local = round(local_share * m)
         local = np.column_stack(
             [
                 estimate[0] + cfg.injection_local_std * self.rng.standard_normal(n_local),
@@ -616,7 +656,30 @@ class MonteCarloLocalization:
         beams = _longest(ranges, valid, cfg.injection_long_fraction)
         if not beams.any():
             return cand[:n]
-        return self._anneal(cand, n, ranges, geometry, field_, beams, cfg.injection_stages)[0]
+        keep = max(n, cfg.injection_survivors)
+        drawn = self._anneal(cand, keep, ranges, geometry, field_, beams, cfg.injection_stages)[0]
+        return drawn[self.rng.permutation(drawn.shape[0])[:n]]
+
+    def _too_long_fraction(
+        self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+    ) -> float:
+        """Of the returns that are not shorter than expected at ``pose`` (the ones a crowd left
+        alone), the fraction longer than expected by more than ``lost_margin``: readings through
+        mapped walls, the signature of a wrong pose (Fox et al. 1998: the novelty filter keeps
+        "very unlikely sensor measurements (especially too long readings)"). NaN when fewer than
+        ``lost_min_beams`` returns are left to judge."""
+        cfg = self.config
+        if not valid.any():
+            return math.nan
+        laser = compose(pose[None, :], np.asarray(geometry.offset, dtype=np.float64))
+        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])[0]
+        measured = ranges[valid]
+        longer = measured > expected + cfg.lost_margin
+        seen = longer | (measured >= expected - cfg.lost_margin)
+        n_seen = int(seen.sum())
+        if n_seen < cfg.lost_min_beams:
+            return math.nan
+        return float(longer.sum()) / n_seen
 
     def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
         rc = self.grid.world_to_cell(poses[:, :2])
