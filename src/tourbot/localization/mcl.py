@@ -177,7 +177,7 @@ class MCLConfig:
     max_injection: float = 0.2
     injection_candidates: int = 200000
     injection_local: float = 0.5
-    injection_local_std: float = 2.0
+    injection_local_std: float = 1.0
     injection_beam_step: int = 4
     fresh_wins: int = 2
     global_candidates: int = 1_000_000
@@ -190,9 +190,16 @@ class MCLConfig:
     injection_stages: int = 3
     injection_long_fraction: float = 0.5
     injection_survivors: int = 1000
+    injection_local_candidates: int = 10000
+    recovery_model: BeamModel = field(
+        default_factory=lambda: BeamModel(
+            z_hit=0.5, z_short=0.4, z_max=0.05, z_rand=0.05, sigma_hit=0.2, lambda_short=0.2
+        )
+    )
     lost_margin: float = 0.5
     lost_fraction: float = 0.3
     lost_min_beams: int = 20
+    lost_hypotheses: int = 8
     global_after: int = 3
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
@@ -375,7 +382,11 @@ class MonteCarloLocalization:
         def judge(p: FloatArray) -> float:
             return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
 
-        pose, cov, cluster_weight, too_long = self._estimate(judge)
+        def compare(guess: FloatArray, tracked: FloatArray) -> bool:
+            ll = self._crowd_log_likelihood(np.stack([guess, tracked]), ranges, geometry, valid)
+            return bool(ll[0] > ll[1])
+
+        pose, cov, cluster_weight, too_long = self._estimate(judge, compare)
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
@@ -514,18 +525,25 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         beams: NDArray[np.bool_],
         max_stages: int,
+        score: Callable[[FloatArray, NDArray[np.bool_]], FloatArray] | None = None,
     ) -> tuple[FloatArray, int]:
         """``n`` poses drawn from the candidates ``cand`` by the tempered likelihood of ``beams``,
         brought in by stages that keep the effective sample size at ``global_ess * n``; the first
         stage scores every ``global_beam_step``-th beam only, later ones (on ``n`` jittered
-        survivors) all of them. Returns the poses and the number of stages."""
+        survivors) all of them. ``score(poses, beam_mask)`` is the scan's log-likelihood per pose
+        (the likelihood field by default). Returns the poses and the number of stages."""
         cfg = self.config
+        if score is None:
+
+            def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
+                return field_.log_likelihood(poses, ranges, geometry, beam_mask=mask)
+
         mask = np.zeros_like(beams)
         mask[:: max(1, cfg.global_beam_step)] = True
         mask &= beams
         if not mask.any():
             mask = beams
-        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask) * (beams.sum() / mask.sum())
+        ll = score(cand, mask) * (beams.sum() / mask.sum())
         logw = np.zeros(cand.shape[0])
         left = cfg.likelihood_exponent
         jitter = np.asarray(cfg.global_jitter, dtype=np.float64)
@@ -543,9 +561,25 @@ class MonteCarloLocalization:
             if left <= 1e-12 or stages >= max_stages or not inside.any():
                 break
             cand = cand[inside]
-            ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=beams)
+            ll = score(cand, beams)
             logw = np.zeros(cand.shape[0])
         return np.ascontiguousarray(cand), stages
+
+    def _crowd_log_likelihood(
+        self, poses: FloatArray, ranges: FloatArray, geometry: LaserGeometry, beams: NDArray[np.bool_]
+    ) -> FloatArray:
+        """The scan's log-likelihood per pose under the beam model with expected ranges ray cast
+        in the map (Fox et al. 1998 Sec. 2.3: ``p(d | l)`` from the expected distance ``o_l``;
+        Probabilistic Robotics Table 6.1), ``recovery_model``'s mixture: its "short" part is the
+        visitors (people only ever shorten a beam), while a reading through a mapped wall only
+        has the small "random" part. Unlike the likelihood field, which scores a beam by its
+        endpoint alone, this sees a look-alike place's beams cross walls."""
+        idx = np.flatnonzero(beams)
+        if idx.size == 0 or poses.shape[0] == 0:
+            return np.zeros(poses.shape[0])
+        laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
+        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[idx])
+        return self.config.recovery_model.log_likelihood(expected, ranges[idx], float(geometry.max_range))
 
     def _established_weights(self) -> FloatArray:
         """The weights with the freshly injected samples' set to zero (all of them if none is left)."""
@@ -554,18 +588,23 @@ class MonteCarloLocalization:
         w = np.where(self._fresh, 0.0, self.weights)
         return w if w.sum() > 0 else self.weights
 
-    def _estimate(self, judge: Callable[[FloatArray], float]) -> tuple[FloatArray, FloatArray, float, float]:
+    def _estimate(
+        self,
+        judge: Callable[[FloatArray], float],
+        compare: Callable[[FloatArray, FloatArray], bool],
+    ) -> tuple[FloatArray, FloatArray, float, float]:
         """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
         estimate (the fraction of too-long readings there, NaN when not judged).
 
-        Freshly injected samples count only once they have *won a scan*: when, after the weight
-        update, the heaviest cluster holds more weight of fresh samples than of established ones
-        *and* the scan contradicts the tracked estimate (more than ``lost_fraction`` of its
-        readings pass through mapped walls there; outside global localization), the recovery
-        guess has beaten the tracked belief. After ``fresh_wins`` such scans in a row every
-        sample becomes established; until then the estimate is the heaviest cluster of the
-        established samples. A crowd makes a look-alike place fit some scans better than the
-        true one, but it cannot make the true pose see through walls.
+        Freshly injected samples count only once they have *won a scan*: the scan contradicts
+        the tracked estimate (more than ``lost_fraction`` of its readings pass through mapped
+        walls there; always so during global localization) and the heaviest cluster of fresh
+        samples explains it better, by weight or by ``compare(fresh, tracked)`` (the crowd beam
+        model at both means). After ``fresh_wins`` such scans in a row the winning cluster
+        becomes the belief (the other samples lose their weight) and every sample is
+        established; until then the estimate is the heaviest cluster of the established
+        samples. A crowd makes a look-alike place fit some scans better than the true one, but
+        it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
@@ -578,8 +617,19 @@ class MonteCarloLocalization:
             )
             best = int(np.argmax(w_fresh + w_old))
             contradicted = self._global_phase or too_long > cfg.lost_fraction
-            self._fresh_won = self._fresh_won + 1 if w_fresh[best] > w_old[best] and contradicted else 0
+            won = contradicted and w_fresh[best] > w_old[best]
+            guess = int(np.argmax(w_fresh))
+            if contradicted and not won and w_fresh[guess] > 0:
+                mine = labels == guess
+                f_pose = best_cluster_estimate(
+                    self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
+                )[0]
+                won = compare(f_pose, pose)
+                best = guess
+            self._fresh_won = self._fresh_won + 1 if won else 0
             if self._fresh_won >= cfg.fresh_wins:
+                w = np.where(labels == best, self.weights, 0.0)
+                self.weights = w / w.sum() if w.sum() > 0 else self.weights
                 self._fresh[:] = False
                 self._fresh_won = 0
                 pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
@@ -618,8 +668,13 @@ class MonteCarloLocalization:
         fresh = self._fresh[idx[:n]].copy()
         n_inject = round(inject_fraction * n)
         if n_inject:
-            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
-            fresh[:n_inject] = True
+            # The new guesses replace the older ones that have not won first, so fresh samples
+            # never outnumber max_injection of the set, however long a crowd keeps resetting.
+            slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
+            drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
+            slots = slots[: drawn_poses.shape[0]]
+            new[slots] = drawn_poses[: slots.size]
+            fresh[slots] = True
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         self._fresh = fresh
@@ -634,52 +689,73 @@ class MonteCarloLocalization:
         valid: NDArray[np.bool_],
         estimate: FloatArray,
     ) -> FloatArray:
-        """Sensor resetting: candidate poses near the estimate and over the free space, drawn by
-        their likelihood under the integrated beams (``valid``: in a crowd, the filtered scan is
-        the part that can be trusted)."""
+        """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
+        current scan (:meth:`_crowd_log_likelihood`).
+
+        Candidates are ``injection_local_candidates`` poses around the estimate
+        (``injection_local_std`` metres, any heading: a drift in a crowd, a kidnap by a metre);
+        once the estimate has been contradicted on ``global_after`` scans in a row (or when the
+        fit of the scan triggered the reset), also the ``injection_survivors`` best of
+        ``injection_candidates`` poses uniform over the free space, screened by the likelihood
+        field of the longest returns (cheap, no ray casting). The pool is then annealed on the
+        beam model (every ``injection_beam_step``-th return first, all of them after) down to
+        ``injection_survivors`` poses, of which ``n`` are kept at random.
+        """
         cfg = self.config
-        m = cfg.injection_candidates
-        # Local first: a wrong estimate is most often near the truth (a drift in a crowd, a
-        # kidnap by a metre); the whole free space is searched once it stays wrong.
-        searching = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
-        local_share = cfg.injection_local if searching else 1.0
-        n_local = round(local_share * m)
-        local = np.column_stack(
-            [
-                estimate[0] + cfg.injection_local_std * self.rng.standard_normal(n_local),
-                estimate[1] + cfg.injection_local_std * self.rng.standard_normal(n_local),
-                self.rng.uniform(-math.pi, math.pi, n_local),
-            ]
-        )
-        cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
-        cand = cand[self._in_free_space(cand)]
-        beams = _longest(ranges, valid, cfg.injection_long_fraction)
-        if not beams.any():
-            return cand[:n]
         keep = max(n, cfg.injection_survivors)
-        drawn = self._anneal(cand, keep, ranges, geometry, field_, beams, cfg.injection_stages)[0]
+        m = cfg.injection_local_candidates
+        pool = [
+            np.column_stack(
+                [
+                    estimate[0] + cfg.injection_local_std * self.rng.standard_normal(m),
+                    estimate[1] + cfg.injection_local_std * self.rng.standard_normal(m),
+                    self.rng.uniform(-math.pi, math.pi, m),
+                ]
+            )
+        ]
+        if self._lost_scans == 0 or self._lost_scans >= cfg.global_after:
+            far = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+            longest = _longest(ranges, valid, cfg.injection_long_fraction)
+            if longest.any():
+                far = self._anneal(far, keep, ranges, geometry, field_, longest, 1)[0]
+            pool.append(far[: cfg.injection_survivors])
+        cand = np.vstack(pool)
+        cand = cand[self._in_free_space(cand)]
+        if not valid.any() or cand.shape[0] == 0:
+            return cand[:n]
+
+        def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
+            return self._crowd_log_likelihood(poses, ranges, geometry, mask)
+
+        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score)[0]
         return drawn[self.rng.permutation(drawn.shape[0])[:n]]
 
     def _too_long_fraction(
         self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
     ) -> float:
-        """Of the returns that are not shorter than expected at ``pose`` (the ones a crowd left
-        alone), the fraction longer than expected by more than ``lost_margin``: readings through
-        mapped walls, the signature of a wrong pose (Fox et al. 1998: the novelty filter keeps
-        "very unlikely sensor measurements (especially too long readings)"). NaN when fewer than
-        ``lost_min_beams`` returns are left to judge."""
+        """Of the returns that are not shorter than expected (the ones a crowd left alone), the
+        fraction longer than expected by more than ``lost_margin``: readings through mapped
+        walls, the signature of a wrong pose (Fox et al. 1998: the novelty filter keeps "very
+        unlikely sensor measurements (especially too long readings)"). Judged at ``pose`` and at
+        ``lost_hypotheses`` samples drawn by weight from the established belief; the smallest
+        fraction counts, so a scan contradicts the track only when no plausible pose of it
+        explains the scan (a few centimetres or a degree off, long beams may graze past a
+        corner). NaN when every pose has fewer than ``lost_min_beams`` returns to judge."""
         cfg = self.config
         if not valid.any():
             return math.nan
-        laser = compose(pose[None, :], np.asarray(geometry.offset, dtype=np.float64))
-        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])[0]
-        measured = ranges[valid]
+        k = min(cfg.lost_hypotheses, self.samples.shape[0])
+        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random())) if k else []
+        poses = np.vstack([pose[None, :], self.samples[idx]])
+        laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
+        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])
+        measured = ranges[valid][None, :]
         longer = measured > expected + cfg.lost_margin
-        seen = longer | (measured >= expected - cfg.lost_margin)
-        n_seen = int(seen.sum())
-        if n_seen < cfg.lost_min_beams:
+        n_seen = (longer | (measured >= expected - cfg.lost_margin)).sum(axis=1)
+        judged = n_seen >= cfg.lost_min_beams
+        if not judged.any():
             return math.nan
-        return float(longer.sum()) / n_seen
+        return float(np.min(longer.sum(axis=1)[judged] / n_seen[judged]))
 
     def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
         rc = self.grid.world_to_cell(poses[:, :2])
