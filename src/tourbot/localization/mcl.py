@@ -394,15 +394,9 @@ class MonteCarloLocalization:
             self._global_phase = False
 
         # 4b. Recovery on too-long readings: sensor resetting, first around the estimate.
-        if judged:
-            info["too_long"] = too_long
-            if math.isnan(too_long):
-                pass  # the crowd hides the building: no evidence either way
-            elif too_long > cfg.lost_fraction:
-                self._lost_scans += 1
-                inject_fraction = cfg.max_injection
-            else:
-                self._lost_scans = 0
+        info["too_long"] = too_long
+        if too_long > cfg.lost_fraction:
+            inject_fraction = cfg.max_injection
         info["lost_scans"] = float(self._lost_scans)
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
@@ -610,13 +604,20 @@ class MonteCarloLocalization:
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
         pose, cov, weight = best_cluster_estimate(self.samples, self._established_weights(), labels)
         too_long = judge(pose)
+        if math.isnan(too_long):
+            pass  # not judged, or the crowd hides the building: no evidence either way
+        elif too_long > cfg.lost_fraction:
+            self._lost_scans += 1
+        else:
+            self._lost_scans = 0
         if self._fresh.any():
             w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
             w_old = np.bincount(
                 labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
             )
             best = int(np.argmax(w_fresh + w_old))
-            contradicted = self._global_phase or too_long > cfg.lost_fraction
+            # The track stays contradicted through scans that are no evidence (NaN).
+            contradicted = self._global_phase or self._lost_scans > 0
             won = contradicted and w_fresh[best] > w_old[best]
             guess = int(np.argmax(w_fresh))
             if contradicted and not won and w_fresh[guess] > 0:
