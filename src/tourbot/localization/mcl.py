@@ -746,7 +746,7 @@ class MonteCarloLocalization:
         if not valid.any():
             return math.nan
         k = min(cfg.lost_hypotheses, self.samples.shape[0])
-        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random())) if k else []
+        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
         poses = np.vstack([pose[None, :], self.samples[idx]])
         laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
         expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])
