@@ -21,20 +21,30 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    kept (``alpha_fast``, ``alpha_slow``);
    when the short-term one falls below ``recovery_ratio`` times the long-term one, a fraction
    ``1 - w_fast / (recovery_ratio * w_slow)`` (at most ``max_injection``) of the samples is
-   replaced by poses drawn from the current scan: candidate poses, half around the last estimate
-   (most failures are local: a push, wheel slip, a kidnap by a metre) and half over the whole free
-   space, scored against the integrated beams and drawn by score. The dead band ``recovery_ratio`` and the
-   rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is no evidence
-   keep the ups and downs of a crowded museum from resetting a filter that tracks well. Because
-   the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
-   resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
-   expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
-   sensor measurements (especially too long readings)") and do. Injected samples are *fresh*
-   until they have held the heaviest cluster on ``fresh_wins`` consecutive scans: the novelty
-   filter averages Eq. 6 over the established samples only (a two-peaked belief would let a
-   crowd's short beams through), the estimate is the heaviest cluster of the established samples,
-   and resampling keeps each group's share, so a false alarm cannot hand the belief to a
-   look-alike place on one scan;
+   replaced by poses drawn from the current scan (see below). The dead band ``recovery_ratio``
+   and the rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is
+   no evidence keep the ups and downs of a crowded museum from resetting a filter that tracks
+   well. The second, crowd-proof sign of a wrong estimate is the one Fox et al. point to (the
+   novelty filter "forces the incorporation of very unlikely sensor measurements (especially
+   too long readings)"): readings that pass through mapped walls. Visitors only ever shorten a
+   beam, so of the returns that are not shorter than expected at the estimate, the fraction
+   longer than expected by ``lost_margin`` is near zero at the true pose however dense the
+   crowd, and large at a wrong one; it is judged at the estimate and ``lost_hypotheses``
+   samples of the track (the smallest counts) and is no evidence when fewer than
+   ``lost_min_beams`` returns are left to judge. Above ``lost_fraction`` the scan
+   *contradicts* the track and ``max_injection`` of the samples are reset. The reset poses are
+   drawn from candidates around the estimate (a drift in a crowd, a kidnap by a metre) and,
+   once the track has been contradicted on ``global_after`` scans in a row, also over the whole
+   free space, annealed on the scan's likelihood under a beam model with ray-cast expected
+   ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
+   field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
+   Injected samples are *fresh* until they have won ``fresh_wins`` consecutive scans that
+   contradict the track (by weight, or by the crowd beam model at the two clusters' means);
+   the novelty filter averages Eq. 6 over the established samples only (a two-peaked belief
+   would let a crowd's short beams through), the estimate is the heaviest cluster of the
+   established samples, resampling keeps each group's share, and new guesses replace older
+   fresh ones. So a crowd that makes a look-alike place fit a few scans better cannot hand it
+   the belief while the track still explains the scan;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -142,14 +152,28 @@ class MCLConfig:
         returns leave the averages alone. ``max_injection`` 0.2: at most this fraction of the
         samples is replaced per update, so a false alarm in a crowd adds a small cluster that
         must then win on the next scans rather than replacing the belief.
-        ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
-        around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
-        over the free space, scored against the scan with every ``injection_beam_step``-th beam.
-        ``fresh_wins`` 2: injected samples stay *fresh* until their cluster has been the heaviest
-        on this many consecutive scans. Fresh samples are left out of the novelty filter's belief
-        average (Eq. 6) and out of the estimate, and resampling keeps the fresh and the established
-        samples' shares, so a recovery guess at a look-alike place must beat the track twice before
-        it replaces it (in the simulated peak crowd one scan sometimes favours such a place).
+        ``fresh_wins`` 2: injected samples stay *fresh* until they have won this many
+        consecutive scans that contradict the track. Fresh samples are left out of the novelty
+        filter's belief average (Eq. 6) and out of the estimate, and resampling keeps the fresh
+        and the established samples' shares, so a recovery guess at a look-alike place must beat
+        the track twice before it replaces it (in the simulated peak crowd one scan sometimes
+        favours such a place).
+        ``lost_margin`` 0.5 m, ``lost_fraction`` 0.3, ``lost_min_beams`` 20, ``lost_hypotheses``
+        8: the too-long test (module docstring, step 4). Measured on the peak-crowd FHW and Intel
+        logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
+        false alarms on FHW (map corners, glass) and 0.4-1.4 % on Intel, while 98-100 % of the
+        scans of a track more than 1 m off are caught (0.4: 0.5-1 % and 84-100 %).
+        ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
+        whole free space. ``injection_local_candidates`` poses around the estimate
+        (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
+        ``injection_candidates`` uniform ones (screened by the likelihood field of the
+        ``injection_long_fraction`` longest returns, no ray casting) are annealed on the crowd
+        beam model in ``injection_stages`` stages down to ``injection_survivors`` poses, from
+        which the reset samples are taken. ``recovery_model``: Probabilistic Robotics' beam
+        model with ``z_hit`` 0.5, ``z_short`` 0.4 (in the peak crowd about half of the returns hit
+        a visitor), ``lambda_short`` 0.2 /m (visitors stand around the robot), ``sigma_hit`` 0.2 m
+        (candidate poses are a few centimetres and a degree off), ``z_max`` = ``z_rand`` 0.05;
+        not tuned.
     """
 
     min_samples: int = 500
@@ -176,9 +200,7 @@ class MCLConfig:
     fit_distance: float = 0.15
     max_injection: float = 0.2
     injection_candidates: int = 200000
-    injection_local: float = 0.5
     injection_local_std: float = 1.0
-    injection_beam_step: int = 4
     fresh_wins: int = 2
     global_candidates: int = 1_000_000
     global_beam_step: int = 4
@@ -699,7 +721,7 @@ class MonteCarloLocalization:
         fit of the scan triggered the reset), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
         field of the longest returns (cheap, no ray casting). The pool is then annealed on the
-        beam model (every ``injection_beam_step``-th return first, all of them after) down to
+        beam model (every ``global_beam_step``-th return first, all of them after) down to
         ``injection_survivors`` poses, of which ``n`` are kept at random.
         """
         cfg = self.config
