@@ -39,10 +39,10 @@ def test_recovery_per_kidnap_until_the_next() -> None:
     times = np.arange(40.0)
     path = np.arange(40.0) * 0.5
     err = np.full(40, 0.05)
-    err[10:15] = 2.0  # kidnap at 10, back at 15 (stays below until 30: > 10 s)
-    err[30:] = 2.0  # kidnap at 30, never back
-    out = recovery(err, times, path, [10, 30])
-    assert out[0] == (True, 5.0, 2.5)
+    err[10:13] = 2.0  # kidnap at 10, back at 13 (stays below until 25: > 10 s)
+    err[25:] = 2.0  # kidnap at 25, never back (14 s to the end of the log)
+    out = recovery(err, times, path, [10, 25])
+    assert out[0] == (True, 3.0, 1.5)
     assert out[1] is not None
     assert out[1][0] is False
     assert math.isnan(out[1][1])
@@ -61,6 +61,20 @@ def test_a_kidnap_followed_by_another_within_ten_seconds_is_censored() -> None:
     judged = recovery(err, times, path, [10, 22])[0]  # 12 s to the next kidnap: judged, failed
     assert judged is not None
     assert judged[0] is False
+
+
+def test_a_kidnap_within_ten_seconds_of_the_end_is_censored_unless_settled() -> None:
+    times = np.arange(40.0)
+    path = np.arange(40.0)
+    err = np.full(40, 0.05)
+    err[35:] = 2.0  # kidnap at 35, 4 s before the end: cannot be judged
+    assert recovery(err, times, path, [35]) == [None]
+    err[37:] = 0.05  # ... unless it has settled by the end of the log
+    assert recovery(err, times, path, [35]) == [(True, 2.0, 2.0)]
+    err[28:] = 2.0  # 11 s before the end and never back: judged, failed
+    late = recovery(err, times, path, [28])[0]
+    assert late is not None
+    assert late[0] is False
 
 
 def test_mean_ci() -> None:

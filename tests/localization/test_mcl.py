@@ -366,3 +366,60 @@ def test_dense_crowd_neither_triggers_recovery_nor_loses_tracking(room: Occupanc
         errors.append(float(np.hypot(*(est.pose[:2] - truth[k, :2]))))
     assert injected == 0
     assert max(errors) < 0.3
+
+
+def _phantom_kidnap(odom: np.ndarray, at: int, delta: np.ndarray) -> np.ndarray:
+    """The odometry after a kidnap before scan ``at`` as :mod:`tourbot.localization.kidnap` makes
+    it: a motion ``delta`` that never happened, carried along by every later reading."""
+    out = odom.copy()
+    correction = compose(compose(odom[at], delta), relative(odom[at], np.zeros(3)))
+    out[at:] = compose(correction, odom[at:])
+    return out
+
+
+@pytest.mark.parametrize(
+    ("legs", "delta", "within"),
+    [(14, (0.5, -0.4, 2.7), 3), (24, (0.5, -0.4, 2.7), 6), (24, (-0.6, 0.7, -2.0), 6)],
+)
+def test_recovers_from_the_papers_kidnap_in_a_crowd(
+    room: OccupancyGrid, legs: int, delta: tuple[float, float, float], within: int
+) -> None:
+    # Fox et al.'s kidnap (heading turned by 180 +/- 90 deg, moved by up to 1 m) while a crowd
+    # hides about half (14 legs) or two thirds (24 legs) of every scan. Readings through walls
+    # at the estimate give the kidnap away even when the filter keeps only a few beams, the
+    # guesses around the estimate are scored by the crowd beam model, and the robot is found
+    # again within a few scans. (Before these, 24 legs left the robot lost to the end.)
+    truth = waypoints_path(50)
+    rng = np.random.default_rng(21)
+    drive = simulate(room, truth, seed=21, circles=_crowd_around(truth, rng, legs))
+    odom = _phantom_kidnap(drive.odom, 20, np.array(delta))
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=1000, min_samples=300), seed=22)
+    mcl.reset_tracking(truth[0])
+    est = np.array([mcl.update(odom[k], s).pose for k, s in enumerate(drive.scans)])
+    err = _errors(est, truth)
+    assert err[:20].max() < 0.3
+    assert err[20 : 20 + within].max() > 0.45  # lost after the kidnap
+    assert err[20 + within :].max() < 0.3  # found again, and kept
+
+
+def test_too_long_readings_judge_the_track(room: OccupancyGrid) -> None:
+    truth = waypoints_path(10)
+    rng = np.random.default_rng(23)
+    crowded = simulate(room, truth, seed=23, circles=_crowd_around(truth, rng, 6))
+    mcl = MonteCarloLocalization(room, MCLConfig(max_samples=300, min_samples=100), seed=24)
+    mcl.reset_tracking(truth[3], np.diag([1e-6, 1e-6, 1e-8]))  # a track at the true pose
+    scan = crowded.scans[3]
+    r = np.asarray(scan.ranges)
+    valid = r < scan.geometry.max_range
+    lost = mcl.config.lost_fraction
+    # People shorten beams, never lengthen them: the true pose sees no wall through.
+    assert mcl._too_long_fraction(truth[3], r, scan.geometry, valid) < 0.1
+    # Turned around and moved by a metre, most of the readings pass through walls.
+    wrong = compose(truth[3], np.array([0.5, -0.4, 2.7]))
+    mcl.reset_tracking(wrong, np.diag([1e-6, 1e-6, 1e-8]))
+    assert mcl._too_long_fraction(wrong, r, scan.geometry, valid) > lost
+    # A crowd right around a robot in the open (every reading 20 cm, the nearest wall more than
+    # a metre away) leaves nothing to judge.
+    open_pose = np.array([2.0, 3.5, 0.0])
+    mcl.reset_tracking(open_pose, np.diag([1e-6, 1e-6, 1e-8]))
+    assert math.isnan(mcl._too_long_fraction(open_pose, np.full_like(r, 0.2), scan.geometry, valid))

@@ -94,12 +94,13 @@ def recovery(
     before the next kidnap (or the end of the log). ``path`` is the cumulative distance per scan.
 
     A kidnap followed by the next one within 10 s is *censored* (``None``): no localizer could
-    show the 10 s below 45 cm that count as recovered before it is kidnapped again."""
+    show the 10 s below 45 cm that count as recovered before it is kidnapped again. So is a
+    kidnap within 10 s of the end of the log that has not settled by then."""
     out: list[tuple[bool, float, float] | None] = []
     for i, k0 in enumerate(kidnap_scans):
         end = kidnap_scans[i + 1] if i + 1 < len(kidnap_scans) else len(err)
         j = settle_index(err, times, k0, end)
-        if j is None and end < len(err) and times[end] - times[k0] <= STAY:
+        if j is None and times[min(end, len(times) - 1)] - times[k0] <= STAY:
             out.append(None)
         elif j is None:
             out.append((False, math.nan, math.nan))

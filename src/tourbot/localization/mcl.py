@@ -21,20 +21,30 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    kept (``alpha_fast``, ``alpha_slow``);
    when the short-term one falls below ``recovery_ratio`` times the long-term one, a fraction
    ``1 - w_fast / (recovery_ratio * w_slow)`` (at most ``max_injection``) of the samples is
-   replaced by poses drawn from the current scan: candidate poses, half around the last estimate
-   (most failures are local: a push, wheel slip, a kidnap by a metre) and half over the whole free
-   space, scored against the integrated beams and drawn by score. The dead band ``recovery_ratio`` and the
-   rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is no evidence
-   keep the ups and downs of a crowded museum from resetting a filter that tracks well. Because
-   the fit is measured on the *filtered* beams, a crowd that hides the walls does not trigger
-   resets (its beams are filtered out), whereas a kidnapped robot's beams that are longer than
-   expected are kept (Fox et al.: the novelty filter "forces the incorporation of very unlikely
-   sensor measurements (especially too long readings)") and do. Injected samples are *fresh*
-   until they have held the heaviest cluster on ``fresh_wins`` consecutive scans: the novelty
-   filter averages Eq. 6 over the established samples only (a two-peaked belief would let a
-   crowd's short beams through), the estimate is the heaviest cluster of the established samples,
-   and resampling keeps each group's share, so a false alarm cannot hand the belief to a
-   look-alike place on one scan;
+   replaced by poses drawn from the current scan (see below). The dead band ``recovery_ratio``
+   and the rule that a scan with fewer than ``recovery_min_used`` of its returns integrated is
+   no evidence keep the ups and downs of a crowded museum from resetting a filter that tracks
+   well. The second, crowd-proof sign of a wrong estimate is the one Fox et al. point to (the
+   novelty filter "forces the incorporation of very unlikely sensor measurements (especially
+   too long readings)"): readings that pass through mapped walls. Visitors only ever shorten a
+   beam, so of the returns that are not shorter than expected at the estimate, the fraction
+   longer than expected by ``lost_margin`` is near zero at the true pose however dense the
+   crowd, and large at a wrong one; it is judged at the estimate and ``lost_hypotheses``
+   samples of the track (the smallest counts) and is no evidence when fewer than
+   ``lost_min_beams`` returns are left to judge. Above ``lost_fraction`` the scan
+   *contradicts* the track and ``max_injection`` of the samples are reset. The reset poses are
+   drawn from candidates around the estimate (a drift in a crowd, a kidnap by a metre) and,
+   once the track has been contradicted on ``global_after`` scans in a row, also over the whole
+   free space, annealed on the scan's likelihood under a beam model with ray-cast expected
+   ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
+   field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
+   Injected samples are *fresh* until they have won ``fresh_wins`` consecutive scans that
+   contradict the track (by weight, or by the crowd beam model at the two clusters' means);
+   the novelty filter averages Eq. 6 over the established samples only (a two-peaked belief
+   would let a crowd's short beams through), the estimate is the heaviest cluster of the
+   established samples, resampling keeps each group's share, and new guesses replace older
+   fresh ones. So a crowd that makes a look-alike place fit a few scans better cannot hand it
+   the belief while the track still explains the scan;
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -51,6 +61,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from statistics import NormalDist
 from typing import Literal
@@ -146,14 +157,28 @@ class MCLConfig:
         returns leave the averages alone. ``max_injection`` 0.2: at most this fraction of the
         samples is replaced per update, so a false alarm in a crowd adds a small cluster that
         must then win on the next scans rather than replacing the belief.
-        ``injection_candidates``: candidate poses, a fraction ``injection_local`` of them drawn
-        around the last estimate (``injection_local_std`` metres, any heading) and the rest uniform
-        over the free space, scored against the scan with every ``injection_beam_step``-th beam.
-        ``fresh_wins`` 2: injected samples stay *fresh* until their cluster has been the heaviest
-        on this many consecutive scans. Fresh samples are left out of the novelty filter's belief
-        average (Eq. 6) and out of the estimate, and resampling keeps the fresh and the established
-        samples' shares, so a recovery guess at a look-alike place must beat the track twice before
-        it replaces it (in the simulated peak crowd one scan sometimes favours such a place).
+        ``fresh_wins`` 2: injected samples stay *fresh* until they have won this many
+        consecutive scans that contradict the track. Fresh samples are left out of the novelty
+        filter's belief average (Eq. 6) and out of the estimate, and resampling keeps the fresh
+        and the established samples' shares, so a recovery guess at a look-alike place must beat
+        the track twice before it replaces it (in the simulated peak crowd one scan sometimes
+        favours such a place).
+        ``lost_margin`` 0.5 m, ``lost_fraction`` 0.3, ``lost_min_beams`` 20, ``lost_hypotheses``
+        8: the too-long test (module docstring, step 4). Measured on the peak-crowd FHW and Intel
+        logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
+        false alarms on FHW (map corners, glass) and 0.4-1.4 % on Intel, while 98-100 % of the
+        scans of a track more than 1 m off are caught (0.4: 0.5-1 % and 84-100 %).
+        ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
+        whole free space. ``injection_local_candidates`` poses around the estimate
+        (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
+        ``injection_candidates`` uniform ones (screened by the likelihood field of the
+        ``injection_long_fraction`` longest returns, no ray casting) are annealed on the crowd
+        beam model in ``injection_stages`` stages down to ``injection_survivors`` poses, from
+        which the reset samples are taken. ``recovery_model``: Probabilistic Robotics' beam
+        model with ``z_hit`` 0.5, ``z_short`` 0.4 (in the peak crowd about half of the returns hit
+        a visitor), ``lambda_short`` 0.2 /m (visitors stand around the robot), ``sigma_hit`` 0.2 m
+        (candidate poses are a few centimetres and a degree off), ``z_max`` = ``z_rand`` 0.05;
+        not tuned.
     """
 
     min_samples: int = 500
@@ -181,9 +206,7 @@ class MCLConfig:
     fit_distance: float = 0.15
     max_injection: float = 0.2
     injection_candidates: int = 200000
-    injection_local: float = 0.5
-    injection_local_std: float = 2.0
-    injection_beam_step: int = 4
+    injection_local_std: float = 1.0
     fresh_wins: int = 2
     global_candidates: int = 1_000_000
     global_beam_step: int = 4
@@ -194,6 +217,18 @@ class MCLConfig:
     global_done: float = 0.95
     injection_stages: int = 3
     injection_long_fraction: float = 0.5
+    injection_survivors: int = 1000
+    injection_local_candidates: int = 10000
+    recovery_model: BeamModel = field(
+        default_factory=lambda: BeamModel(
+            z_hit=0.5, z_short=0.4, z_max=0.05, z_rand=0.05, sigma_hit=0.2, lambda_short=0.2
+        )
+    )
+    lost_margin: float = 0.5
+    lost_fraction: float = 0.3
+    lost_min_beams: int = 20
+    lost_hypotheses: int = 8
+    global_after: int = 3
     tracking_std: tuple[float, float, float] = (0.1, 0.1, math.radians(5.0))
 
     def __post_init__(self) -> None:
@@ -242,6 +277,7 @@ class MonteCarloLocalization:
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        self._lost_scans = 0  # consecutive scans whose estimate has readings through mapped walls
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
@@ -285,6 +321,7 @@ class MonteCarloLocalization:
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
+        self._lost_scans = 0
         self._global_cells = None
         self._global_phase = False
 
@@ -366,13 +403,30 @@ class MonteCarloLocalization:
         else:
             inject_fraction = 0.0
 
-        # 6. Estimate, before resampling (the weights carry the scan).
-        pose, cov, cluster_weight = self._estimate()
+        # 6. Estimate, before resampling (the weights carry the scan). Readings that pass through
+        # mapped walls at the tracked estimate (a crowd cannot lengthen a beam) say it is wrong,
+        # however many beams the filter dropped: only then may a recovery guess replace it.
+        judged = bool(n_used) and not global_start and not self._global_phase
+
+        def judge(p: FloatArray) -> float:
+            return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
+
+        def compare(guess: FloatArray, tracked: FloatArray) -> bool:
+            ll = self._crowd_log_likelihood(np.stack([guess, tracked]), ranges, geometry, valid)
+            return bool(ll[0] > ll[1])
+
+        pose, cov, cluster_weight, too_long = self._estimate(judge, compare)
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
         if self._global_phase and not global_start and cluster_weight >= cfg.global_done:
             self._global_phase = False
+
+        # 4b. Recovery on too-long readings: sensor resetting, first around the estimate.
+        info["too_long"] = too_long
+        if too_long > cfg.lost_fraction:
+            inject_fraction = cfg.max_injection
+        info["lost_scans"] = float(self._lost_scans)
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if (
@@ -502,18 +556,25 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         beams: NDArray[np.bool_],
         max_stages: int,
+        score: Callable[[FloatArray, NDArray[np.bool_]], FloatArray] | None = None,
     ) -> tuple[FloatArray, int]:
         """``n`` poses drawn from the candidates ``cand`` by the tempered likelihood of ``beams``,
         brought in by stages that keep the effective sample size at ``global_ess * n``; the first
         stage scores every ``global_beam_step``-th beam only, later ones (on ``n`` jittered
-        survivors) all of them. Returns the poses and the number of stages."""
+        survivors) all of them. ``score(poses, beam_mask)`` is the scan's log-likelihood per pose
+        (the likelihood field by default). Returns the poses and the number of stages."""
         cfg = self.config
+        if score is None:
+
+            def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
+                return field_.log_likelihood(poses, ranges, geometry, beam_mask=mask)
+
         mask = np.zeros_like(beams)
         mask[:: max(1, cfg.global_beam_step)] = True
         mask &= beams
         if not mask.any():
             mask = beams
-        ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=mask) * (beams.sum() / mask.sum())
+        ll = score(cand, mask) * (beams.sum() / mask.sum())
         logw = np.zeros(cand.shape[0])
         left = cfg.likelihood_exponent
         jitter = np.asarray(cfg.global_jitter, dtype=np.float64)
@@ -531,9 +592,25 @@ class MonteCarloLocalization:
             if left <= 1e-12 or stages >= max_stages or not inside.any():
                 break
             cand = cand[inside]
-            ll = field_.log_likelihood(cand, ranges, geometry, beam_mask=beams)
+            ll = score(cand, beams)
             logw = np.zeros(cand.shape[0])
         return np.ascontiguousarray(cand), stages
+
+    def _crowd_log_likelihood(
+        self, poses: FloatArray, ranges: FloatArray, geometry: LaserGeometry, beams: NDArray[np.bool_]
+    ) -> FloatArray:
+        """The scan's log-likelihood per pose under the beam model with expected ranges ray cast
+        in the map (Fox et al. 1998 Sec. 2.3: ``p(d | l)`` from the expected distance ``o_l``;
+        Probabilistic Robotics Table 6.1), ``recovery_model``'s mixture: its "short" part is the
+        visitors (people only ever shorten a beam), while a reading through a mapped wall only
+        has the small "random" part. Unlike the likelihood field, which scores a beam by its
+        endpoint alone, this sees a look-alike place's beams cross walls."""
+        idx = np.flatnonzero(beams)
+        if idx.size == 0 or poses.shape[0] == 0:
+            return np.zeros(poses.shape[0])
+        laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
+        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[idx])
+        return self.config.recovery_model.log_likelihood(expected, ranges[idx], float(geometry.max_range))
 
     def _established_weights(self) -> FloatArray:
         """The weights with the freshly injected samples' set to zero (all of them if none is left)."""
@@ -542,27 +619,59 @@ class MonteCarloLocalization:
         w = np.where(self._fresh, 0.0, self.weights)
         return w if w.sum() > 0 else self.weights
 
-    def _estimate(self) -> tuple[FloatArray, FloatArray, float]:
-        """The heaviest cluster's mean and covariance.
+    def _estimate(
+        self,
+        judge: Callable[[FloatArray], float],
+        compare: Callable[[FloatArray, FloatArray], bool],
+    ) -> tuple[FloatArray, FloatArray, float, float]:
+        """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
+        estimate (the fraction of too-long readings there, NaN when not judged).
 
-        Freshly injected samples count only once they have *won a scan*: when, after the weight
-        update, the heaviest cluster holds more weight of fresh samples than of established ones,
-        the recovery guess has beaten the tracked belief and every sample becomes established;
-        until then the estimate is the heaviest cluster of the established samples.
+        Freshly injected samples count only once they have *won a scan*: the scan contradicts
+        the tracked estimate (more than ``lost_fraction`` of its readings pass through mapped
+        walls there; always so during global localization) and the heaviest cluster of fresh
+        samples explains it better, by weight or by ``compare(fresh, tracked)`` (the crowd beam
+        model at both means). After ``fresh_wins`` such scans in a row the winning cluster
+        becomes the belief (the other samples lose their weight) and every sample is
+        established; until then the estimate is the heaviest cluster of the established
+        samples. A crowd makes a look-alike place fit some scans better than the true one, but
+        it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
+        pose, cov, weight = best_cluster_estimate(self.samples, self._established_weights(), labels)
+        too_long = judge(pose)
+        if math.isnan(too_long):
+            pass  # not judged, or the crowd hides the building: no evidence either way
+        elif too_long > cfg.lost_fraction:
+            self._lost_scans += 1
+        else:
+            self._lost_scans = 0
         if self._fresh.any():
             w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
             w_old = np.bincount(
                 labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
             )
             best = int(np.argmax(w_fresh + w_old))
-            self._fresh_won = self._fresh_won + 1 if w_fresh[best] > w_old[best] else 0
+            # The track stays contradicted through scans that are no evidence (NaN).
+            contradicted = self._global_phase or self._lost_scans > 0
+            won = contradicted and w_fresh[best] > w_old[best]
+            guess = int(np.argmax(w_fresh))
+            if contradicted and not won and w_fresh[guess] > 0:
+                mine = labels == guess
+                f_pose = best_cluster_estimate(
+                    self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
+                )[0]
+                won = compare(f_pose, pose)
+                best = guess
+            self._fresh_won = self._fresh_won + 1 if won else 0
             if self._fresh_won >= cfg.fresh_wins:
+                w = np.where(labels == best, self.weights, 0.0)
+                self.weights = w / w.sum() if w.sum() > 0 else self.weights
                 self._fresh[:] = False
                 self._fresh_won = 0
-        return best_cluster_estimate(self.samples, self._established_weights(), labels)
+                pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+        return pose, cov, weight, too_long
 
     def _resample(
         self,
@@ -597,8 +706,13 @@ class MonteCarloLocalization:
         fresh = self._fresh[idx[:n]].copy()
         n_inject = round(inject_fraction * n)
         if n_inject:
-            new[:n_inject] = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
-            fresh[:n_inject] = True
+            # The new guesses replace the older ones that have not won first, so fresh samples
+            # never outnumber max_injection of the set, however long a crowd keeps resetting.
+            slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
+            drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
+            slots = slots[: drawn_poses.shape[0]]
+            new[slots] = drawn_poses[: slots.size]
+            fresh[slots] = True
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         self._fresh = fresh
@@ -613,25 +727,73 @@ class MonteCarloLocalization:
         valid: NDArray[np.bool_],
         estimate: FloatArray,
     ) -> FloatArray:
-        """Sensor resetting: candidate poses near the estimate and over the free space, drawn by
-        their likelihood under the integrated beams (``valid``: in a crowd, the filtered scan is
-        the part that can be trusted)."""
+        """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
+        current scan (:meth:`_crowd_log_likelihood`).
+
+        Candidates are ``injection_local_candidates`` poses around the estimate
+        (``injection_local_std`` metres, any heading: a drift in a crowd, a kidnap by a metre);
+        once the estimate has been contradicted on ``global_after`` scans in a row (or when the
+        fit of the scan triggered the reset), also the ``injection_survivors`` best of
+        ``injection_candidates`` poses uniform over the free space, screened by the likelihood
+        field of the longest returns (cheap, no ray casting). The pool is then annealed on the
+        beam model (every ``global_beam_step``-th return first, all of them after) down to
+        ``injection_survivors`` poses, of which ``n`` are kept at random.
+        """
         cfg = self.config
-        m = cfg.injection_candidates
-        n_local = round(cfg.injection_local * m)
-        local = np.column_stack(
-            [
-                estimate[0] + cfg.injection_local_std * self.rng.standard_normal(n_local),
-                estimate[1] + cfg.injection_local_std * self.rng.standard_normal(n_local),
-                self.rng.uniform(-math.pi, math.pi, n_local),
-            ]
-        )
-        cand = np.vstack([local, _uniform_free_poses(self.grid, self._free_cells, m - n_local, self.rng)])
+        keep = max(n, cfg.injection_survivors)
+        m = cfg.injection_local_candidates
+        pool = [
+            np.column_stack(
+                [
+                    estimate[0] + cfg.injection_local_std * self.rng.standard_normal(m),
+                    estimate[1] + cfg.injection_local_std * self.rng.standard_normal(m),
+                    self.rng.uniform(-math.pi, math.pi, m),
+                ]
+            )
+        ]
+        if self._lost_scans == 0 or self._lost_scans >= cfg.global_after:
+            far = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+            longest = _longest(ranges, valid, cfg.injection_long_fraction)
+            if longest.any():
+                far = self._anneal(far, keep, ranges, geometry, field_, longest, 1)[0]
+            pool.append(far[: cfg.injection_survivors])
+        cand = np.vstack(pool)
         cand = cand[self._in_free_space(cand)]
-        beams = _longest(ranges, valid, cfg.injection_long_fraction)
-        if not beams.any():
+        if not valid.any() or cand.shape[0] == 0:
             return cand[:n]
-        return self._anneal(cand, n, ranges, geometry, field_, beams, cfg.injection_stages)[0]
+
+        def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
+            return self._crowd_log_likelihood(poses, ranges, geometry, mask)
+
+        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score)[0]
+        return drawn[self.rng.permutation(drawn.shape[0])[:n]]
+
+    def _too_long_fraction(
+        self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+    ) -> float:
+        """Of the returns that are not shorter than expected (the ones a crowd left alone), the
+        fraction longer than expected by more than ``lost_margin``: readings through mapped
+        walls, the signature of a wrong pose (Fox et al. 1998: the novelty filter keeps "very
+        unlikely sensor measurements (especially too long readings)"). Judged at ``pose`` and at
+        ``lost_hypotheses`` samples drawn by weight from the established belief; the smallest
+        fraction counts, so a scan contradicts the track only when no plausible pose of it
+        explains the scan (a few centimetres or a degree off, long beams may graze past a
+        corner). NaN when every pose has fewer than ``lost_min_beams`` returns to judge."""
+        cfg = self.config
+        if not valid.any():
+            return math.nan
+        k = min(cfg.lost_hypotheses, self.samples.shape[0])
+        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
+        poses = np.vstack([pose[None, :], self.samples[idx]])
+        laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
+        expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])
+        measured = ranges[valid][None, :]
+        longer = measured > expected + cfg.lost_margin
+        n_seen = (longer | (measured >= expected - cfg.lost_margin)).sum(axis=1)
+        judged = n_seen >= cfg.lost_min_beams
+        if not judged.any():
+            return math.nan
+        return float(np.min(longer.sum(axis=1)[judged] / n_seen[judged]))
 
     def _in_free_space(self, poses: FloatArray) -> NDArray[np.bool_]:
         rc = self.grid.world_to_cell(poses[:, :2])
