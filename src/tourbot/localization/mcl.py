@@ -80,6 +80,7 @@ from tourbot.localization.beam_filters import (
 )
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel, _wrap
+from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.likelihood_field import LikelihoodField, LikelihoodFieldParams
 from tourbot.maps.raycast import DistanceCaster, RayCaster
