@@ -72,3 +72,26 @@ def test_localize_needs_exactly_one_start(
         main(["localize", str(log), "--map", str(room), "--start", "1,2", "-o", str(tmp_path / "t.tum")])
     assert exc.value.code == 2
     assert "X,Y,THETA" in capsys.readouterr().err
+
+
+def test_localize_grid_says_it_builds_the_table_and_caches_it(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log, room, truth = files
+    out = tmp_path / "traj.tum"
+    cache = tmp_path / "tables"
+    args = ["localize", str(log), "--map", str(room), "--method", "grid", "--start-from-reference"]
+    main([*args, "--table-cache", str(cache), "-o", str(out)])
+    first = " ".join(capsys.readouterr().err.split())  # the console may wrap lines
+    assert "expected-range table" in first
+    assert "built and saved to" in first
+    assert len(list(cache.glob("*.npz"))) == 1
+    _, poses = read_tum(out)
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).mean() < 0.15
+
+    main([*args, "--table-cache", str(cache), "-o", str(out)])
+    assert "read from" in " ".join(capsys.readouterr().err.split())
+    main([*args, "--no-cache-table", "-o", str(out)])
+    second = " ".join(capsys.readouterr().err.split())
+    assert "expected-range table" in second
+    assert "built in" in second

@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.localization.beam_filters import BeamFilter
 from tourbot.localization.grid_markov import (
+    ExpectedRangeTable,
     GridMarkovConfig,
     GridMarkovError,
     GridMarkovLocalization,
@@ -378,3 +379,71 @@ def test_unknown_cells_need_not_be_walls(room: OccupancyGrid, caster: DistanceCa
     for i, pose in enumerate(truth):
         est = loc.update(odom[i], _scan(caster, pose, float(i), rng))
         assert _errors(est.pose, pose)[0] < 0.15, f"step {i}"
+
+
+def test_expected_range_table_is_cached_and_reused(room: OccupancyGrid, tmp_path: Path) -> None:
+    first = _localizer(room)
+    built = first.prepare(GEOMETRY.max_range, cache=tmp_path)
+    assert first.table_source.startswith("built and saved to")
+    saved = list(tmp_path.glob("*.npz"))
+    assert len(saved) == 1
+
+    second = _localizer(room)
+    read = second.prepare(GEOMETRY.max_range, cache=tmp_path)
+    assert second.table_source == f"read from {saved[0]}"
+    np.testing.assert_array_equal(read.bins, built.bins)
+    assert (read.angle_step, read.range_bin, read.max_range) == (
+        built.angle_step,
+        built.range_bin,
+        built.max_range,
+    )
+
+    # another map, another maximum range or another table step: another table
+    prob = room.prob.copy()
+    prob[60:70, 60:70] = 1.0
+    _localizer(OccupancyGrid(prob, room.resolution, room.origin)).prepare(GEOMETRY.max_range, cache=tmp_path)
+    _localizer(room).prepare(GEOMETRY.max_range - 5.0, cache=tmp_path)
+    _localizer(room, table_angle_step=math.radians(2.0)).prepare(GEOMETRY.max_range, cache=tmp_path)
+    assert len(list(tmp_path.glob("*.npz"))) == 4
+
+
+def test_a_corrupt_cached_table_is_built_again(room: OccupancyGrid, tmp_path: Path) -> None:
+    first = _localizer(room)
+    built = first.prepare(GEOMETRY.max_range, cache=tmp_path)
+    (path,) = tmp_path.glob("*.npz")
+    path.write_bytes(b"not a table")
+    again = _localizer(room)
+    table = again.prepare(GEOMETRY.max_range, cache=tmp_path)
+    assert again.table_source.startswith("built and saved to")
+    np.testing.assert_array_equal(table.bins, built.bins)
+    path.write_bytes(b"still not a table")
+    with pytest.raises(GridMarkovError, match="not an expected-range table"):
+        ExpectedRangeTable.load(path)
+
+
+@pytest.mark.parametrize("power", [0.0, -0.5, 1.5])
+def test_likelihood_power_must_be_in_0_1(power: float) -> None:
+    with pytest.raises(GridMarkovError, match="likelihood_power"):
+        GridMarkovConfig(likelihood_power=power)
+
+
+def test_tempered_likelihood_keeps_a_broader_belief(room: OccupancyGrid, caster: DistanceCaster) -> None:
+    # The product of 180 beams taken as independent is overconfident (neighbouring beams share
+    # the map's and the lattice's errors); the power < 1 keeps more of the poses near the truth
+    # (and makes a far pose need more evidence to take the belief over).
+    rng = np.random.default_rng(11)
+    truth = _path((0.5, 0.8, 0.2), 4)
+    odom = _odometry(truth, rng)
+    scans = [_scan(caster, p, float(i), rng) for i, p in enumerate(truth)]
+    held = {}
+    for power in (1.0, 0.1):
+        loc = _localizer(room, likelihood_power=power, uniform_mixture=0.0)
+        loc.reset_tracking(truth[0], np.diag([0.1, 0.1, 0.05]) ** 2)
+        for i, scan in enumerate(scans):
+            est = loc.update(odom[i], scan)
+        assert _errors(est.pose, truth[-1])[0] < 0.15
+        poses, w = loc.belief()
+        held[power] = (w.size, float(w @ np.hypot(*(poses[:, :2] - truth[-1, :2]).T)))
+    # many more poses kept (above the pruning ratio), and still centred on the truth
+    assert held[0.1][0] > 5 * held[1.0][0], held
+    assert held[0.1][1] < 0.15, held

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import math
+import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Protocol
 
@@ -11,6 +12,7 @@ import typer
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+    from rich.console import Console
 
     from tourbot.localization.beam_filters import BeamFilter
     from tourbot.localization.estimate import LocalizationEstimate
@@ -76,6 +78,17 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
         seed: Annotated[int, typer.Option(help="Random seed (MCL).")] = 0,
+        table_cache: Annotated[
+            Path | None,
+            typer.Option(
+                help="Grid: directory where expected-range tables are kept between runs "
+                "(default ~/.cache/tourbot/grid-tables, or under $XDG_CACHE_HOME)."
+            ),
+        ] = None,
+        cache_table: Annotated[
+            bool,
+            typer.Option(help="Grid: read / keep the expected-range table in --table-cache."),
+        ] = True,
     ) -> None:
         """Localize a robot from its log's odometry and scans; write one pose per scan, in log order.
 
@@ -84,7 +97,6 @@ def register(app: typer.Typer) -> None:
         experiments know where the robot starts), or none at all (--global). When the log has
         reference poses, the errors against them are reported at the end (metrics only).
         """
-        import time
 
         import numpy as np
         from rich.console import Console
@@ -130,6 +142,9 @@ def register(app: typer.Typer) -> None:
             std = (0.1, 0.1, math.radians(5.0))
             localizer.reset_tracking(pose0, np.diag(np.square(std)))
 
+        if method == Method.GRID:
+            _prepare_grid(localizer, robot_log.scans[0].geometry.max_range, table_cache, cache_table, console)
+
         poses = np.zeros((len(robot_log.scans), 3))
         used = np.zeros(len(robot_log.scans))
         start_time = time.perf_counter()
@@ -169,6 +184,36 @@ def register(app: typer.Typer) -> None:
                 f"{100 * np.mean(err > 0.45):.2f}% of scans > 45 cm off",
                 highlight=False,
             )
+
+
+def _prepare_grid(
+    localizer: object, max_range: float, table_cache: Path | None, use_cache: bool, console: Console
+) -> None:
+    """Build (with a progress bar) or read from the cache the grid's expected-range table, and say so."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from tourbot.localization.grid_markov import GridMarkovLocalization, default_table_cache
+
+    assert isinstance(localizer, GridMarkovLocalization)
+    lat = localizer.lattice
+    n_angles = round(2 * math.pi / localizer.config.table_angle_step)
+    mbytes = 2 * lat.n_free * n_angles / 1e6
+    cache = (table_cache or default_table_cache()) if use_cache else None
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    with Progress(*columns, console=console, transient=True) as progress:
+        task = progress.add_task(
+            f"expected-range table: {lat.n_free} cells x {n_angles} directions ({mbytes:.0f} MB)",
+            total=lat.n_free,
+        )
+        t0 = time.perf_counter()
+        localizer.prepare(
+            max_range, progress=lambda done, _total: progress.update(task, completed=done), cache=cache
+        )
+    console.print(
+        f"expected-range table ({lat.n_free} cells x {n_angles} directions, {mbytes:.0f} MB): "
+        f"{localizer.table_source} in {time.perf_counter() - t0:.1f} s",
+        highlight=False,
+    )
 
 
 class _Localizer(Protocol):
