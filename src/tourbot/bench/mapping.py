@@ -116,21 +116,21 @@ def hit_scans(
     count = np.zeros(like.prob.shape, np.int32)
     first = np.full((*like.prob.shape, 2), np.nan)
     baseline = np.zeros(like.prob.shape)
-    square = np.ones((2 * radius + 1, 2 * radius + 1), bool)
+    k = np.arange(-radius, radius + 1)
+    around = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
     for scan, pose, out in zip(log.scans, log.reference_poses, left_out, strict=True):
         pts, hit = beam_endpoints(scan, pose)
-        cells = like.world_to_cell(pts[hit & ~out])
-        cells = cells[like.inside(cells)]
-        mask = np.zeros(like.prob.shape, bool)
-        mask[cells[:, 0], cells[:, 1]] = True
-        if radius > 0:
-            mask = ndimage.binary_dilation(mask, square)
-        count += mask
+        ends = like.world_to_cell(pts[hit & ~out])
+        cells = (ends[:, None, :] + around[None, :, :]).reshape(-1, 2)
+        cells = np.unique(cells[like.inside(cells)], axis=0)  # each scan counts once per cell
+        rows, cols = cells[:, 0], cells[:, 1]
+        count[rows, cols] += 1
         laser = compose(np.asarray(pose, dtype=np.float64), scan.geometry.offset)[:2]
-        new = mask & np.isnan(first[..., 0])
-        first[new] = laser
-        gap = np.hypot(first[mask, 0] - laser[0], first[mask, 1] - laser[1])
-        baseline[mask] = np.maximum(baseline[mask], gap)
+        seen = first[rows, cols]
+        seen[np.isnan(seen[:, 0])] = laser
+        first[rows, cols] = seen
+        gap = np.hypot(seen[:, 0] - laser[0], seen[:, 1] - laser[1])
+        baseline[rows, cols] = np.maximum(baseline[rows, cols], gap)
     return count, baseline
 
 
