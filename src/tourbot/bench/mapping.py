@@ -28,7 +28,14 @@ from tourbot.records import RobotLog, Scan
 if TYPE_CHECKING:
     from tourbot.mapping.people_filter import PeopleFilterParams
 
-__all__ = ["clean_map", "map_agreement", "people_cells", "register", "simulated_crowd_log"]
+__all__ = [
+    "clean_map",
+    "hit_scans",
+    "map_agreement",
+    "people_cells",
+    "register",
+    "simulated_crowd_log",
+]
 
 LOGS = ("intel", "aces", "freiburg-079", "fhw")
 
@@ -93,6 +100,67 @@ def _person_cells(log: RobotLog, corrupted: NDArray[np.bool_], like: OccupancyGr
         inside = like.inside(cells)
         np.minimum.at(nearest, (cells[inside, 0], cells[inside, 1]), ranges[inside])
     return nearest
+
+
+def hit_scans(
+    log: RobotLog, left_out: NDArray[np.bool_], like: OccupancyGrid, radius: int = 0
+) -> tuple[NDArray[np.int32], NDArray[np.float64]]:
+    """For each cell of ``like``: how many distinct scans of ``log`` (at its reference poses) had a
+    returned beam, not in ``left_out`` ``(S, B)``, ending within ``radius`` cells (the square
+    around it), and the farthest distance (m) between the laser positions of the first such scan
+    and a later one. A confirmation rule of mappers for dynamic scenes maps a cell only when at
+    least K scans hit it, or hit it from positions some distance apart."""
+    from tourbot.geometry import compose
+    from tourbot.mapping.people_filter import beam_endpoints
+
+    count = np.zeros(like.prob.shape, np.int32)
+    first = np.full((*like.prob.shape, 2), np.nan)
+    baseline = np.zeros(like.prob.shape)
+    k = np.arange(-radius, radius + 1)
+    around = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
+    for scan, pose, out in zip(log.scans, log.reference_poses, left_out, strict=True):
+        pts, hit = beam_endpoints(scan, pose)
+        ends = like.world_to_cell(pts[hit & ~out])
+        cells = (ends[:, None, :] + around[None, :, :]).reshape(-1, 2)
+        cells = np.unique(cells[like.inside(cells)], axis=0)  # each scan counts once per cell
+        rows, cols = cells[:, 0], cells[:, 1]
+        count[rows, cols] += 1
+        laser = compose(np.asarray(pose, dtype=np.float64), scan.geometry.offset)[:2]
+        seen = first[rows, cols]
+        seen[np.isnan(seen[:, 0])] = laser
+        first[rows, cols] = seen
+        gap = np.hypot(seen[:, 0] - laser[0], seen[:, 1] - laser[1])
+        baseline[rows, cols] = np.maximum(baseline[rows, cols], gap)
+    return count, baseline
+
+
+CONFIRM_RULES = ((0, 2), (0, 3), (1, 2), (2, 2), (3, 2))  # (radius in cells, scans)
+
+
+def _confirmation(
+    log: RobotLog,
+    left_out: NDArray[np.bool_],
+    like: OccupancyGrid,
+    people: NDArray[np.bool_],
+    static: NDArray[np.bool_],
+) -> dict[str, float]:
+    """What confirmation rules would leave of a map's ``people`` and ``static`` occupied cells:
+    the cells hit in one scan only, and for each rule (at least K scans within r cells; two scans
+    at least 1 m apart) the people cells left and the static cells kept."""
+    out: dict[str, float] = {}
+    for radius, scans in CONFIRM_RULES:
+        count, baseline = hit_scans(log, left_out, like, radius)
+        if radius == 0 and scans == 2:
+            for name, mask in (("people", people), ("static", static)):
+                hist = np.bincount(count[mask], minlength=5)
+                for k in range(1, 5):
+                    out[f"confirm_{name}_hit_in_{k}_scans"] = int(hist[k])
+                out[f"confirm_{name}_hit_in_5+_scans"] = int(hist[5:].sum())
+                out[f"confirm_{name}_baseline_1m"] = int(np.sum(mask & (baseline >= 1.0)))
+        ok = count >= scans
+        out[f"confirm_r{radius}_k{scans}_people"] = int(np.sum(people & ok))
+        out[f"confirm_r{radius}_k{scans}_static"] = int(np.sum(static & ok))
+    return out
 
 
 RANGE_BANDS = ((0.0, 4.0), (4.0, 8.0), (8.0, np.inf))  # the leg detector resolves legs to ~4 m, sees to 8
@@ -312,7 +380,11 @@ def _people_maps(
         "static_kept_filtered": after["static_kept"] / max(after["static"], 1),
         # the target: of the static cells the crowded map still has, how many filtering keeps
         "static_kept": after["static_kept"] / max(before["static_kept"], 1),
+        "static_kept_unfiltered_count": before["static_kept"],
     }
+    far_people = filtered.occupied() & truth & far
+    static_kept = filtered.occupied() & clean.occupied() & plain.occupied()
+    result.update(_confirmation(crowded, left_out, clean, far_people, static_kept))
     ranges = np.stack([np.asarray(s.ranges, dtype=np.float64) for s in crowded.scans])
     for (lo, hi), n0, n1 in zip(RANGE_BANDS, bands_before, bands_after, strict=True):
         band = f"{lo:g}-{hi:g}m"
@@ -349,7 +421,23 @@ def _summary(figures: dict[str, float]) -> str:
         )
         + f" at <4 m, 4-8 m, >8 m), other beams kept "
         f"{100 * figures['other_beams_kept']:.2f} %; endpoint cells "
-        f"{figures['endpoint_cells_unfiltered']:.0f} -> {figures['endpoint_cells_filtered']:.0f}"
+        f"{figures['endpoint_cells_unfiltered']:.0f} -> {figures['endpoint_cells_filtered']:.0f}; "
+        f"people / static cells hit in 1, 2, 3, 4, 5+ scans: "
+        + ", ".join(f"{figures[f'confirm_people_hit_in_{k}_scans']:.0f}" for k in ("1", "2", "3", "4", "5+"))
+        + " / "
+        + ", ".join(f"{figures[f'confirm_static_hit_in_{k}_scans']:.0f}" for k in ("1", "2", "3", "4", "5+"))
+        + "; confirmation rules (>= K scans within r cells) people cells left / static kept: "
+        + _rules(figures)
+    )
+
+
+def _rules(figures: dict[str, float]) -> str:
+    """The confirmation rules' people cells left and share of the static cells kept."""
+    total = max(figures["static_kept_unfiltered_count"], 1)
+    return ", ".join(
+        f"r{r} K{k} {figures[f'confirm_r{r}_k{k}_people']:.0f} / "
+        f"{100 * figures[f'confirm_r{r}_k{k}_static'] / total:.2f} %"
+        for r, k in CONFIRM_RULES
     )
 
 
