@@ -13,7 +13,6 @@ from tourbot.localization.beam_filters import (
     entropy_filter,
     novelty_filter,
     novelty_filter_cast,
-    novelty_filter_staged,
     novelty_probability,
 )
 from tourbot.maps.beam_model import p_shorter_than_expected
@@ -116,26 +115,6 @@ def test_bad_shapes() -> None:
         novelty_filter(np.ones((3, 4)), np.ones(2))
     with pytest.raises(ValueError, match="positive sum"):
         entropy_filter(np.ones((2, 2)), np.zeros(2))
-
-
-@settings(max_examples=60, deadline=None)
-@given(
-    arrays(np.float64, (20, 12), elements=st.floats(0, 1)),
-    arrays(np.float64, 20, elements=st.floats(0.01, 1)),
-    st.integers(1, 8),
-)
-def test_staged_novelty_filter_is_the_novelty_filter(p: np.ndarray, w: np.ndarray, first: int) -> None:
-    # Rows near 1 for a few beams (people), so that some beams need every hypothesis.
-    p[:, :3] = 1.0 - 1e-4 * p[:, :3]
-    asked: list[int] = []
-
-    def rows(lo: int, hi: int, beams: np.ndarray) -> np.ndarray:
-        asked.append(beams.size * (hi - lo))
-        return p[lo:hi][:, beams]
-
-    staged = novelty_filter_staged(rows, p.shape[1], w, 0.99, first=first)
-    np.testing.assert_array_equal(staged, novelty_filter(p, w, 0.99))
-    assert sum(asked) <= p.size
 
 
 @settings(max_examples=60, deadline=None)

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numba
@@ -39,7 +38,6 @@ __all__ = [
     "entropy_filter",
     "novelty_filter",
     "novelty_filter_cast",
-    "novelty_filter_staged",
     "novelty_probability",
 ]
 
@@ -260,41 +258,6 @@ def novelty_filter(
     return novelty_probability(p_shorter, weights) <= theta
 
 
-def novelty_filter_staged(
-    p_shorter_rows: Callable[[int, int, IntArray], ArrayLike],
-    n_beams: int,
-    weights: ArrayLike,
-    theta: float = BeamFilterConfig.theta,
-    first: int = 4,
-) -> BoolArray:
-    """:func:`novelty_filter` computed in stages that stop early: the same mask.
-
-    ``weights (N,)``: ``Bel(l_i)`` of the hypotheses, best given heaviest first.
-    ``p_shorter_rows(lo, hi, beams)`` returns ``p_n(d_b | l_i)`` ``(hi - lo, len(beams))`` for the
-    hypotheses ``lo..hi-1`` and the given beams (the caller ray casts only those). After each stage
-    (``first`` hypotheses, then doubling), a beam whose partial sum ``S = sum_i p_n(d_b | l_i)
-    Bel(l_i)`` cannot exceed ``theta`` any more, ``S + (weight not yet seen) <= theta`` since each
-    ``p_n <= 1``, is kept and no longer evaluated. With theta 0.99, a beam that is not shorter
-    than expected at the heaviest hypotheses is decided by them; only beams shorter than expected
-    almost everywhere (people) need all of them.
-    """
-    w = _normalized(weights)
-    n = w.shape[0]
-    left = np.concatenate([np.cumsum(w[::-1])[::-1], [0.0]])  # weight of hypotheses i..n-1
-    total = np.zeros(n_beams)
-    open_ = np.arange(n_beams)
-    seen = 0
-    chunk = max(1, first)
-    while seen < n and open_.size:
-        hi = min(n, seen + chunk)
-        p = np.asarray(p_shorter_rows(seen, hi, open_), dtype=np.float64)
-        total[open_] += w[seen:hi] @ p
-        seen = hi
-        open_ = open_[total[open_] + left[seen] > theta]
-        chunk = seen
-    return novelty_filter(total[None, :], np.ones(1), theta)
-
-
 def novelty_filter_cast(
     caster: RayCaster,
     laser_poses: ArrayLike,
@@ -320,8 +283,7 @@ def novelty_filter_cast(
     heaviest hypotheses explain costs one or two ray casts. A beam that is shorter than expected
     everywhere (a person) needs every hypothesis, but its rays stop early: once a ray has gone
     9 ``sigma_hit`` (plus two cells) beyond the reading without a hit, Eq. 5 is 1 to double
-    precision whatever lies further. Compared with :func:`novelty_filter_staged` it decides per
-    hypothesis rather than per stage, drops beams early, and casts shorter rays.
+    precision whatever lies further.
     """
     w = _normalized(weights)
     n = w.shape[0]
