@@ -8,6 +8,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.tourbot-installed
 NODE_STAMP := node_modules/.tourbot-installed
 PEERS_STAMP := $(VENV)/.tourbot-peers-installed
+KERNELS_STAMP := $(VENV)/.tourbot-kernels-compiled
 
 .PHONY: setup demo test lint typecheck pytest bench-setup clean
 
@@ -29,7 +30,14 @@ $(PEERS_STAMP): $(STAMP)
 
 setup: $(STAMP) $(NODE_STAMP)
 
-demo: setup
+# numba compiles the kernels on first use and caches them beside the sources: a short headless tour
+# does that once, so that the served demo runs (and localizes) at full speed from its first second.
+$(KERNELS_STAMP): $(STAMP)
+	@echo "compiling the numerical kernels once (a short headless tour, about 30 s)..."
+	$(BIN)/tourbot demo --record --duration 5 --no-animation --out $(VENV)/kernel-warm-up > /dev/null
+	touch $(KERNELS_STAMP)
+
+demo: setup $(KERNELS_STAMP)
 	$(BIN)/tourbot demo
 
 lint: setup
