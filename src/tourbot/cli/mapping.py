@@ -83,6 +83,8 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"map: {output}")
         if filtered is not None:
             typer.echo(f"beams left out as people: {filtered.removed_beams}")
+            if filtered.params.consistency is not None:
+                typer.echo(f"cells cleared as specks the map contradicts: {filtered.cleared_cells}")
         if trajectory is not None:
             write_tum(trajectory, robot_log.times, np.asarray(mapper.poses))
             typer.echo(f"trajectory: {trajectory}")
