@@ -174,7 +174,12 @@ def test_the_modes() -> None:
     assert not paper.far_blobs
     assert PeopleFilterParams.mode("sectors").free_sectors
     assert PeopleFilterParams.mode("blobs").far_blobs
-    assert set(FILTER_MODES) == {"paper", "sectors", "blobs"}
+    assert PeopleFilterParams.mode("blobs").consistency is None
+    consistent = PeopleFilterParams.mode("consistent")
+    assert consistent.far_blobs
+    assert consistent.free_sectors
+    assert consistent.consistency is not None
+    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "consistent"}
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("magic")
@@ -203,3 +208,29 @@ def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> Non
     assert left["blobs"][:3, 10:12].all()  # the pole the first three times
     assert not left["blobs"][3:, 10:12].any()  # ... then it is static
     assert left["blobs"].sum() == 8
+
+
+def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around() -> None:
+    """One beam on a visitor 3 m away, in two scans: no leg pair, no far blob, so ``blobs`` maps
+    it. An earlier scan from elsewhere saw the floor around and behind the spot: ``consistent``
+    clears that speck and nothing else."""
+    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
+    wall = 6.0 / np.cos(geom.angles)
+    visitor = wall.copy()
+    visitor[30] = 3.0
+    poses = [np.zeros(3), np.array([0.0, 0.52, 0.0]), np.array([0.0, 0.52, 0.0])]
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall, visitor, visitor])]
+    grids = {}
+    for mode in ("blobs", "consistent"):
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+        for scan, pose in zip(scans, poses, strict=True):
+            filtered.add_scan(scan, pose=pose)
+        filtered.finish()
+        assert not np.asarray(filtered.left_out).any()
+        grids[mode] = filtered.grid()
+        assert filtered.cleared_cells == (mode == "consistent")
+    row, col = grids["blobs"].world_to_cell(np.array([3.0, 0.52]))
+    assert grids["blobs"].occupied()[row, col]
+    assert not grids["consistent"].occupied()[row, col]
+    changed = grids["blobs"].occupied() != grids["consistent"].occupied()
+    assert changed.sum() == 1

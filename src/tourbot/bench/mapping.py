@@ -234,7 +234,8 @@ def register(bench: typer.Typer) -> None:
         people_modes: Annotated[
             str,
             typer.Option(
-                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs); "
+                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
+                "consistent); "
                 "the first is drawn and used for scan matching."
             ),
         ] = "paper,sectors,blobs",
@@ -313,7 +314,7 @@ def _known_pose_maps(
         plain.integrate(scan, pose)
         filtered.add_scan(scan, pose=pose)
     filtered.finish()
-    return plain.grid(), filtered.mapper.grid(), np.asarray(filtered.left_out, dtype=bool)
+    return plain.grid(), filtered.grid(), np.asarray(filtered.left_out, dtype=bool)
 
 
 def _align_to(grid: OccupancyGrid, like: OccupancyGrid) -> OccupancyGrid:

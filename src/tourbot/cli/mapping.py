@@ -31,7 +31,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="With --people-filter: paper (tracks and person features), sectors (and the space "
-                "seen between beams cleared), blobs (and far person-sized blobs left out)."
+                "seen between beams cleared), blobs (and far person-sized blobs left out), consistent "
+                "(blobs, and small specks the finished map sees free floor around and behind cleared)."
             ),
         ] = "blobs",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
@@ -78,10 +79,12 @@ def register(app: typer.Typer) -> None:
                 progress.advance(task)
         if filtered is not None:
             filtered.finish()
-        write_map(mapper.grid(), output)
+        write_map(filtered.grid() if filtered is not None else mapper.grid(), output)
         typer.echo(f"map: {output}")
         if filtered is not None:
             typer.echo(f"beams left out as people: {filtered.removed_beams}")
+            if filtered.params.consistency is not None:
+                typer.echo(f"cells cleared as specks the map contradicts: {filtered.cleared_cells}")
         if trajectory is not None:
             write_tum(trajectory, robot_log.times, np.asarray(mapper.poses))
             typer.echo(f"trajectory: {trajectory}")

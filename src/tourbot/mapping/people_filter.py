@@ -40,7 +40,9 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.blobs import BlobParams, person_blobs
+from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
+from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
@@ -55,7 +57,7 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-FILTER_MODES = ("paper", "sectors", "blobs")
+FILTER_MODES = ("paper", "sectors", "blobs", "consistent")
 
 
 @dataclass(frozen=True)
@@ -92,6 +94,9 @@ class PeopleFilterParams:
     the 3 x 3 cells around their end (something static seen there before), and fewer than
     ``blob_repeats`` blobs were left out there before: a pole seen from afar is a blob in scan
     after scan at one spot, and is mapped from its ``blob_repeats + 1``-th scan on.
+    ``consistency``: the finished map is checked against itself
+    (:mod:`tourbot.mapping.consistency`): small occupied specks with free floor around them and
+    behind them along the beams that hit them are cleared (None: no check).
     """
 
     bin_size: float = 0.15
@@ -112,14 +117,20 @@ class PeopleFilterParams:
     blobs: BlobParams = field(default_factory=BlobParams)
     blob_evidence: float = 0.5
     blob_repeats: int = 3
+    consistency: ConsistencyParams | None = None
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
         """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
-        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too)."""
+        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``consistent``
+        (``blobs``, and the finished map's specks that its free space contradicts cleared)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
-        return cls(free_sectors=name != "paper", far_blobs=name == "blobs")
+        return cls(
+            free_sectors=name != "paper",
+            far_blobs=name in ("blobs", "consistent"),
+            consistency=ConsistencyParams() if name == "consistent" else None,
+        )
 
 
 def hit_probability(
@@ -227,6 +238,7 @@ class PeopleFilteredMapper:
     params: PeopleFilterParams = field(default_factory=PeopleFilterParams)
     removed_beams: int = 0
     left_out: list[NDArray[np.bool_]] = field(default_factory=list)  # per scan written: beams left out
+    cleared_cells: int = 0  # cells the consistency check of the last grid() cleared
 
     def __post_init__(self) -> None:
         self._confirmed: set[int] = set()  # ids of every track confirmed so far
@@ -234,6 +246,8 @@ class PeopleFilteredMapper:
         self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
         self._index = 0
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
+        self._origins: list[FloatArray] = []  # per scan written: the laser position of each kept end
+        self._ends: list[FloatArray] = []  # per scan written: the world ends of the kept beams
 
     @classmethod
     def create(
@@ -295,6 +309,18 @@ class PeopleFilteredMapper:
         """Write the scans still waiting for the people seen after them."""
         while self._pending:
             self._write(self._pending.popleft())
+
+    def grid(self) -> OccupancyGrid:
+        """The map of the scans written so far (call :meth:`finish` first for all of them), with
+        the specks it contradicts cleared when ``params.consistency`` is set."""
+        grid = self.mapper.grid()
+        check = self.params.consistency
+        if check is None:
+            return grid
+        origins = np.concatenate([np.zeros((0, 2)), *self._origins])
+        ends = np.concatenate([np.zeros((0, 2)), *self._ends])
+        grid, self.cleared_cells = clear_specks(grid, origins, ends, check)
+        return grid
 
     def _people(self, item: _Pending, tracks: bool = True) -> tuple[FloatArray, FloatArray]:
         """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
@@ -365,6 +391,12 @@ class PeopleFilteredMapper:
         person = self._person_beams(item, into="map")
         self.removed_beams += int(person.sum())
         self.left_out.append(person)
+        if self.params.consistency is not None:
+            pts, hit = beam_endpoints(item.scan, item.pose)
+            kept = pts[hit & ~person]
+            laser = compose(item.pose, item.scan.geometry.offset)[:2]
+            self._ends.append(kept)
+            self._origins.append(np.repeat(laser[None, :], len(kept), axis=0))
         self._integrate(item, person, "map")
         self._written.append(item)
 

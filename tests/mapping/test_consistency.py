@@ -1,0 +1,98 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tourbot.mapping.consistency import ConsistencyParams, clear_specks, speck_evidence
+from tourbot.maps.grid import OccupancyGrid
+
+RES = 0.05
+FREE, OCC, UNKNOWN = 0.3, 0.9, -1.0
+
+
+def _floor(rows: int = 60, cols: int = 60) -> np.ndarray:
+    """A map seen free everywhere."""
+    return np.full((rows, cols), FREE, np.float32)
+
+
+def _centre(row: int, col: int) -> np.ndarray:
+    return np.array([(col + 0.5) * RES, (row + 0.5) * RES])
+
+
+def _beam_to(row: int, col: int, back: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """One beam along +x ending at the centre of a cell, from ``back`` metres before it."""
+    end = _centre(row, col)
+    return (end - [back, 0.0])[None, :], end[None, :]
+
+
+def test_a_speck_on_seen_free_floor_is_cleared() -> None:
+    prob = _floor()
+    prob[30, 30] = OCC
+    grid = OccupancyGrid(prob, RES)
+    origins, ends = _beam_to(30, 30)
+    out, n = clear_specks(grid, origins, ends)
+    assert n == 1
+    assert not out.occupied().any()
+    assert out.prob[30, 30] == pytest.approx(FREE)  # the floor's probability
+    assert grid.occupied()[30, 30]  # the input is left alone
+
+
+def test_a_face_with_unknown_space_behind_stays() -> None:
+    """A speck with nothing seen past it (an exhibit's face seen once) is no contradiction."""
+    prob = _floor()
+    prob[:, 31:] = UNKNOWN  # behind the speck along the beam, and half its ring
+    prob[30, 30] = OCC
+    origins, ends = _beam_to(30, 30)
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends)
+    assert ev.behind_free[0] == 0.0
+    assert ev.ring_free[0] == pytest.approx(14 / 24)
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends)[1] == 0
+
+
+def test_walls_poles_and_unseen_specks_stay() -> None:
+    prob = _floor()
+    prob[10, 5:50] = OCC  # a wall
+    prob[40:43, 40:43] = OCC  # a pole, 3 x 3 cells
+    prob[30, 20] = OCC  # a speck no kept beam ended in
+    prob[30, 10] = OCC  # a speck next to another one (ring not empty)
+    prob[31, 12] = OCC
+    origins = np.array([[0.0, _centre(40, 40)[1]], [0.0, _centre(30, 10)[1]]])
+    ends = np.array([_centre(40, 40), _centre(30, 10)])
+    grid = OccupancyGrid(prob, RES)
+    ev = speck_evidence(grid, origins, ends)
+    out, n = clear_specks(grid, origins, ends)
+    assert n == 0
+    assert np.array_equal(out.occupied(), grid.occupied())
+    assert ev.cells.max() == 45
+    # with another speck allowed in the ring, the one a beam ended in goes; a speck no beam
+    # ended in, the wall and the pole stay
+    loose = ConsistencyParams(ring_occupied=0.1)
+    out, n = clear_specks(grid, origins, ends, loose)
+    assert n == 1
+    assert not out.occupied()[30, 10]
+    assert out.occupied()[31, 12]
+    assert out.occupied()[30, 20]
+    assert out.occupied()[10, 5:50].all()
+    assert out.occupied()[40:43, 40:43].all()
+
+
+def test_a_two_cell_speck_is_judged_as_one() -> None:
+    prob = _floor()
+    prob[30, 30:32] = OCC
+    origins, ends = _beam_to(30, 31)
+    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends)
+    assert n == 2
+    assert not out.occupied().any()
+    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends, ConsistencyParams(max_cells=1))
+    assert n == 0
+
+
+def test_a_speck_at_the_map_edge_counts_the_outside_as_unknown() -> None:
+    prob = _floor(20, 20)
+    prob[0, 10] = OCC
+    ev = speck_evidence(OccupancyGrid(prob, RES), *_beam_to(0, 10))
+    # a 5 x 5 ring less the speck: 24 cells, of which the 10 below the edge are outside
+    assert ev.ring_free[0] == pytest.approx(14 / 24)
+    # behind: 10 to 50 cm past the end are columns 12 to 20, and column 20 is outside
+    assert ev.behind_cells[0] == 9
+    assert ev.behind_free[0] == pytest.approx(8 / 9)
