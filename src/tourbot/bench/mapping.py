@@ -234,7 +234,8 @@ def register(bench: typer.Typer) -> None:
         people_modes: Annotated[
             str,
             typer.Option(
-                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs); "
+                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
+                "shapes); "
                 "the first is drawn and used for scan matching."
             ),
         ] = "paper,sectors,blobs",

@@ -31,7 +31,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="With --people-filter: paper (tracks and person features), sectors (and the space "
-                "seen between beams cleared), blobs (and far person-sized blobs left out)."
+                "seen between beams cleared), blobs (and far person-sized blobs left out), shapes (and the "
+                "beams of leg-shaped segments and of ends where the floor was seen free)."
             ),
         ] = "blobs",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,

@@ -41,6 +41,7 @@ from numpy.typing import NDArray
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.blobs import BlobParams, person_blobs
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
+from tourbot.people.legs import LegConfig, leg_beams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
@@ -55,7 +56,7 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-FILTER_MODES = ("paper", "sectors", "blobs")
+FILTER_MODES = ("paper", "sectors", "blobs", "shapes")
 
 
 @dataclass(frozen=True)
@@ -92,6 +93,17 @@ class PeopleFilterParams:
     the 3 x 3 cells around their end (something static seen there before), and fewer than
     ``blob_repeats`` blobs were left out there before: a pole seen from afar is a blob in scan
     after scan at one spot, and is mapped from its ``blob_repeats + 1``-th scan on.
+
+    Rules on the shape of each scan and the map so far (``shapes``), for the map only (alignment
+    keeps the weights above): ``leg_segments``: the beams of every leg candidate within
+    ``leg_range`` whose P(leg) by the width and contrast rule is at least ``leg_probability``
+    (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
+    feature holds them (visitors standing in groups), with the same evidence and repeat guards as
+    the blobs (``blob_evidence``; ``leg_repeats`` beams left out at a spot before: a table leg or a
+    pole is then mapped). ``seen_free``: a beam that ends where the map so far has a log-odds at
+    most this in all of the 3 x 3 cells around its end is left out: something stands where the
+    floor was seen, the grid difference of Sec. 4 (Fig. 6) applied to every beam, not only to
+    person features (None: off).
     """
 
     bin_size: float = 0.15
@@ -112,14 +124,26 @@ class PeopleFilterParams:
     blobs: BlobParams = field(default_factory=BlobParams)
     blob_evidence: float = 0.5
     blob_repeats: int = 3
+    leg_segments: bool = False
+    leg_probability: float = 0.99
+    leg_range: float = 4.0
+    leg_repeats: int = 3
+    seen_free: float | None = None
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
         """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
-        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too)."""
+        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``shapes`` (and
+        leg segments and beams ending in space seen free)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
-        return cls(free_sectors=name != "paper", far_blobs=name == "blobs")
+        shapes = name == "shapes"
+        return cls(
+            free_sectors=name != "paper",
+            far_blobs=name in ("blobs", "shapes"),
+            leg_segments=shapes,
+            seen_free=-0.6 if shapes else None,
+        )
 
 
 def hit_probability(
@@ -234,6 +258,7 @@ class PeopleFilteredMapper:
         self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
         self._index = 0
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
+        self._leg_spots: dict[tuple[int, int], int] = {}  # leg segments' beams left out, by map cell
 
     @classmethod
     def create(
@@ -344,21 +369,49 @@ class PeopleFilteredMapper:
             if blob.any():  # nothing seen occupied around it yet: not a pole or an exhibit's edge
                 blob[blob] = self._evidence_around(pts[blob]) < self.params.blob_evidence
             if blob.any() and into == "map":
-                blob[blob] = self._new_blob_spots(pts[blob])
+                blob[blob] = self._new_spots(pts[blob], self._blob_spots, self.params.blob_repeats)
             person |= blob
+        if into == "map":
+            person |= self._shape_beams(item, pts, hit & ~person)
         return person
 
-    def _new_blob_spots(self, points: FloatArray) -> NDArray[np.bool_]:
-        """Which blob ends lie where fewer than ``blob_repeats`` blobs were left out before (in the
-        3 x 3 cells around); counts them. A blob seen again and again at one spot is static."""
+    def _shape_beams(
+        self, item: _Pending, pts: FloatArray, candidates: NDArray[np.bool_]
+    ) -> NDArray[np.bool_]:
+        """The beams among ``candidates`` that the rules on the scan's shape and the map so far
+        leave out (``leg_segments``, ``seen_free``; see :class:`PeopleFilterParams`)."""
+        p = self.params
+        out = np.zeros(len(candidates), dtype=bool)
+        if p.leg_segments:
+            legs = candidates & leg_beams(
+                item.scan, LegConfig(model=None, max_range=p.leg_range), p.leg_probability
+            )
+            if legs.any():
+                legs[legs] = self._evidence_around(pts[legs]) < p.blob_evidence
+            if legs.any():
+                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats)
+            out |= legs
+        if p.seen_free is not None:
+            free = candidates & ~out
+            if free.any():
+                free[free] = self._evidence_around(pts[free]) <= p.seen_free
+            out |= free
+        return out
+
+    def _new_spots(
+        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int
+    ) -> NDArray[np.bool_]:
+        """Which ends lie where fewer than ``repeats`` ends were left out before (in the 3 x 3 cells
+        around, counted in ``spots``); counts them. A blob seen again and again at one spot is
+        static."""
         res = self.mapper.params.resolution
         cells = np.floor(points / res).astype(np.int64)
         new = np.zeros(len(cells), dtype=bool)
         for k, (cx, cy) in enumerate(cells.tolist()):
-            seen = sum(self._blob_spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
-            new[k] = seen < self.params.blob_repeats
+            seen = sum(spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
+            new[k] = seen < repeats
         for cx, cy in cells[new].tolist():
-            self._blob_spots[(cx, cy)] = self._blob_spots.get((cx, cy), 0) + 1
+            spots[(cx, cy)] = spots.get((cx, cy), 0) + 1
         return new
 
     def _write(self, item: _Pending) -> None:
