@@ -176,7 +176,9 @@ def test_the_modes() -> None:
     assert PeopleFilterParams.mode("blobs").far_blobs
     assert not PeopleFilterParams.mode("blobs").leg_segments
     shapes = PeopleFilterParams.mode("shapes")
-    assert shapes.far_blobs and shapes.free_sectors and shapes.leg_segments
+    assert shapes.far_blobs
+    assert shapes.free_sectors
+    assert shapes.leg_segments
     assert shapes.seen_free is not None
     assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "shapes"}
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
@@ -238,7 +240,8 @@ def test_a_standing_visitor_near_the_robot_is_left_out_by_the_leg_shape_but_not_
     on_visitor = visitor < 3.0
     on_visitor &= geom.angles > 0
     on_pole = (pole < 3.0) & (geom.angles < 0)
-    assert on_visitor.sum() >= 4 and on_pole.sum() >= 2  # three beams per leg
+    assert on_visitor.sum() >= 4
+    assert on_pole.sum() >= 2
     assert not left["blobs"][0, on_visitor].any()  # no track, no blob: the visitor stays
     assert left["shapes"][0, on_visitor].all()
     assert left["shapes"][0, on_pole].all()  # the pole the first time ...
