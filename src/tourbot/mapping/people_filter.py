@@ -99,8 +99,8 @@ class PeopleFilterParams:
     ``leg_range`` whose P(leg) by the width and contrast rule is at least ``leg_probability``
     (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
     feature holds them (visitors standing in groups), with the same evidence and repeat guards as
-    the blobs (``blob_evidence``; ``leg_repeats`` beams left out at a spot before: a table leg or a
-    pole is then mapped). ``seen_free``: a beam that ends where the map so far has a log-odds at
+    the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
+    or a pole is then mapped). ``seen_free``: a beam that ends where the map so far has a log-odds at
     most this in all of the 3 x 3 cells around its end is left out: something stands where the
     floor was seen, the grid difference of Sec. 4 (Fig. 6) applied to every beam, not only to
     person features (None: off).
@@ -389,7 +389,7 @@ class PeopleFilteredMapper:
             if legs.any():
                 legs[legs] = self._evidence_around(pts[legs]) < p.blob_evidence
             if legs.any():
-                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats)
+                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats, per_scan=True)
             out |= legs
         if p.seen_free is not None:
             free = candidates & ~out
@@ -399,18 +399,21 @@ class PeopleFilteredMapper:
         return out
 
     def _new_spots(
-        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int
+        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int, per_scan: bool = False
     ) -> NDArray[np.bool_]:
-        """Which ends lie where fewer than ``repeats`` ends were left out before (in the 3 x 3 cells
-        around, counted in ``spots``); counts them. A blob seen again and again at one spot is
-        static."""
+        """Which ends of one scan lie where fewer than ``repeats`` ends were left out before (in the
+        3 x 3 cells around, counted in ``spots``); counts them. A blob seen again and again at one
+        spot is static. Without ``per_scan`` every end counts (the far blobs: a beam or two each);
+        with it a cell counts once per scan and the most-counted cell around decides, so that a
+        leg seen by several beams of one scan counts as one sighting."""
         res = self.mapper.params.resolution
         cells = np.floor(points / res).astype(np.int64)
         new = np.zeros(len(cells), dtype=bool)
         for k, (cx, cy) in enumerate(cells.tolist()):
-            seen = sum(spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
-            new[k] = seen < repeats
-        for cx, cy in cells[new].tolist():
+            around = [spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+            new[k] = (max(around) if per_scan else sum(around)) < repeats
+        counted = {(cx, cy) for cx, cy in cells[new].tolist()} if per_scan else cells[new].tolist()
+        for cx, cy in counted:
             spots[(cx, cy)] = spots.get((cx, cy), 0) + 1
         return new
 
