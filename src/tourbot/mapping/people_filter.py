@@ -39,7 +39,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
-from tourbot.mapping.blobs import BlobParams, person_blobs
+from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.people.legs import LegConfig, leg_beams
 from tourbot.people.sjpdaf import PeopleTracker
@@ -100,10 +100,12 @@ class PeopleFilterParams:
     (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
     feature holds them (visitors standing in groups), with the same evidence and repeat guards as
     the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
-    or a pole is then mapped). ``seen_free``: a beam that ends where the map so far has a log-odds at
-    most this in all of the 3 x 3 cells around its end is left out: something stands where the
-    floor was seen, the grid difference of Sec. 4 (Fig. 6) applied to every beam, not only to
-    person features (None: off).
+    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide (``blobs.max_width``,
+    :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so far has a log-odds at
+    most this in all of the 3 x 3 cells around its end is left out: something person-sized stands
+    where the floor was seen, the grid difference of Sec. 4 (Fig. 6) applied to every such beam,
+    not only to person features (None: off). Long runs are never judged so: a wall that a
+    drifting path puts into space seen free before stays.
     """
 
     bin_size: float = 0.15
@@ -392,7 +394,7 @@ class PeopleFilteredMapper:
                 legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats, per_scan=True)
             out |= legs
         if p.seen_free is not None:
-            free = candidates & ~out
+            free = candidates & ~out & narrow_runs(item.scan, p.blobs)
             if free.any():
                 free[free] = self._evidence_around(pts[free]) <= p.seen_free
             out |= free
