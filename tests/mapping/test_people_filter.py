@@ -253,11 +253,13 @@ def test_a_standing_visitor_near_the_robot_is_left_out_by_the_leg_shape_but_not_
 
 def test_a_beam_ending_where_the_floor_was_seen_free_is_left_out() -> None:
     """A wall 6 m ahead seen free up to it; a flat box (no leg, no blob: 40 cm wide, near) appears
-    at 2 m, 4 m in front of it. With ``seen_free`` its beams are left out, the wall's never."""
+    at 2 m, 4 m in front of it. With ``seen_free`` its beams are left out; the wall's never, nor
+    those of a long run seen where the floor was free."""
     geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
     wall = 6.0 / np.cos(geom.angles)
     box = wall.copy()
     box[25:37] = 2.0 / np.cos(geom.angles[25:37])
+    box[0:20] = 2.5 / np.cos(geom.angles[0:20])  # a long run (a wall the path drifted into): kept
     scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall] * 3 + [box])]
     left = {}
     for seen_free in (None, -0.6):
@@ -269,4 +271,5 @@ def test_a_beam_ending_where_the_floor_was_seen_free_is_left_out() -> None:
         left[seen_free] = np.asarray(filtered.left_out)
     assert not left[None][3, 25:37].any()
     assert left[-0.6][3, 25:37].all()
+    assert not left[-0.6][3, 0:20].any()
     assert not left[-0.6][:3].any()
