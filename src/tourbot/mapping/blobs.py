@@ -9,7 +9,10 @@ jumps. Consecutive points belong to one run when they are closer than ``gap_fact
 spacing of two beams at that range (or ``cluster_distance``, whichever is larger), so that a
 surface seen at a distance is not cut into beam-sized pieces.
 
-The rule is vectorised numpy over the beams of one scan.
+The same runs, at most a person wide whatever lies beside them (:func:`narrow_runs`), are what
+the people filter may judge by the map alone (something person-sized where the floor was seen).
+
+The rules are vectorised numpy over the beams of one scan.
 """
 
 from __future__ import annotations

@@ -100,12 +100,12 @@ class PeopleFilterParams:
     (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
     feature holds them (visitors standing in groups), with the same evidence and repeat guards as
     the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
-    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide (``blobs.max_width``,
-    :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so far has a log-odds at
-    most this in all of the 3 x 3 cells around its end is left out: something person-sized stands
-    where the floor was seen, the grid difference of Sec. 4 (Fig. 6) applied to every such beam,
-    not only to person features (None: off). Long runs are never judged so: a wall that a
-    drifting path puts into space seen free before stays.
+    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide
+    (``blobs.max_width``, :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so
+    far has a log-odds at most this in all of the 3 x 3 cells around its end is left out:
+    something person-sized stands where the floor was seen, the grid difference of Sec. 4
+    (Fig. 6) applied to every such beam, not only to person features (None: off). Long runs are
+    never judged so: a wall that a drifting path puts into space seen free before stays.
     """
 
     bin_size: float = 0.15
