@@ -175,11 +175,22 @@ def test_the_modes() -> None:
     assert PeopleFilterParams.mode("sectors").free_sectors
     assert PeopleFilterParams.mode("blobs").far_blobs
     assert PeopleFilterParams.mode("blobs").consistency is None
+    assert not PeopleFilterParams.mode("blobs").leg_segments
     consistent = PeopleFilterParams.mode("consistent")
     assert consistent.far_blobs
     assert consistent.free_sectors
     assert consistent.consistency is not None
-    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "consistent"}
+    assert not consistent.leg_segments
+    shapes = PeopleFilterParams.mode("shapes")
+    assert shapes.far_blobs
+    assert shapes.free_sectors
+    assert shapes.leg_segments
+    assert shapes.seen_free is not None
+    assert shapes.consistency is None
+    thorough = PeopleFilterParams.mode("thorough")
+    assert thorough.leg_segments
+    assert thorough.consistency is not None
+    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "shapes", "consistent", "thorough"}
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("magic")
@@ -234,3 +245,67 @@ def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around
     assert not grids["consistent"].occupied()[row, col]
     changed = grids["blobs"].occupied() != grids["consistent"].occupied()
     assert changed.sum() == 1
+
+
+def test_a_standing_visitor_near_the_robot_is_left_out_by_the_leg_shape_but_not_a_pole() -> None:
+    """Legs 2 m away in the first scan, standing where nothing was seen before (no track, no moving
+    feature, no floor seen free): the shapes mode leaves out the beams on them; a leg-sized pole
+    seen at one spot scan after scan is mapped from its fourth scan on (one sighting per scan,
+    however many beams hit it)."""
+    geom = LaserGeometry(121, -math.radians(60), math.radians(1), 30.0)
+    wall = 6.0 / np.cos(geom.angles)
+
+    def with_circle(r: np.ndarray, at: float, radius: float, distance: float) -> np.ndarray:
+        # a circle at angle ``at`` (rad), ``distance`` away: ranges of the beams that hit it
+        out = r.copy()
+        off = distance * np.sin(geom.angles - at)
+        hit = (np.abs(off) < radius) & (np.cos(geom.angles - at) > 0)
+        along = distance * np.cos(geom.angles - at) - np.sqrt(np.maximum(radius**2 - off**2, 0.0))
+        out[hit] = np.minimum(out[hit], along[hit])
+        return out
+
+    pole = with_circle(wall, math.radians(-30), 0.06, 2.0)
+    visitor = with_circle(with_circle(pole, math.radians(20), 0.06, 2.0), math.radians(26), 0.06, 2.0)
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([visitor] + [pole] * 4)]
+    left = {}
+    for mode in ("blobs", "shapes"):
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+        for scan in scans:
+            filtered.add_scan(scan, pose=np.zeros(3))
+        filtered.finish()
+        left[mode] = np.asarray(filtered.left_out)
+    on_visitor = visitor < 3.0
+    on_visitor &= geom.angles > 0
+    on_pole = (pole < 3.0) & (geom.angles < 0)
+    assert on_visitor.sum() >= 4
+    assert on_pole.sum() >= 2
+    assert not left["blobs"][0, on_visitor].any()  # no track, no blob: the visitor stays
+    assert left["shapes"][0, on_visitor].all()
+    assert left["shapes"][:3][:, on_pole].all()  # the pole the first three times ...
+    assert not left["shapes"][3:][:, on_pole].any()  # ... then it is static
+    # nothing else, the wall never
+    assert left["shapes"].sum() == on_visitor.sum() + left["shapes"][:, on_pole].sum()
+
+
+def test_a_beam_ending_where_the_floor_was_seen_free_is_left_out() -> None:
+    """A wall 6 m ahead seen free up to it; a flat box (no leg, no blob: 40 cm wide, near) appears
+    at 2 m, 4 m in front of it. With ``seen_free`` its beams are left out; the wall's never, nor
+    those of a long run seen where the floor was free."""
+    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
+    wall = 6.0 / np.cos(geom.angles)
+    box = wall.copy()
+    box[25:37] = 2.0 / np.cos(geom.angles[25:37])
+    box[0:20] = 2.5 / np.cos(geom.angles[0:20])  # a long run (a wall the path drifted into): kept
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall] * 3 + [box])]
+    left = {}
+    for seen_free in (None, -0.6):
+        params = PeopleFilterParams(seen_free=seen_free)
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
+        for scan in scans:
+            filtered.add_scan(scan, pose=np.zeros(3))
+        filtered.finish()
+        left[seen_free] = np.asarray(filtered.left_out)
+    assert not left[None][3, 25:37].any()
+    assert left[-0.6][3, 25:37].all()
+    assert not left[-0.6][3, 0:20].any()
+    assert not left[-0.6][:3].any()

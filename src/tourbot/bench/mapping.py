@@ -235,7 +235,7 @@ def register(bench: typer.Typer) -> None:
             str,
             typer.Option(
                 help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
-                "consistent); "
+                "shapes, consistent, thorough); "
                 "the first is drawn and used for scan matching."
             ),
         ] = "paper,sectors,blobs",

@@ -31,8 +31,10 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="With --people-filter: paper (tracks and person features), sectors (and the space "
-                "seen between beams cleared), blobs (and far person-sized blobs left out), consistent "
-                "(blobs, and small specks the finished map sees free floor around and behind cleared)."
+                "seen between beams cleared), blobs (and far person-sized blobs left out), shapes (and the "
+                "beams of leg-shaped segments and of ends where the floor was seen free), consistent "
+                "(blobs, and small specks the finished map sees free floor around and behind cleared), "
+                "thorough (shapes and the check of consistent)."
             ),
         ] = "blobs",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,

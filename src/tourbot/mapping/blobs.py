@@ -9,7 +9,10 @@ jumps. Consecutive points belong to one run when they are closer than ``gap_fact
 spacing of two beams at that range (or ``cluster_distance``, whichever is larger), so that a
 surface seen at a distance is not cut into beam-sized pieces.
 
-The rule is vectorised numpy over the beams of one scan.
+The same runs, at most a person wide whatever lies beside them (:func:`narrow_runs`), are what
+the people filter may judge by the map alone (something person-sized where the floor was seen).
+
+The rules are vectorised numpy over the beams of one scan.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from numpy.typing import NDArray
 
 from tourbot.records import Scan
 
-__all__ = ["BlobParams", "person_blobs"]
+__all__ = ["BlobParams", "narrow_runs", "person_blobs"]
 
 
 @dataclass(frozen=True)
@@ -36,16 +39,17 @@ class BlobParams:
     gap_factor: float = 2.5
 
 
-def person_blobs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.bool_]:
-    """Which beams of ``scan`` end on a person-sized blob standing out on both sides ``(B,)``."""
-    p = params or BlobParams()
+def _runs(
+    scan: Scan, p: BlobParams
+) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """The runs of ``scan``: which beams returned, their points ``(B, 2)`` in the laser frame, and
+    each run's first and last beam and each beam's run (every beam is in one, a beam without a
+    return alone)."""
     g = scan.geometry
     r = np.asarray(scan.ranges, dtype=np.float64)
     n = len(r)
     with np.errstate(invalid="ignore"):
         valid = np.isfinite(r) & (r > g.min_range) & (r < g.max_range)
-    if n < 3 or not valid.any():
-        return np.zeros(n, dtype=bool)
     rv = np.where(valid, r, 0.0)
     ang = g.angles
     xy = np.stack([rv * np.cos(ang), rv * np.sin(ang)], axis=1)
@@ -56,6 +60,30 @@ def person_blobs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.boo
     seg = np.cumsum(start) - 1
     first = np.flatnonzero(start)
     last = np.r_[first[1:] - 1, n - 1]
+    return valid, xy, first, last, seg
+
+
+def narrow_runs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.bool_]:
+    """Which beams of ``scan`` ``(B,)`` returned on a run at most ``max_width`` wide (at any range
+    and whatever lies beside it): a person, a pole, the edge of something; not a wall."""
+    p = params or BlobParams()
+    if len(scan.ranges) == 0:
+        return np.zeros(0, dtype=bool)
+    valid, xy, first, last, seg = _runs(scan, p)
+    width = np.linalg.norm(xy[last] - xy[first], axis=1)
+    return np.asarray((width <= p.max_width)[seg] & valid)
+
+
+def person_blobs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.bool_]:
+    """Which beams of ``scan`` end on a person-sized blob standing out on both sides ``(B,)``."""
+    p = params or BlobParams()
+    r = np.asarray(scan.ranges, dtype=np.float64)
+    n = len(r)
+    if n < 3:
+        return np.zeros(n, dtype=bool)
+    valid, xy, first, last, seg = _runs(scan, p)
+    if not valid.any():
+        return np.zeros(n, dtype=bool)
     far = np.where(valid, r, np.inf)
     nearest = np.minimum.reduceat(far, first)
     farthest = np.maximum.reduceat(np.where(valid, r, -np.inf), first)

@@ -39,10 +39,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
-from tourbot.mapping.blobs import BlobParams, person_blobs
+from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.people.legs import LegConfig, leg_beams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
@@ -57,7 +58,7 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-FILTER_MODES = ("paper", "sectors", "blobs", "consistent")
+FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough")
 
 
 @dataclass(frozen=True)
@@ -94,6 +95,19 @@ class PeopleFilterParams:
     the 3 x 3 cells around their end (something static seen there before), and fewer than
     ``blob_repeats`` blobs were left out there before: a pole seen from afar is a blob in scan
     after scan at one spot, and is mapped from its ``blob_repeats + 1``-th scan on.
+
+    Rules on the shape of each scan and the map so far (``shapes``), for the map only (alignment
+    keeps the weights above): ``leg_segments``: the beams of every leg candidate within
+    ``leg_range`` whose P(leg) by the width and contrast rule is at least ``leg_probability``
+    (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
+    feature holds them (visitors standing in groups), with the same evidence and repeat guards as
+    the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
+    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide
+    (``blobs.max_width``, :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so
+    far has a log-odds at most this in all of the 3 x 3 cells around its end is left out:
+    something person-sized stands where the floor was seen, the grid difference of Sec. 4
+    (Fig. 6) applied to every such beam, not only to person features (None: off). Long runs are
+    never judged so: a wall that a drifting path puts into space seen free before stays.
     ``consistency``: the finished map is checked against itself
     (:mod:`tourbot.mapping.consistency`): small occupied specks with free floor around them and
     behind them along the beams that hit them are cleared (None: no check).
@@ -117,19 +131,29 @@ class PeopleFilterParams:
     blobs: BlobParams = field(default_factory=BlobParams)
     blob_evidence: float = 0.5
     blob_repeats: int = 3
+    leg_segments: bool = False
+    leg_probability: float = 0.99
+    leg_range: float = 4.0
+    leg_repeats: int = 3
+    seen_free: float | None = None
     consistency: ConsistencyParams | None = None
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
         """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
-        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``consistent``
-        (``blobs``, and the finished map's specks that its free space contradicts cleared)."""
+        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``shapes`` (and
+        leg segments and beams ending in space seen free), ``consistent`` (``blobs``, and the
+        finished map's specks that its free space contradicts cleared), ``thorough`` (``shapes``
+        and the check of ``consistent``)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
+        shapes = name in ("shapes", "thorough")
         return cls(
             free_sectors=name != "paper",
-            far_blobs=name in ("blobs", "consistent"),
-            consistency=ConsistencyParams() if name == "consistent" else None,
+            far_blobs=name not in {"paper", "sectors"},
+            leg_segments=shapes,
+            seen_free=-0.6 if shapes else None,
+            consistency=ConsistencyParams() if name in ("consistent", "thorough") else None,
         )
 
 
@@ -248,6 +272,7 @@ class PeopleFilteredMapper:
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
         self._origins: list[FloatArray] = []  # per scan written: the laser position of each kept end
         self._ends: list[FloatArray] = []  # per scan written: the world ends of the kept beams
+        self._leg_spots: dict[tuple[int, int], int] = {}  # leg segments' beams left out, by map cell
 
     @classmethod
     def create(
@@ -370,21 +395,52 @@ class PeopleFilteredMapper:
             if blob.any():  # nothing seen occupied around it yet: not a pole or an exhibit's edge
                 blob[blob] = self._evidence_around(pts[blob]) < self.params.blob_evidence
             if blob.any() and into == "map":
-                blob[blob] = self._new_blob_spots(pts[blob])
+                blob[blob] = self._new_spots(pts[blob], self._blob_spots, self.params.blob_repeats)
             person |= blob
+        if into == "map":
+            person |= self._shape_beams(item, pts, hit & ~person)
         return person
 
-    def _new_blob_spots(self, points: FloatArray) -> NDArray[np.bool_]:
-        """Which blob ends lie where fewer than ``blob_repeats`` blobs were left out before (in the
-        3 x 3 cells around); counts them. A blob seen again and again at one spot is static."""
+    def _shape_beams(
+        self, item: _Pending, pts: FloatArray, candidates: NDArray[np.bool_]
+    ) -> NDArray[np.bool_]:
+        """The beams among ``candidates`` that the rules on the scan's shape and the map so far
+        leave out (``leg_segments``, ``seen_free``; see :class:`PeopleFilterParams`)."""
+        p = self.params
+        out = np.zeros(len(candidates), dtype=bool)
+        if p.leg_segments:
+            legs = candidates & leg_beams(
+                item.scan, LegConfig(model=None, max_range=p.leg_range), p.leg_probability
+            )
+            if legs.any():
+                legs[legs] = self._evidence_around(pts[legs]) < p.blob_evidence
+            if legs.any():
+                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats, per_scan=True)
+            out |= legs
+        if p.seen_free is not None:
+            free = candidates & ~out & narrow_runs(item.scan, p.blobs)
+            if free.any():
+                free[free] = self._evidence_around(pts[free]) <= p.seen_free
+            out |= free
+        return out
+
+    def _new_spots(
+        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int, per_scan: bool = False
+    ) -> NDArray[np.bool_]:
+        """Which ends of one scan lie where fewer than ``repeats`` ends were left out before (in the
+        3 x 3 cells around, counted in ``spots``); counts them. A blob seen again and again at one
+        spot is static. Without ``per_scan`` every end counts (the far blobs: a beam or two each);
+        with it a cell counts once per scan and the most-counted cell around decides, so that a
+        leg seen by several beams of one scan counts as one sighting."""
         res = self.mapper.params.resolution
         cells = np.floor(points / res).astype(np.int64)
         new = np.zeros(len(cells), dtype=bool)
         for k, (cx, cy) in enumerate(cells.tolist()):
-            seen = sum(self._blob_spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1))
-            new[k] = seen < self.params.blob_repeats
-        for cx, cy in cells[new].tolist():
-            self._blob_spots[(cx, cy)] = self._blob_spots.get((cx, cy), 0) + 1
+            around = [spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
+            new[k] = (max(around) if per_scan else sum(around)) < repeats
+        counted = {(cx, cy) for cx, cy in cells[new].tolist()} if per_scan else cells[new].tolist()
+        for cx, cy in counted:
+            spots[(cx, cy)] = spots.get((cx, cy), 0) + 1
         return new
 
     def _write(self, item: _Pending) -> None:
