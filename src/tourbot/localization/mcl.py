@@ -227,6 +227,8 @@ class MCLConfig:
     )
     lost_margin: float = 0.5
     lost_fraction: float = 0.3
+    verify_period: float | None = None
+    verify_margin: float = 0.5
     lost_min_beams: int = 20
     lost_hypotheses: int = 8
     global_after: int = 3
@@ -279,6 +281,11 @@ class MonteCarloLocalization:
         self._w_slow = 0.0
         self._w_fast = 0.0
         self._lost_scans = 0  # consecutive scans whose estimate has readings through mapped walls
+        # Verification (``verify_period``): the next scan time due, and whether the last one
+        # found a place that explains the scan clearly better than the track (or a recovery
+        # guess has just replaced the track): until a verification passes, every scan verifies.
+        self._next_verify = -math.inf
+        self._suspect = False
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
@@ -323,6 +330,8 @@ class MonteCarloLocalization:
         self._w_slow = 0.0
         self._w_fast = 0.0
         self._lost_scans = 0
+        self._next_verify = -math.inf
+        self._suspect = False
         self._global_cells = None
         self._global_phase = False
 
@@ -429,13 +438,27 @@ class MonteCarloLocalization:
             inject_fraction = cfg.max_injection
         info["lost_scans"] = float(self._lost_scans)
 
+        # 4c. Verification against the best place the scan suggests (``verify_period``).
+        reset_poses: FloatArray | None = None
+        due = self._suspect or scan.timestamp >= self._next_verify
+        if judged and cfg.verify_period is not None and cfg.max_injection > 0 and due:
+            self._next_verify = scan.timestamp + cfg.verify_period
+            reset_poses, margin = self._verify(pose, ranges, geometry, field_, valid)
+            info["verify_margin"] = margin
+            self._suspect = margin > cfg.verify_margin
+            if self._suspect:
+                inject_fraction = cfg.max_injection
+            else:
+                reset_poses = None
+        info["suspect"] = float(self._suspect)
+
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if (
             n_used
             and not global_start
             and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0)
         ):
-            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose)
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose, reset_poses)
         info["injected"] = float(injected)
 
         est = LocalizationEstimate(
@@ -654,8 +677,9 @@ class MonteCarloLocalization:
                 labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
             )
             best = int(np.argmax(w_fresh + w_old))
-            # The track stays contradicted through scans that are no evidence (NaN).
-            contradicted = self._global_phase or self._lost_scans > 0
+            # The track stays contradicted through scans that are no evidence (NaN), and while
+            # the last verification found a clearly better place (``_suspect``).
+            contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
             won = contradicted and w_fresh[best] > w_old[best]
             guess = int(np.argmax(w_fresh))
             if contradicted and not won and w_fresh[guess] > 0:
@@ -672,6 +696,8 @@ class MonteCarloLocalization:
                 self._fresh[:] = False
                 self._fresh_won = 0
                 pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+                # a recovery guess is now the track: verify it on this scan already
+                self._suspect = cfg.verify_period is not None
         return pose, cov, weight, too_long
 
     def _resample(
@@ -682,7 +708,10 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
         estimate: FloatArray,
+        reset_poses: FloatArray | None = None,
     ) -> int:
+        """Resample (KLD count) and replace ``inject_fraction`` of the samples by fresh poses:
+        ``reset_poses`` when given (a verification's search), else :meth:`_scan_drawn_poses`."""
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
         if self._global_phase:
@@ -710,7 +739,10 @@ class MonteCarloLocalization:
             # The new guesses replace the older ones that have not won first, so fresh samples
             # never outnumber max_injection of the set, however long a crowd keeps resetting.
             slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
-            drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
+            drawn_poses = reset_poses
+            if drawn_poses is None:
+                far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
+                drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate, far)
             slots = slots[: drawn_poses.shape[0]]
             new[slots] = drawn_poses[: slots.size]
             fresh[slots] = True
@@ -727,14 +759,16 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
         estimate: FloatArray,
+        far: bool,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
 
         Candidates are ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` metres, any heading: a drift in a crowd, a kidnap by a metre);
-        once the estimate has been contradicted on ``global_after`` scans in a row (or when the
-        fit of the scan triggered the reset), also the ``injection_survivors`` best of
+        with ``far`` (the caller's choice: once the estimate has been contradicted on
+        ``global_after`` scans in a row, when the fit of the scan triggered the reset, or for a
+        verification), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
         field of the longest returns (cheap, no ray casting). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
@@ -752,12 +786,12 @@ class MonteCarloLocalization:
                 ]
             )
         ]
-        if self._lost_scans == 0 or self._lost_scans >= cfg.global_after:
-            far = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+        if far:
+            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
             longest = _longest(ranges, valid, cfg.injection_long_fraction)
             if longest.any():
-                far = self._anneal(far, keep, ranges, geometry, field_, longest, 1)[0]
-            pool.append(far[: cfg.injection_survivors])
+                far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1)[0]
+            pool.append(far_poses[: cfg.injection_survivors])
         cand = np.vstack(pool)
         cand = cand[self._in_free_space(cand)]
         if not valid.any() or cand.shape[0] == 0:
@@ -768,6 +802,36 @@ class MonteCarloLocalization:
 
         drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score)[0]
         return drawn[self.rng.permutation(drawn.shape[0])[:n]]
+
+    def _verify(
+        self,
+        pose: FloatArray,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        field_: LikelihoodField,
+        valid: NDArray[np.bool_],
+    ) -> tuple[FloatArray, float]:
+        """Search the map for the places that best explain the scan (:meth:`_scan_drawn_poses`,
+        around the estimate and over the whole free space) and compare the best of them with the
+        tracked ``pose`` under the crowd beam model (:meth:`_crowd_log_likelihood`): a likelihood
+        ratio test of the track against its best alternative. Returns the drawn poses (the
+        reset samples, should the track lose) and the margin, the difference of the two
+        log-likelihoods per return (0 when the track is the best explanation found).
+
+        The too-long test (:meth:`_too_long_fraction`) cannot see every wrong pose: moved along
+        a hall or a corridor, the track's readings are mostly shorter than expected on one side
+        (excused as visitors) and about right elsewhere. Under the crowd model a shorter
+        reading costs (``z_short`` instead of ``z_hit``) where the true pose explains it, so a
+        true place wins by several nats per return, while at a correct track the best
+        alternative is the track itself, a few centimetres off.
+        """
+        n = max(1, round(self.config.max_injection * max(self.samples.shape[0], self.config.max_samples)))
+        drawn = self._scan_drawn_poses(n, ranges, geometry, field_, valid, pose, True)
+        n_valid = int(valid.sum())
+        if drawn.shape[0] == 0 or n_valid == 0:
+            return drawn, 0.0
+        ll = self._crowd_log_likelihood(np.vstack([pose[None, :], drawn]), ranges, geometry, valid)
+        return drawn, max(0.0, float(ll[1:].max() - ll[0]) / n_valid)
 
     def _too_long_fraction(
         self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]

@@ -44,10 +44,12 @@ class SimulationSettings:
     crowd: str | int = "peak"
     seed: int = 0
     particles: int = 1000
-    # Sensor resetting (augmented MCL's injection of scan-drawn samples) is for kidnapping and global
-    # localization; on a tour that starts at a known pose, in a crowd that hides most of the walls,
-    # it mostly injects look-alike places (seen in peak-crowd runs: 20-30 m jumps), so it is off.
-    max_injection: float = 0.0
+    # Sensor resetting (augmented MCL's injection of scan-drawn samples) for a robot carried off,
+    # standing or driving: at most this share of the samples per scan; 0 turns recovery off.
+    max_injection: float = 0.2
+    # Every this many seconds (of scans integrated) the track is checked against the best place
+    # the scan suggests (MCLConfig.verify_period); None: only the too-long test notices a kidnap.
+    verify_period: float | None = 5.0
     localization: UpdatePolicy = field(default_factory=UpdatePolicy)
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
@@ -81,7 +83,10 @@ def simulated_runtime(
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start)
     mcl_cfg = MCLConfig(
-        max_samples=s.particles, min_samples=min(500, s.particles), max_injection=s.max_injection
+        max_samples=s.particles,
+        min_samples=min(500, s.particles),
+        max_injection=s.max_injection,
+        verify_period=s.verify_period,
     )
     mcl = MonteCarloLocalization(site.grid, mcl_cfg, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
