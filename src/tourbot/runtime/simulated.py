@@ -7,6 +7,7 @@ the people, the doors' states or where the benches are now) and navigates on tha
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
@@ -18,7 +19,7 @@ from tourbot.sim.crowd import PRESETS, CrowdConfig, CrowdError
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
 
-__all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime"]
+__all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime", "time_to_recover"]
 
 
 def crowd_config(crowd: str | int) -> CrowdConfig | None:
@@ -106,3 +107,38 @@ def simulated_runtime(
         config=RuntimeConfig(speedup=s.speedup),
     )
     return SimulatedRobot(runtime, simulator, navigator, metrics, recorder)
+
+
+def time_to_recover(
+    robot: SimulatedRobot,
+    window: float,
+    *,
+    distance: float = 0.3,
+    heading: float = math.radians(10.0),
+    hold: float = 3.0,
+) -> float | None:
+    """Step ``robot`` until its estimate is within ``distance`` metres and ``heading`` radians of
+    the truth and stays there for ``hold`` seconds; the seconds from now until it got there, or
+    None if that does not happen within ``window`` seconds (or the source ends)."""
+    rt = robot.runtime
+    start = rt.source.time
+    since: float | None = None
+    while rt.source.time < start + window:
+        snap = rt.step()
+        if snap is None:
+            return None
+        error = snap.position_error
+        good = (
+            error is not None
+            and snap.pose is not None
+            and snap.truth is not None
+            and error <= distance
+            and abs(math.remainder(snap.pose.theta - snap.truth.pose[2], 2 * math.pi)) <= heading
+        )
+        if not good:
+            since = None
+            continue
+        since = snap.time if since is None else since
+        if snap.time - since >= hold:
+            return since - start
+    return None
