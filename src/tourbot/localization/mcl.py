@@ -179,12 +179,11 @@ class MCLConfig:
         logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
         false alarms on FHW (map corners, glass) and 0.4-1.4 % on Intel, while 98-100 % of the
         scans of a track more than 1 m off are caught (0.4: 0.5-1 % and 84-100 %).
-        ``verify_period`` (seconds of scan time; None: never) and ``verify_margin`` 0.5 nats per
-        return: the verification of the track (module docstring, step 4). The margin: at a
-        correct track the best alternative is the track a few centimetres off (0-0.3 nats per
-        return in the simulated peak crowd), a track 4-5 m off loses by 1.5-2.7 (FHW site,
-        peak crowd, 2026-12-01). Not tuned further. Each verification costs one reset search
-        (about 80 ms at 90 returns on FHW).
+        ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` 0.5 nats per
+        return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
+        docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
+        (about 80 ms at 90 returns on the FHW site). The figures behind the margin are in
+        docs/benchmarks.md (section sim); not tuned beyond them.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space. ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
@@ -245,6 +244,7 @@ class MCLConfig:
     lost_fraction: float = 0.3
     verify_period: float | None = None
     verify_margin: float = 0.5
+    verify_distance: tuple[float, float] = (1.0, math.radians(30.0))
     lost_min_beams: int = 20
     lost_hypotheses: int = 8
     global_after: int = 3
@@ -779,6 +779,7 @@ class MonteCarloLocalization:
         valid: NDArray[np.bool_],
         estimate: FloatArray,
         far: bool,
+        keep_fresh: bool = False,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -789,7 +790,9 @@ class MonteCarloLocalization:
         ``global_after`` scans in a row, when the fit of the scan triggered the reset, or for a
         verification), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
-        field of the longest returns (cheap, no ray casting). The pool is then annealed on the
+        field of the longest returns (cheap, no ray casting), and with ``keep_fresh`` the fresh
+        samples (earlier scans' guesses, moved by the odometry since: a search that missed the
+        true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
         ``injection_survivors`` poses, of which ``n`` are kept at random.
         """
@@ -811,6 +814,8 @@ class MonteCarloLocalization:
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1)[0]
             pool.append(far_poses[: cfg.injection_survivors])
+        if keep_fresh and self._fresh.any():
+            pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
         cand = np.vstack(pool)
         cand = cand[self._in_free_space(cand)]
         if not valid.any() or cand.shape[0] == 0:
@@ -833,9 +838,12 @@ class MonteCarloLocalization:
         """Search the map for the places that best explain the scan (:meth:`_scan_drawn_poses`,
         around the estimate and over the whole free space) and compare the best of them with the
         tracked ``pose`` under the crowd beam model (:meth:`_crowd_log_likelihood`): a likelihood
-        ratio test of the track against its best alternative. Returns the drawn poses (the
-        reset samples, should the track lose) and the margin, the difference of the two
-        log-likelihoods per return (0 when the track is the best explanation found).
+        ratio test of the track against its best alternative. Only other places are
+        alternatives: poses more than ``verify_distance`` (1 m or 30 deg) from the track (the
+        track a few centimetres off is the same place, and refining it is the filter's job).
+        Returns the drawn poses (the reset samples, should the track lose) and the margin, the
+        difference of the two log-likelihoods per return (0 when no other place explains the
+        scan better).
 
         The too-long test (:meth:`_too_long_fraction`) cannot see every wrong pose: moved along
         a hall or a corridor, the track's readings are mostly shorter than expected on one side
@@ -844,12 +852,18 @@ class MonteCarloLocalization:
         true place wins by several nats per return, while at a correct track the best
         alternative is the track itself, a few centimetres off.
         """
-        n = max(1, round(self.config.max_injection * max(self.samples.shape[0], self.config.max_samples)))
-        drawn = self._scan_drawn_poses(n, ranges, geometry, field_, valid, pose, True)
+        cfg = self.config
+        n = max(1, round(cfg.max_injection * max(self.samples.shape[0], cfg.max_samples)))
+        drawn = self._scan_drawn_poses(n, ranges, geometry, field_, valid, pose, True, keep_fresh=True)
         n_valid = int(valid.sum())
-        if drawn.shape[0] == 0 or n_valid == 0:
+        # only another place counts: the track itself a little off is no alternative
+        away = (np.hypot(drawn[:, 0] - pose[0], drawn[:, 1] - pose[1]) > cfg.verify_distance[0]) | (
+            np.abs(wrap_angle(drawn[:, 2] - pose[2])) > cfg.verify_distance[1]
+        )
+        if not away.any() or n_valid == 0:
             return drawn, 0.0
-        ll = self._crowd_log_likelihood(np.vstack([pose[None, :], drawn]), ranges, geometry, valid)
+        others = drawn[away]
+        ll = self._crowd_log_likelihood(np.vstack([pose[None, :], others]), ranges, geometry, valid)
         return drawn, max(0.0, float(ll[1:].max() - ll[0]) / n_valid)
 
     def _too_long_fraction(
