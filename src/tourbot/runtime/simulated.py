@@ -47,9 +47,12 @@ class SimulationSettings:
     particles: int = 1000
     # Sensor resetting (augmented MCL's injection of scan-drawn samples) for a robot carried off,
     # standing or driving: at most this share of the samples per scan; 0 turns recovery off.
+    # A guess replaces the track only after beating it on two scans that contradict the track
+    # (MCLConfig.fresh_wins), so a crowd that makes a look-alike place fit once cannot move it.
     max_injection: float = 0.2
-    # Every this many seconds (of scans integrated) the track is checked against the best place
-    # the scan suggests (MCLConfig.verify_period); None: only the too-long test notices a kidnap.
+    # Every this many seconds of scans the track is checked against the best other place the
+    # scan suggests (MCLConfig.verify_period): a standing robot, or one moved along a hall, is
+    # not caught by readings through walls alone. None: only that test notices a kidnap.
     verify_period: float | None = 5.0
     localization: UpdatePolicy = field(default_factory=UpdatePolicy)
     sim: SimConfig = field(default_factory=SimConfig)
