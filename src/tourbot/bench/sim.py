@@ -65,6 +65,7 @@ class KidnapRun:
 
     seed: int
     touring: bool
+    time: float
     source: tuple[float, float, float]
     destination: tuple[float, float, float]
     recovered: float | None
@@ -97,12 +98,16 @@ def _kidnap(
     start: tuple[float, float, float],
     tour: str | None,
     at: float,
+    spread: float,
     distance: float,
     window: float,
 ) -> KidnapRun:
-    """Stand (``tour`` None) or tour until ``at`` seconds, carry the robot off, time its recovery."""
+    """Stand (``tour`` None) or tour until ``at`` + U(0, ``spread``) seconds (the kidnap falls
+    anywhere between two of the localizer's verifications), carry the robot off, time its recovery."""
     from tourbot.runtime.simulated import simulated_runtime, time_to_recover
 
+    rng = np.random.default_rng([settings.seed, int(tour is None)])
+    at += rng.uniform(0.0, spread)
     robot = simulated_runtime(site, settings, start=start, record=False)
     rt = robot.runtime
     if tour is not None:
@@ -110,14 +115,12 @@ def _kidnap(
     while rt.source.time < at and rt.step() is not None:
         pass
     here = robot.simulator.robot.pose
-    there = _carry_destination(
-        site, here, distance, np.random.default_rng([settings.seed, int(tour is None)])
-    )
+    there = _carry_destination(site, here, distance, rng)
     robot.simulator.carry(there)
     recovered = time_to_recover(robot, window)
     c = robot.simulator.collisions
     rt.close()
-    return KidnapRun(settings.seed, tour is not None, here, there, recovered, c.person + c.invisible)
+    return KidnapRun(settings.seed, tour is not None, at, here, there, recovered, c.person + c.invisible)
 
 
 def _sim_speed(site: Site, people: int, steps: int, seed: int = 0) -> tuple[float, float, float]:
@@ -155,6 +158,7 @@ def register(bench: typer.Typer) -> None:
         kidnap_distance: float = typer.Option(5.0, help="How far (m) the robot is carried."),
         kidnap_stand: float = typer.Option(20.0, help="Seconds standing before the standing kidnap."),
         kidnap_tour: float = typer.Option(60.0, help="Seconds into the tour of the touring kidnap."),
+        kidnap_spread: float = typer.Option(5.0, help="The kidnap's time is drawn over this many seconds."),
         kidnap_window: float = typer.Option(60.0, help="Seconds allowed to recover from a kidnap."),
         tours: bool = typer.Option(True, help="Run the tours (--no-tours: only speed and kidnaps)."),
         max_injection: float = typer.Option(
@@ -297,6 +301,7 @@ def register(bench: typer.Typer) -> None:
                                 start,
                                 tour if touring else None,
                                 kidnap_tour if touring else kidnap_stand,
+                                kidnap_spread,
                                 kidnap_distance,
                                 kidnap_window,
                             )

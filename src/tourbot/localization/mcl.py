@@ -274,6 +274,9 @@ class MonteCarloLocalization:
         self.grid = grid
         self.config = config or MCLConfig()
         self.rng = np.random.default_rng(seed)
+        # The verification's searches draw from their own stream: a verification that passes
+        # leaves the filter exactly as it would be without verifying.
+        self._verify_rng = np.random.default_rng(None if seed is None else [seed, 1])
         free = grid.free()
         if not free.any():
             raise LocalizationError("the map has no free cell to localize in")
@@ -600,13 +603,16 @@ class MonteCarloLocalization:
         beams: NDArray[np.bool_],
         max_stages: int,
         score: Callable[[FloatArray, NDArray[np.bool_]], FloatArray] | None = None,
+        rng: np.random.Generator | None = None,
     ) -> tuple[FloatArray, int]:
         """``n`` poses drawn from the candidates ``cand`` by the tempered likelihood of ``beams``,
         brought in by stages that keep the effective sample size at ``global_ess * n``; the first
         stage scores every ``global_beam_step``-th beam only, later ones (on ``n`` jittered
         survivors) all of them. ``score(poses, beam_mask)`` is the scan's log-likelihood per pose
-        (the likelihood field by default). Returns the poses and the number of stages."""
+        (the likelihood field by default). ``rng``: the localizer's generator by default.
+        Returns the poses and the number of stages."""
         cfg = self.config
+        rng = self.rng if rng is None else rng
         if score is None:
 
             def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
@@ -628,8 +634,8 @@ class MonteCarloLocalization:
             logw = logw + step * ll
             left -= step
             w = np.exp(logw - logw.max())
-            idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
-            cand = cand[idx] + self.rng.standard_normal((n, 3)) * jitter
+            idx = low_variance_resample(w / w.sum(), n, float(rng.random()))
+            cand = cand[idx] + rng.standard_normal((n, 3)) * jitter
             cand[:, 2] = wrap_angle(cand[:, 2])
             inside = self._in_free_space(cand)
             if left <= 1e-12 or stages >= max_stages or not inside.any():
@@ -780,6 +786,7 @@ class MonteCarloLocalization:
         estimate: FloatArray,
         far: bool,
         keep_fresh: bool = False,
+        rng: np.random.Generator | None = None,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -797,22 +804,23 @@ class MonteCarloLocalization:
         ``injection_survivors`` poses, of which ``n`` are kept at random.
         """
         cfg = self.config
+        rng = self.rng if rng is None else rng
         keep = max(n, cfg.injection_survivors)
         m = cfg.injection_local_candidates
         pool = [
             np.column_stack(
                 [
-                    estimate[0] + cfg.injection_local_std * self.rng.standard_normal(m),
-                    estimate[1] + cfg.injection_local_std * self.rng.standard_normal(m),
-                    self.rng.uniform(-math.pi, math.pi, m),
+                    estimate[0] + cfg.injection_local_std * rng.standard_normal(m),
+                    estimate[1] + cfg.injection_local_std * rng.standard_normal(m),
+                    rng.uniform(-math.pi, math.pi, m),
                 ]
             )
         ]
         if far:
-            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, rng)
             longest = _longest(ranges, valid, cfg.injection_long_fraction)
             if longest.any():
-                far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1)[0]
+                far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
@@ -824,8 +832,8 @@ class MonteCarloLocalization:
         def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
             return self._crowd_log_likelihood(poses, ranges, geometry, mask)
 
-        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score)[0]
-        return drawn[self.rng.permutation(drawn.shape[0])[:n]]
+        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score, rng)[0]
+        return drawn[rng.permutation(drawn.shape[0])[:n]]
 
     def _verify(
         self,
@@ -854,7 +862,9 @@ class MonteCarloLocalization:
         """
         cfg = self.config
         n = max(1, round(cfg.max_injection * max(self.samples.shape[0], cfg.max_samples)))
-        drawn = self._scan_drawn_poses(n, ranges, geometry, field_, valid, pose, True, keep_fresh=True)
+        drawn = self._scan_drawn_poses(
+            n, ranges, geometry, field_, valid, pose, True, keep_fresh=True, rng=self._verify_rng
+        )
         n_valid = int(valid.sum())
         # only another place counts: the track itself a little off is no alternative
         away = (np.hypot(drawn[:, 0] - pose[0], drawn[:, 1] - pose[1]) > cfg.verify_distance[0]) | (
