@@ -54,7 +54,9 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    ratio test of the track against its best alternative. When the alternative explains the
    scan better by more than ``verify_margin`` nats per return the track counts as contradicted,
    the search's poses are injected as fresh samples, and every scan is verified until a
-   verification passes (also right after a recovery guess has become the track);
+   verification passes, and for ``verify_period`` seconds after a recovery guess has become
+   the track (one search may miss the true place, and the guess then only had to beat a
+   track that was wrong);
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -305,6 +307,8 @@ class MonteCarloLocalization:
         # guess has just replaced the track): until a verification passes, every scan verifies.
         self._next_verify = -math.inf
         self._suspect = False
+        self._recovered = False  # a recovery guess became the track on this scan
+        self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
@@ -351,6 +355,8 @@ class MonteCarloLocalization:
         self._lost_scans = 0
         self._next_verify = -math.inf
         self._suspect = False
+        self._recovered = False  # a recovery guess became the track on this scan
+        self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         self._global_cells = None
         self._global_phase = False
 
@@ -461,7 +467,10 @@ class MonteCarloLocalization:
         reset_poses: FloatArray | None = None
         # Judged on every return, also when the filter kept none (a track so wrong that every
         # reading is shorter than expected looks like a crowd all around to the filter).
-        due = self._suspect or scan.timestamp >= self._next_verify
+        if self._recovered and cfg.verify_period is not None:
+            self._verify_until = scan.timestamp + cfg.verify_period
+        self._recovered = False
+        due = self._suspect or scan.timestamp >= self._next_verify or scan.timestamp < self._verify_until
         tracking = not global_start and not self._global_phase and valid.sum() >= cfg.lost_min_beams
         if tracking and cfg.verify_period is not None and cfg.max_injection > 0 and due:
             self._next_verify = scan.timestamp + cfg.verify_period
@@ -723,6 +732,7 @@ class MonteCarloLocalization:
                 pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
                 # a recovery guess is now the track: verify it on this scan already
                 self._suspect = cfg.verify_period is not None
+                self._recovered = True
         return pose, cov, weight, too_long
 
     def _resample(
