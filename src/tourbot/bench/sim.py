@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 if TYPE_CHECKING:
     from tourbot.bench._report import BenchReport
+    from tourbot.maps.grid import OccupancyGrid
     from tourbot.runtime.simulated import SimulationSettings
     from tourbot.site.model import Site
 
@@ -73,12 +74,13 @@ class KidnapRun:
 
 
 def _carry_destination(
-    site: Site, pose: tuple[float, float, float], distance: float, rng: np.random.Generator
+    world: OccupancyGrid, pose: tuple[float, float, float], distance: float, rng: np.random.Generator
 ) -> tuple[float, float, float]:
-    """A pose the robot could stand at, ``distance`` +- 0.5 m from ``pose``, any heading."""
+    """A pose the robot could stand at in ``world`` (the site with its doors and furniture as they
+    are now), ``distance`` +- 0.5 m from ``pose``, any heading."""
     from tourbot.navigation.planner import CostMap
 
-    costmap = CostMap(site.grid)
+    costmap = CostMap(world)
     for _ in range(100_000):
         r = distance + rng.uniform(-0.5, 0.5)
         bearing = rng.uniform(-math.pi, math.pi)
@@ -115,7 +117,7 @@ def _kidnap(
     while rt.source.time < at and rt.step() is not None:
         pass
     here = robot.simulator.robot.pose
-    there = _carry_destination(site, here, distance, rng)
+    there = _carry_destination(robot.simulator.world, here, distance, rng)
     robot.simulator.carry(there)
     recovered = time_to_recover(robot, window)
     c = robot.simulator.collisions
