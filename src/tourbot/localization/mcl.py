@@ -463,10 +463,12 @@ class MonteCarloLocalization:
             inject_fraction = cfg.max_injection
         info["lost_scans"] = float(self._lost_scans)
 
-        # 4c. Verification against the best place the scan suggests (``verify_period``).
+        # 4c. Verification against the best other place the scan suggests (``verify_period``):
+        # due every verify_period seconds, on every scan while the last one failed, and for
+        # verify_period seconds after a recovery guess became the track. Judged on every return,
+        # also when the filter kept none (a track so wrong that every reading is shorter than
+        # expected looks like a crowd all around to the filter).
         reset_poses: FloatArray | None = None
-        # Judged on every return, also when the filter kept none (a track so wrong that every
-        # reading is shorter than expected looks like a crowd all around to the filter).
         if self._recovered and cfg.verify_period is not None:
             self._verify_until = scan.timestamp + cfg.verify_period
         self._recovered = False
@@ -481,7 +483,8 @@ class MonteCarloLocalization:
                 inject_fraction = cfg.max_injection
             else:
                 reset_poses = None
-        info["suspect"] = float(self._suspect)
+        if cfg.verify_period is not None:
+            info["suspect"] = float(self._suspect)
 
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if (
