@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -26,3 +27,22 @@ def test_quick_run_reports_speed_and_a_tour(tmp_path: Path) -> None:
     assert tour["collisions"] == 0
     assert tour["success %"] == 100.0
     assert any("fewer than 10 seeds" in note for note in payload["notes"])
+
+
+@pytest.mark.slow
+def test_kidnaps_standing_and_touring_are_timed(tmp_path: Path) -> None:
+    out = tmp_path / "kidnap.json"
+    args = ["--quick", "--no-tours", "--crowds", "sparse", "--kidnap-seeds", "1", "--kidnap-window", "20"]
+    main(["bench", "sim", *args, "--output", str(out)])
+    payload = json.loads(out.read_text())
+    kidnaps = [r for r in payload["rows"] if r["case"].startswith("kidnap")]
+    assert [r["case"] for r in kidnaps] == [
+        "kidnap 5 m standing, sparse crowd",
+        "kidnap 5 m touring, sparse crowd",
+    ]
+    for key in ("kidnaps_standing_sparse", "kidnaps_touring_sparse"):
+        (run,) = payload["meta"][key]
+        moved = math.hypot(run["destination"][0] - run["source"][0], run["destination"][1] - run["source"][1])
+        assert 4.5 <= moved <= 5.5
+        assert run["recovered"] is not None  # found again (the default settings)
+    assert payload["meta"]["max_injection"] > 0

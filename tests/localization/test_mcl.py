@@ -430,3 +430,25 @@ def test_too_long_readings_judge_the_track(room: OccupancyGrid) -> None:
     open_pose = np.array([2.0, 3.5, 0.0])
     mcl.reset_tracking(open_pose, np.diag([1e-6, 1e-6, 1e-8]))
     assert math.isnan(mcl._too_long_fraction(open_pose, np.full_like(r, 0.2), scan.geometry, valid))
+
+
+def test_verification_weighs_the_track_against_the_best_place(room: OccupancyGrid) -> None:
+    # A likelihood ratio of the track against the best place a search of the map finds for the
+    # scan: at the true pose, also with a crowd hiding part of the scan, the best alternative is
+    # the track itself (a few centimetres off); moved by 1.5 m the track loses by far.
+    truth = waypoints_path(10)
+    rng = np.random.default_rng(25)
+    crowded = simulate(room, truth, seed=25, circles=_crowd_around(truth, rng, 14))
+    cfg = MCLConfig(max_samples=300, min_samples=100, verify_period=5.0)
+    for k in (2, 6):
+        scan = crowded.scans[k]
+        r = np.asarray(scan.ranges)
+        valid = r < scan.geometry.max_range
+        mcl = MonteCarloLocalization(room, cfg, seed=26)
+        mcl.reset_tracking(truth[k], np.diag([1e-6, 1e-6, 1e-8]))
+        field_ = mcl._field(scan.geometry)
+        drawn, margin = mcl._verify(truth[k], r, scan.geometry, field_, valid)
+        assert drawn.shape == (60, 3)  # max_injection of the samples: the reset, should it fail
+        assert margin < cfg.verify_margin
+        moved = compose(truth[k], np.array([1.5, 0.0, 0.0]))
+        assert mcl._verify(moved, r, scan.geometry, field_, valid)[1] > cfg.verify_margin

@@ -167,3 +167,20 @@ def test_sensor_stream_round_trips_through_a_carmen_log(hall: Site, tmp_path) ->
     assert len(back.scans) == len(log.scans) == 20
     np.testing.assert_allclose(back.ranges, log.ranges, atol=1e-3)
     np.testing.assert_allclose(back.reference_poses, log.reference_poses, atol=1e-4)
+
+
+def test_a_carried_robot_stands_where_it_was_set_down_and_the_odometry_sees_nothing(hall: Site) -> None:
+    sim = Simulator(hall, SimConfig(dynamic_objects=False), seed=3, start=(2.0, 6.0, 0.0))
+    sim.command(0.3, 0.0)
+    for _ in range(10):
+        sim.poll()
+    before = sim.odometry.pose
+    sim.carry((6.0, 3.0, 1.0))
+    assert sim.robot.speed == 0.0
+    sim.command(0.0, 0.0)
+    records = sim.poll()
+    assert records is not None
+    odom = next(r for r in records if isinstance(r, Odometry))
+    # the wheels did not turn: the odometry moved by at most the last step's deceleration
+    assert math.hypot(odom.pose[0] - before[0], odom.pose[1] - before[1]) < 0.05
+    assert math.hypot(sim.robot.pose[0] - 6.0, sim.robot.pose[1] - 3.0) < 0.05

@@ -44,7 +44,19 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    would let a crowd's short beams through), the estimate is the heaviest cluster of the
    established samples, resampling keeps each group's share, and new guesses replace older
    fresh ones. So a crowd that makes a look-alike place fit a few scans better cannot hand it
-   the belief while the track still explains the scan;
+   the belief while the track still explains the scan. The too-long test cannot see every
+   wrong pose (moved along a hall, the track's readings are shorter than expected on one side,
+   which a crowd would explain, and about right elsewhere), and a robot that stands gives the
+   filter the same scan over and over and no motion to spread its samples. So, when
+   ``verify_period`` is set, the track is *verified* every ``verify_period`` seconds: the
+   reset search above (around the estimate and over the whole free space) is run, and the best
+   pose it finds is compared with the tracked estimate under the crowd beam model, a likelihood
+   ratio test of the track against its best alternative. When the alternative explains the
+   scan better by more than ``verify_margin`` nats per return the track counts as contradicted,
+   the search's poses are injected as fresh samples, and every scan is verified until a
+   verification passes, and for ``verify_period`` seconds after a recovery guess has become
+   the track (one search may miss the true place, and the guess then only had to beat a
+   track that was wrong);
 5. *resampling*: low-variance (systematic) resampling when the effective sample size falls below
    ``resample_threshold * N`` (Probabilistic Robotics, Table 4.4), with the number of samples
    chosen by KLD-sampling (Fox 2003, "Adapting the sample size in particle filters through
@@ -169,6 +181,11 @@ class MCLConfig:
         logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
         false alarms on FHW (map corners, glass) and 0.4-1.4 % on Intel, while 98-100 % of the
         scans of a track more than 1 m off are caught (0.4: 0.5-1 % and 84-100 %).
+        ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` 0.5 nats per
+        return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
+        docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
+        (about 80 ms at 90 returns on the FHW site). The figures behind the margin are in
+        docs/benchmarks.md (section sim); not tuned beyond them.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space. ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
@@ -227,6 +244,9 @@ class MCLConfig:
     )
     lost_margin: float = 0.5
     lost_fraction: float = 0.3
+    verify_period: float | None = None
+    verify_margin: float = 0.5
+    verify_distance: tuple[float, float] = (1.0, math.radians(30.0))
     lost_min_beams: int = 20
     lost_hypotheses: int = 8
     global_after: int = 3
@@ -256,6 +276,9 @@ class MonteCarloLocalization:
         self.grid = grid
         self.config = config or MCLConfig()
         self.rng = np.random.default_rng(seed)
+        # The verification's searches draw from their own stream: a verification that passes
+        # leaves the filter exactly as it would be without verifying.
+        self._verify_rng = np.random.default_rng(None if seed is None else [seed, 1])
         free = grid.free()
         if not free.any():
             raise LocalizationError("the map has no free cell to localize in")
@@ -279,6 +302,13 @@ class MonteCarloLocalization:
         self._w_slow = 0.0
         self._w_fast = 0.0
         self._lost_scans = 0  # consecutive scans whose estimate has readings through mapped walls
+        # Verification (``verify_period``): the next scan time due, and whether the last one
+        # found a place that explains the scan clearly better than the track (or a recovery
+        # guess has just replaced the track): until a verification passes, every scan verifies.
+        self._next_verify = -math.inf
+        self._suspect = False
+        self._recovered = False  # a recovery guess became the track on this scan
+        self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
@@ -323,6 +353,10 @@ class MonteCarloLocalization:
         self._w_slow = 0.0
         self._w_fast = 0.0
         self._lost_scans = 0
+        self._next_verify = -math.inf
+        self._suspect = False
+        self._recovered = False  # a recovery guess became the track on this scan
+        self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         self._global_cells = None
         self._global_phase = False
 
@@ -429,13 +463,36 @@ class MonteCarloLocalization:
             inject_fraction = cfg.max_injection
         info["lost_scans"] = float(self._lost_scans)
 
+        # 4c. Verification against the best other place the scan suggests (``verify_period``):
+        # due every verify_period seconds, on every scan while the last one failed, and for
+        # verify_period seconds after a recovery guess became the track. Judged on every return,
+        # also when the filter kept none (a track so wrong that every reading is shorter than
+        # expected looks like a crowd all around to the filter).
+        reset_poses: FloatArray | None = None
+        if self._recovered and cfg.verify_period is not None:
+            self._verify_until = scan.timestamp + cfg.verify_period
+        self._recovered = False
+        due = self._suspect or scan.timestamp >= self._next_verify or scan.timestamp < self._verify_until
+        tracking = not global_start and not self._global_phase and valid.sum() >= cfg.lost_min_beams
+        if tracking and cfg.verify_period is not None and cfg.max_injection > 0 and due:
+            self._next_verify = scan.timestamp + cfg.verify_period
+            reset_poses, margin = self._verify(pose, ranges, geometry, field_, valid)
+            info["verify_margin"] = margin
+            self._suspect = margin > cfg.verify_margin
+            if self._suspect:
+                inject_fraction = cfg.max_injection
+            else:
+                reset_poses = None
+        if cfg.verify_period is not None:
+            info["suspect"] = float(self._suspect)
+
         # 5. Resampling with KLD-adapted count, and injection of scan-drawn samples.
         if (
-            n_used
+            (n_used or reset_poses is not None)
             and not global_start
             and (ess < cfg.resample_threshold * self.samples.shape[0] or inject_fraction > 0.0)
         ):
-            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose)
+            injected = self._resample(inject_fraction, ranges, geometry, field_, valid, pose, reset_poses)
         info["injected"] = float(injected)
 
         est = LocalizationEstimate(
@@ -558,13 +615,16 @@ class MonteCarloLocalization:
         beams: NDArray[np.bool_],
         max_stages: int,
         score: Callable[[FloatArray, NDArray[np.bool_]], FloatArray] | None = None,
+        rng: np.random.Generator | None = None,
     ) -> tuple[FloatArray, int]:
         """``n`` poses drawn from the candidates ``cand`` by the tempered likelihood of ``beams``,
         brought in by stages that keep the effective sample size at ``global_ess * n``; the first
         stage scores every ``global_beam_step``-th beam only, later ones (on ``n`` jittered
         survivors) all of them. ``score(poses, beam_mask)`` is the scan's log-likelihood per pose
-        (the likelihood field by default). Returns the poses and the number of stages."""
+        (the likelihood field by default). ``rng``: the localizer's generator by default.
+        Returns the poses and the number of stages."""
         cfg = self.config
+        rng = self.rng if rng is None else rng
         if score is None:
 
             def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
@@ -586,8 +646,8 @@ class MonteCarloLocalization:
             logw = logw + step * ll
             left -= step
             w = np.exp(logw - logw.max())
-            idx = low_variance_resample(w / w.sum(), n, float(self.rng.random()))
-            cand = cand[idx] + self.rng.standard_normal((n, 3)) * jitter
+            idx = low_variance_resample(w / w.sum(), n, float(rng.random()))
+            cand = cand[idx] + rng.standard_normal((n, 3)) * jitter
             cand[:, 2] = wrap_angle(cand[:, 2])
             inside = self._in_free_space(cand)
             if left <= 1e-12 or stages >= max_stages or not inside.any():
@@ -654,8 +714,9 @@ class MonteCarloLocalization:
                 labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
             )
             best = int(np.argmax(w_fresh + w_old))
-            # The track stays contradicted through scans that are no evidence (NaN).
-            contradicted = self._global_phase or self._lost_scans > 0
+            # The track stays contradicted through scans that are no evidence (NaN), and while
+            # the last verification found a clearly better place (``_suspect``).
+            contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
             won = contradicted and w_fresh[best] > w_old[best]
             guess = int(np.argmax(w_fresh))
             if contradicted and not won and w_fresh[guess] > 0:
@@ -672,6 +733,9 @@ class MonteCarloLocalization:
                 self._fresh[:] = False
                 self._fresh_won = 0
                 pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+                # a recovery guess is now the track: verify it on this scan already
+                self._suspect = cfg.verify_period is not None
+                self._recovered = True
         return pose, cov, weight, too_long
 
     def _resample(
@@ -682,7 +746,10 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
         estimate: FloatArray,
+        reset_poses: FloatArray | None = None,
     ) -> int:
+        """Resample (KLD count) and replace ``inject_fraction`` of the samples by fresh poses:
+        ``reset_poses`` when given (a verification's search), else :meth:`_scan_drawn_poses`."""
         cfg = self.config
         n_max = max(cfg.max_samples, cfg.min_samples)
         if self._global_phase:
@@ -710,7 +777,10 @@ class MonteCarloLocalization:
             # The new guesses replace the older ones that have not won first, so fresh samples
             # never outnumber max_injection of the set, however long a crowd keeps resetting.
             slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
-            drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate)
+            drawn_poses = reset_poses
+            if drawn_poses is None:
+                far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
+                drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate, far)
             slots = slots[: drawn_poses.shape[0]]
             new[slots] = drawn_poses[: slots.size]
             fresh[slots] = True
@@ -727,37 +797,46 @@ class MonteCarloLocalization:
         field_: LikelihoodField,
         valid: NDArray[np.bool_],
         estimate: FloatArray,
+        far: bool,
+        keep_fresh: bool = False,
+        rng: np.random.Generator | None = None,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
 
         Candidates are ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` metres, any heading: a drift in a crowd, a kidnap by a metre);
-        once the estimate has been contradicted on ``global_after`` scans in a row (or when the
-        fit of the scan triggered the reset), also the ``injection_survivors`` best of
+        with ``far`` (the caller's choice: once the estimate has been contradicted on
+        ``global_after`` scans in a row, when the fit of the scan triggered the reset, or for a
+        verification), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
-        field of the longest returns (cheap, no ray casting). The pool is then annealed on the
+        field of the longest returns (cheap, no ray casting), and with ``keep_fresh`` the fresh
+        samples (earlier scans' guesses, moved by the odometry since: a search that missed the
+        true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
         ``injection_survivors`` poses, of which ``n`` are kept at random.
         """
         cfg = self.config
+        rng = self.rng if rng is None else rng
         keep = max(n, cfg.injection_survivors)
         m = cfg.injection_local_candidates
         pool = [
             np.column_stack(
                 [
-                    estimate[0] + cfg.injection_local_std * self.rng.standard_normal(m),
-                    estimate[1] + cfg.injection_local_std * self.rng.standard_normal(m),
-                    self.rng.uniform(-math.pi, math.pi, m),
+                    estimate[0] + cfg.injection_local_std * rng.standard_normal(m),
+                    estimate[1] + cfg.injection_local_std * rng.standard_normal(m),
+                    rng.uniform(-math.pi, math.pi, m),
                 ]
             )
         ]
-        if self._lost_scans == 0 or self._lost_scans >= cfg.global_after:
-            far = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, self.rng)
+        if far:
+            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, rng)
             longest = _longest(ranges, valid, cfg.injection_long_fraction)
             if longest.any():
-                far = self._anneal(far, keep, ranges, geometry, field_, longest, 1)[0]
-            pool.append(far[: cfg.injection_survivors])
+                far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
+            pool.append(far_poses[: cfg.injection_survivors])
+        if keep_fresh and self._fresh.any():
+            pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
         cand = np.vstack(pool)
         cand = cand[self._in_free_space(cand)]
         if not valid.any() or cand.shape[0] == 0:
@@ -766,8 +845,49 @@ class MonteCarloLocalization:
         def score(poses: FloatArray, mask: NDArray[np.bool_]) -> FloatArray:
             return self._crowd_log_likelihood(poses, ranges, geometry, mask)
 
-        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score)[0]
-        return drawn[self.rng.permutation(drawn.shape[0])[:n]]
+        drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score, rng)[0]
+        return drawn[rng.permutation(drawn.shape[0])[:n]]
+
+    def _verify(
+        self,
+        pose: FloatArray,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        field_: LikelihoodField,
+        valid: NDArray[np.bool_],
+    ) -> tuple[FloatArray, float]:
+        """Search the map for the places that best explain the scan (:meth:`_scan_drawn_poses`,
+        around the estimate and over the whole free space) and compare the best of them with the
+        tracked ``pose`` under the crowd beam model (:meth:`_crowd_log_likelihood`): a likelihood
+        ratio test of the track against its best alternative. Only other places are
+        alternatives: poses more than ``verify_distance`` (1 m or 30 deg) from the track (the
+        track a few centimetres off is the same place, and refining it is the filter's job).
+        Returns the drawn poses (the reset samples, should the track lose) and the margin, the
+        difference of the two log-likelihoods per return (0 when no other place explains the
+        scan better).
+
+        The too-long test (:meth:`_too_long_fraction`) cannot see every wrong pose: moved along
+        a hall or a corridor, the track's readings are mostly shorter than expected on one side
+        (excused as visitors) and about right elsewhere. Under the crowd model a shorter
+        reading costs (``z_short`` instead of ``z_hit``) where the true pose explains it, so a
+        true place wins by several nats per return, while at a correct track the best
+        alternative is the track itself, a few centimetres off.
+        """
+        cfg = self.config
+        n = max(1, round(cfg.max_injection * max(self.samples.shape[0], cfg.max_samples)))
+        drawn = self._scan_drawn_poses(
+            n, ranges, geometry, field_, valid, pose, True, keep_fresh=True, rng=self._verify_rng
+        )
+        n_valid = int(valid.sum())
+        # only another place counts: the track itself a little off is no alternative
+        away = (np.hypot(drawn[:, 0] - pose[0], drawn[:, 1] - pose[1]) > cfg.verify_distance[0]) | (
+            np.abs(wrap_angle(drawn[:, 2] - pose[2])) > cfg.verify_distance[1]
+        )
+        if not away.any() or n_valid == 0:
+            return drawn, 0.0
+        others = drawn[away]
+        ll = self._crowd_log_likelihood(np.vstack([pose[None, :], others]), ranges, geometry, valid)
+        return drawn, max(0.0, float(ll[1:].max() - ll[0]) / n_valid)
 
     def _too_long_fraction(
         self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]

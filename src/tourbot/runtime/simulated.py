@@ -7,6 +7,7 @@ the people, the doors' states or where the benches are now) and navigates on tha
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
@@ -18,7 +19,7 @@ from tourbot.sim.crowd import PRESETS, CrowdConfig, CrowdError
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
 
-__all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime"]
+__all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime", "time_to_recover"]
 
 
 def crowd_config(crowd: str | int) -> CrowdConfig | None:
@@ -44,10 +45,15 @@ class SimulationSettings:
     crowd: str | int = "peak"
     seed: int = 0
     particles: int = 1000
-    # Sensor resetting (augmented MCL's injection of scan-drawn samples) is for kidnapping and global
-    # localization; on a tour that starts at a known pose, in a crowd that hides most of the walls,
-    # it mostly injects look-alike places (seen in peak-crowd runs: 20-30 m jumps), so it is off.
-    max_injection: float = 0.0
+    # Sensor resetting (augmented MCL's injection of scan-drawn samples) for a robot carried off,
+    # standing or driving: at most this share of the samples per scan; 0 turns recovery off.
+    # A guess replaces the track only after beating it on two scans that contradict the track
+    # (MCLConfig.fresh_wins), so a crowd that makes a look-alike place fit once cannot move it.
+    max_injection: float = 0.2
+    # Every this many seconds of scans the track is checked against the best other place the
+    # scan suggests (MCLConfig.verify_period): a standing robot, or one moved along a hall, is
+    # not caught by readings through walls alone. None: only that test notices a kidnap.
+    verify_period: float | None = 5.0
     localization: UpdatePolicy = field(default_factory=UpdatePolicy)
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
@@ -81,7 +87,10 @@ def simulated_runtime(
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start)
     mcl_cfg = MCLConfig(
-        max_samples=s.particles, min_samples=min(500, s.particles), max_injection=s.max_injection
+        max_samples=s.particles,
+        min_samples=min(500, s.particles),
+        max_injection=s.max_injection,
+        verify_period=s.verify_period,
     )
     mcl = MonteCarloLocalization(site.grid, mcl_cfg, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
@@ -101,3 +110,38 @@ def simulated_runtime(
         config=RuntimeConfig(speedup=s.speedup),
     )
     return SimulatedRobot(runtime, simulator, navigator, metrics, recorder)
+
+
+def time_to_recover(
+    robot: SimulatedRobot,
+    window: float,
+    *,
+    distance: float = 0.3,
+    heading: float = math.radians(10.0),
+    hold: float = 3.0,
+) -> float | None:
+    """Step ``robot`` until its estimate is within ``distance`` metres and ``heading`` radians of
+    the truth and stays there for ``hold`` seconds; the seconds from now until it got there, or
+    None if that does not happen within ``window`` seconds (or the source ends)."""
+    rt = robot.runtime
+    start = rt.source.time
+    since: float | None = None
+    while rt.source.time < start + window:
+        snap = rt.step()
+        if snap is None:
+            return None
+        error = snap.position_error
+        good = (
+            error is not None
+            and snap.pose is not None
+            and snap.truth is not None
+            and error <= distance
+            and abs(math.remainder(snap.pose.theta - snap.truth.pose[2], 2 * math.pi)) <= heading
+        )
+        if not good:
+            since = None
+            continue
+        since = snap.time if since is None else since
+        if snap.time - since >= hold:
+            return since - start
+    return None

@@ -163,6 +163,11 @@ class Simulator:
             self.records.extend(out)
         return out
 
+    def carry(self, pose: tuple[float, float, float]) -> None:
+        """The robot is picked up and set down at ``pose`` (a kidnap: staff push it aside, a visitor
+        carries it off). The wheels do not turn, so the odometry sees nothing; it stands there."""
+        self.robot.apply((float(pose[0]), float(pose[1]), float(pose[2])), 0.0, 0.0)
+
     def truth(self) -> GroundTruth:
         pos = self.people_positions()
         vel = self.crowd.velocities if self.crowd is not None else np.zeros((0, 2))
