@@ -53,27 +53,94 @@ def test_walls_poles_and_unseen_specks_stay() -> None:
     prob = _floor()
     prob[10, 5:50] = OCC  # a wall
     prob[40:43, 40:43] = OCC  # a pole, 3 x 3 cells
-    prob[30, 20] = OCC  # a speck no kept beam ended in
+    prob[50, 20] = OCC  # a speck no kept beam ended in, alone
     prob[30, 10] = OCC  # a speck next to another one (ring not empty)
     prob[31, 12] = OCC
     origins = np.array([[0.0, _centre(40, 40)[1]], [0.0, _centre(30, 10)[1]]])
     ends = np.array([_centre(40, 40), _centre(30, 10)])
     grid = OccupancyGrid(prob, RES)
-    ev = speck_evidence(grid, origins, ends)
-    out, n = clear_specks(grid, origins, ends)
+    alone = ConsistencyParams(group_radius=0)  # each speck judged on its own only
+    ev = speck_evidence(grid, origins, ends, alone)
+    out, n = clear_specks(grid, origins, ends, alone)
     assert n == 0
     assert np.array_equal(out.occupied(), grid.occupied())
     assert ev.cells.max() == 45
+    assert len(ev.group_cells) == 0
     # with another speck allowed in the ring, the one a beam ended in goes; a speck no beam
     # ended in, the wall and the pole stay
-    loose = ConsistencyParams(ring_occupied=0.1)
+    loose = ConsistencyParams(ring_occupied=0.1, group_radius=0)
     out, n = clear_specks(grid, origins, ends, loose)
     assert n == 1
     assert not out.occupied()[30, 10]
     assert out.occupied()[31, 12]
-    assert out.occupied()[30, 20]
+    assert out.occupied()[50, 20]
     assert out.occupied()[10, 5:50].all()
     assert out.occupied()[40:43, 40:43].all()
+    # judged as a group (the default), the two neighbouring specks go together; the lone speck
+    # no beam ended in, the wall and the pole stay
+    out, n = clear_specks(grid, origins, ends)
+    assert n == 2
+    assert not out.occupied()[30, 10]
+    assert not out.occupied()[31, 12]
+    assert out.occupied()[50, 20]
+    assert out.occupied()[10, 5:50].all()
+    assert out.occupied()[40:43, 40:43].all()
+
+
+def _group(prob: np.ndarray, cells: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray]:
+    """Mark ``cells`` occupied and return one beam along +x ending in each."""
+    for r, c in cells:
+        prob[r, c] = OCC
+    beams = [_beam_to(r, c) for r, c in cells]
+    return np.concatenate([b[0] for b in beams]), np.concatenate([b[1] for b in beams])
+
+
+def test_a_group_of_specks_on_seen_free_floor_is_cleared_as_a_whole() -> None:
+    """Visitors standing together: specks 10-50 cm apart, each in another's ring."""
+    prob = _floor()
+    cells = [(30, 30), (30, 31), (32, 33), (36, 30), (28, 38)]
+    origins, ends = _group(prob, cells)
+    grid = OccupancyGrid(prob, RES)
+    ev = speck_evidence(grid, origins, ends)
+    assert len(ev.group_cells) == 1
+    assert ev.group_cells[0] == 5
+    assert set(ev.group[ev.group > 0].tolist()) == {1}
+    assert ev.group_ring_occupied[0] == 0.0
+    assert ev.group_ring_free[0] == pytest.approx(1.0)
+    # alone, the specks with a neighbour within 2 cells fail; only the two far ones pass
+    assert clear_specks(grid, origins, ends, ConsistencyParams(group_radius=0))[1] == 2
+    out, n = clear_specks(grid, origins, ends)
+    assert n == 5
+    assert not out.occupied().any()
+    # a group of more than ``group_cells`` cells stays (but its lone far members still go alone)
+    assert clear_specks(grid, origins, ends, ConsistencyParams(group_cells=4))[1] == 2
+    # a run of 5 cells is no member: within 2 cells of a member it is structure in the group's
+    # ring, and the group stays (its lone far member still goes alone)
+    prob5 = prob.copy()
+    prob5[34, 30:35] = OCC
+    out, n = clear_specks(OccupancyGrid(prob5, RES), origins, ends)
+    assert n == 1
+    assert not out.occupied()[28, 38]
+    assert out.occupied()[34, 30:35].all()
+    assert out.occupied()[30, 30]
+    assert out.occupied()[32, 33]
+    assert out.occupied()[36, 30]
+
+
+def test_a_group_next_to_a_wall_or_with_nothing_seen_behind_stays() -> None:
+    prob = _floor()
+    prob[20, 5:55] = OCC  # a wall
+    near = [(22, 30), (22, 31), (24, 33)]  # 2 cells from the wall: the wall is in the ring
+    origins, ends = _group(prob, near)
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends)[1] == 0
+    # a dotted far wall seen once: specks 3 cells apart in a row, nothing seen behind them
+    prob = _floor()
+    prob[:, 41:] = UNKNOWN
+    dots = [(r, 40) for r in range(20, 40, 3)]
+    origins, ends = _group(prob, dots)
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends)
+    assert ev.group_behind_free.max() == 0.0
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends)[1] == 0
 
 
 def test_a_two_cell_speck_is_judged_as_one() -> None:
@@ -83,7 +150,9 @@ def test_a_two_cell_speck_is_judged_as_one() -> None:
     out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends)
     assert n == 2
     assert not out.occupied().any()
-    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends, ConsistencyParams(max_cells=1))
+    out, n = clear_specks(
+        OccupancyGrid(prob, RES), origins, ends, ConsistencyParams(max_cells=1, group_radius=0)
+    )
     assert n == 0
 
 

@@ -33,7 +33,8 @@ def register(app: typer.Typer) -> None:
                 help="With --people-filter: paper (tracks and person features), sectors (and the space "
                 "seen between beams cleared), blobs (and far person-sized blobs left out), shapes (and the "
                 "beams of leg-shaped segments and of ends where the floor was seen free), consistent "
-                "(blobs, and small specks the finished map sees free floor around and behind cleared), "
+                "(blobs, and small specks, alone or in groups, that the finished map sees free floor around "
+                "and behind cleared), "
                 "thorough (shapes and the check of consistent)."
             ),
         ] = "blobs",

@@ -18,8 +18,19 @@ So, over the finished map, each 8-connected component of occupied cells with at 
   in the component, along the beam, outside it: the share seen free must be at least
   ``behind_free``.
 
-A component that passes both is cleared (its cells take the mean probability of the free cells
-of its ring). The pass is plain numpy over the small components and the beams ending in them.
+A group of visitors leaves several specks a few decimetres apart, each in the ring of another, so
+none passes alone. Groups are therefore also judged as a whole: the components of at most
+``group_member_cells`` cells are joined into groups by dilating them ``group_radius`` cells (two
+join when their cells are at most ``2 * group_radius + 1`` cells apart, Chebyshev), and a group of
+at most ``group_cells`` cells is cleared when its ring (the cells within ``ring`` cells of any
+member, outside the group) is at least ``ring_free`` seen free with no occupied cell in it (so no
+larger structure within ``ring`` cells), and the cells behind the ends of the kept beams in any of
+its members are at least ``behind_free`` seen free. A lone component is a group of one, so with
+``group_member_cells`` above ``max_cells`` an isolated speck of up to that many cells can go too;
+``group_radius = 0`` turns group judging off (the check of the first version).
+
+A component that passes either test is cleared (its cells take the mean probability of the free
+cells around them). The pass is plain numpy over the small components and the beams ending in them.
 """
 
 from __future__ import annotations
@@ -48,11 +59,15 @@ class ConsistencyParams:
     ring_occupied: float = 0.0
     behind: tuple[float, float] = (0.10, 0.50)
     behind_free: float = 0.5
+    group_radius: int = 5  # 0: no group judging
+    group_member_cells: int = 4
+    group_cells: int = 10
 
 
 @dataclass(frozen=True)
 class SpeckEvidence:
-    """What the map says around each small occupied component (index ``k`` is label ``k + 1``)."""
+    """What the map says around each small occupied component (index ``k`` is label ``k + 1``) and
+    around each group of them (index ``g`` is group ``g + 1``)."""
 
     labels: NDArray[np.int32]  # (rows, cols): component label of each occupied cell, 0 elsewhere
     cells: IntArray  # (K,) cells of each component
@@ -60,17 +75,32 @@ class SpeckEvidence:
     ring_occupied: FloatArray  # (K,) share of the ring occupied
     behind_free: FloatArray  # (K,) share of the cells behind seen free (0 when no beam ended in it)
     behind_cells: IntArray  # (K,) how many cells behind were looked at
+    group: IntArray  # (K,) group of each component (1-based), 0 for components in none
+    group_cells: IntArray  # (G,) cells of each group
+    group_ring_free: FloatArray  # (G,) share of the group's ring seen free
+    group_ring_occupied: FloatArray  # (G,) share of the group's ring occupied
+    group_behind_free: FloatArray  # (G,) share of the cells behind the group's ends seen free
+    group_behind_cells: IntArray  # (G,) how many cells behind the group were looked at
 
     def contradicted(self, params: ConsistencyParams) -> NDArray[np.bool_]:
-        """Which components the map contradicts ``(K,)``."""
+        """Which components the map contradicts ``(K,)``: alone, or as a member of a group."""
         p = params
-        return np.asarray(
+        alone = (
             (self.cells <= p.max_cells)
             & (self.ring_free >= p.ring_free)
             & (self.ring_occupied <= p.ring_occupied)
             & (self.behind_cells > 0)
             & (self.behind_free >= p.behind_free)
         )
+        together = np.zeros(len(self.group_cells) + 1, dtype=bool)
+        together[1:] = (
+            (self.group_cells <= p.group_cells)
+            & (self.group_ring_free >= p.ring_free)
+            & (self.group_ring_occupied <= 0.0)
+            & (self.group_behind_cells > 0)
+            & (self.group_behind_free >= p.behind_free)
+        )
+        return np.asarray(alone | together[self.group])
 
 
 def _categories(grid: OccupancyGrid) -> NDArray[np.int8]:
@@ -101,27 +131,22 @@ def _shares(
     return free / m, occ / m, n.astype(np.int64)
 
 
-def speck_evidence(
+def _evidence(
     grid: OccupancyGrid,
+    cat: NDArray[np.int8],
+    labels: NDArray[np.int32],
+    count: int,
     origins: FloatArray,
     ends: FloatArray,
-    params: ConsistencyParams | None = None,
-) -> SpeckEvidence:
-    """The ring and behind evidence of each occupied component of ``grid`` with at most
-    ``max_cells`` cells (larger ones get zeros), from the kept beams that returned: laser positions
-    ``origins`` ``(B, 2)`` and world endpoints ``ends`` ``(B, 2)``."""
-    p = params or ConsistencyParams()
-    cat = _categories(grid)
-    labels, count = ndimage.label(cat == 1, structure=np.ones((3, 3), dtype=bool))
-    labels = labels.astype(np.int32)
-    sizes = np.bincount(labels.ravel(), minlength=count + 1)
-    small = np.zeros(count + 1, dtype=bool)
-    small[1:] = sizes[1:] <= p.max_cells
+    p: ConsistencyParams,
+) -> tuple[FloatArray, FloatArray, FloatArray, IntArray]:
+    """Ring and behind evidence of each labelled region (``labels`` 1..count over the grid, 0
+    elsewhere): ring free and occupied shares, behind free share and how many cells behind."""
     zeros = np.zeros(count)
-    if not small.any():
-        return SpeckEvidence(labels, sizes[1:].astype(np.int64), zeros, zeros, zeros, zeros.astype(np.int64))
-    # the ring: every cell within ``ring`` cells of a small component's cells, outside the component
-    members = np.argwhere(small[labels])
+    if count == 0:
+        return zeros, zeros, zeros, zeros.astype(np.int64)
+    # the ring: every cell within ``ring`` cells of a region's cells, outside the region
+    members = np.argwhere(labels > 0)
     member_label = labels[members[:, 0], members[:, 1]].astype(np.int64)
     k = np.arange(-p.ring, p.ring + 1)
     offsets = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
@@ -129,13 +154,13 @@ def speck_evidence(
     around_label = np.repeat(member_label, len(offsets))
     own = _own(labels, around, around_label)
     ring_free, ring_occ, _ = _shares(around_label[~own], around[~own], cat, count)
-    # behind: cells past the ends of the beams that ended in a small component, along the beam
+    # behind: cells past the ends of the beams that ended in a region, along the beam
     behind_free, behind_n = zeros.copy(), np.zeros(count, np.int64)
     o = np.asarray(origins, dtype=np.float64).reshape(-1, 2)
     e = np.asarray(ends, dtype=np.float64).reshape(-1, 2)
     end_cells = grid.world_to_cell(e)
     ok = grid.inside(end_cells)
-    ok[ok] = small[labels[end_cells[ok, 0], end_cells[ok, 1]]]
+    ok[ok] = labels[end_cells[ok, 0], end_cells[ok, 1]] > 0
     if ok.any():
         o, e, end_label = o[ok], e[ok], labels[end_cells[ok, 0], end_cells[ok, 1]].astype(np.int64)
         direction = e - o
@@ -145,13 +170,72 @@ def speck_evidence(
         cells = grid.world_to_cell(pts.reshape(-1, 2))
         cell_label = np.repeat(end_label, len(steps))
         own = _own(labels, cells, cell_label)
-        free, _, n = _shares(cell_label[~own], cells[~own], cat, count)
-        behind_free, behind_n = free, n
-    return SpeckEvidence(labels, sizes[1:].astype(np.int64), ring_free, ring_occ, behind_free, behind_n)
+        behind_free, _, behind_n = _shares(cell_label[~own], cells[~own], cat, count)
+    return ring_free, ring_occ, behind_free, behind_n
+
+
+def _compact(labels: NDArray[np.int32], keep: NDArray[np.bool_]) -> tuple[NDArray[np.int32], IntArray]:
+    """``labels`` with only the labels in ``keep`` ``(count + 1,)``, renumbered 1..n; and the
+    old label of each new one ``(n,)``."""
+    old = np.flatnonzero(keep)
+    new = np.zeros(len(keep), np.int32)
+    new[old] = np.arange(1, len(old) + 1, dtype=np.int32)
+    return new[labels], old.astype(np.int64)
+
+
+def speck_evidence(
+    grid: OccupancyGrid,
+    origins: FloatArray,
+    ends: FloatArray,
+    params: ConsistencyParams | None = None,
+) -> SpeckEvidence:
+    """The ring and behind evidence of each occupied component of ``grid`` with at most
+    ``max_cells`` cells (larger ones get zeros), and of each group of components with at most
+    ``group_member_cells`` cells, from the kept beams that returned: laser positions ``origins``
+    ``(B, 2)`` and world endpoints ``ends`` ``(B, 2)``."""
+    p = params or ConsistencyParams()
+    cat = _categories(grid)
+    labels, count = ndimage.label(cat == 1, structure=np.ones((3, 3), dtype=bool))
+    labels = labels.astype(np.int32)
+    sizes = np.bincount(labels.ravel(), minlength=count + 1)
+    sizes[0] = 0
+    # each small component alone
+    small = np.zeros(count + 1, dtype=bool)
+    small[1:] = sizes[1:] <= p.max_cells
+    ring_free, ring_occ = np.zeros(count), np.zeros(count)
+    behind_free, behind_n = np.zeros(count), np.zeros(count, np.int64)
+    if small.any():
+        compact, old = _compact(labels, small)
+        rf, ro, bf, bn = _evidence(grid, cat, compact, len(old), origins, ends, p)
+        ring_free[old - 1], ring_occ[old - 1], behind_free[old - 1], behind_n[old - 1] = rf, ro, bf, bn
+    # groups of small components
+    group = np.zeros(count, np.int64)
+    empty = np.zeros(0)
+    g_cells, g_rf, g_ro, g_bf, g_bn = empty.astype(np.int64), empty, empty, empty, empty.astype(np.int64)
+    member = np.zeros(count + 1, dtype=bool)
+    member[1:] = sizes[1:] <= p.group_member_cells
+    if p.group_radius > 0 and member.any():
+        mask = member[labels]
+        size = 2 * p.group_radius + 1
+        grown = ndimage.binary_dilation(mask, structure=np.ones((size, size), dtype=bool))
+        regions, _ = ndimage.label(grown, structure=np.ones((3, 3), dtype=bool))
+        keep = np.zeros(int(regions.max()) + 1, dtype=bool)
+        keep[np.unique(regions[mask])] = True
+        keep[0] = False
+        group_labels, _ = _compact(np.where(mask, regions, 0).astype(np.int32), keep)
+        n_groups = int(group_labels.max())
+        g_rf, g_ro, g_bf, g_bn = _evidence(grid, cat, group_labels, n_groups, origins, ends, p)
+        g_cells = np.bincount(group_labels.ravel(), minlength=n_groups + 1)[1:].astype(np.int64)
+        cells = np.argwhere(mask)
+        group[labels[cells[:, 0], cells[:, 1]] - 1] = group_labels[cells[:, 0], cells[:, 1]]
+    return SpeckEvidence(
+        labels, sizes[1:].astype(np.int64), ring_free, ring_occ, behind_free, behind_n,
+        group, g_cells, g_rf, g_ro, g_bf, g_bn,
+    )  # fmt: skip
 
 
 def _own(labels: NDArray[np.int32], cells: IntArray, label: IntArray) -> NDArray[np.bool_]:
-    """Which ``cells`` ``(N, 2)`` belong to the component ``label`` ``(N,)`` itself."""
+    """Which ``cells`` ``(N, 2)`` belong to the region ``label`` ``(N,)`` itself."""
     rows, cols = labels.shape
     inside = (cells[:, 0] >= 0) & (cells[:, 0] < rows) & (cells[:, 1] >= 0) & (cells[:, 1] < cols)
     own = np.zeros(len(cells), dtype=bool)

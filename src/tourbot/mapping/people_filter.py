@@ -109,8 +109,9 @@ class PeopleFilterParams:
     (Fig. 6) applied to every such beam, not only to person features (None: off). Long runs are
     never judged so: a wall that a drifting path puts into space seen free before stays.
     ``consistency``: the finished map is checked against itself
-    (:mod:`tourbot.mapping.consistency`): small occupied specks with free floor around them and
-    behind them along the beams that hit them are cleared (None: no check).
+    (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
+    decimetres across (visitors standing together), with free floor around them and behind them
+    along the beams that hit them are cleared (None: no check).
     """
 
     bin_size: float = 0.15
