@@ -37,7 +37,7 @@ def register(app: typer.Typer) -> None:
                 "and behind cleared), "
                 "thorough (shapes and the check of consistent)."
             ),
-        ] = "blobs",
+        ] = "consistent",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
