@@ -1,6 +1,8 @@
-"""Tests of the people-filtering figures of ``tourbot bench mapping``."""
+"""Tests of the figures of ``tourbot bench mapping``."""
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -42,3 +44,24 @@ def test_hit_scans_counts_distinct_scans_and_their_baseline() -> None:
     count, _ = hit_scans(log, left_out, grid, radius=1)
     assert count.sum() == 9
     assert count[wall[0] + 1, wall[1] + 1] == 1
+
+
+def test_slam_starts_where_told_and_both_starts_track_the_path() -> None:
+    # the odometry in a frame 2 m and 30 deg away from the reference's, as raw odometry often is
+    from tests.mapping.conftest import building, drive
+    from tourbot.bench.mapping import _slam
+    from tourbot.geometry import compose
+    from tourbot.mapping.metrics import relative_pose_error
+
+    log = drive(building(), n=60)
+    shift = np.array([2.0, -1.0, np.radians(30.0)])
+    log = RobotLog(
+        "shifted",
+        [replace(s, odom=tuple(compose(shift, np.asarray(s.odom)))) for s in log.scans],
+    )
+    ref, odom = log.reference_poses, log.odom_poses
+    assert not np.allclose(odom[0], ref[0])
+    for start in (ref[0], odom[0]):
+        run = _slam(log, start)
+        np.testing.assert_allclose(run.poses[0], start)
+        assert relative_pose_error(run.poses, ref).trans_mean < 0.02  # odometry: 0.05 m of noise a step
