@@ -308,8 +308,10 @@ class IncrementalMapper:
             (r1 - r0, c1 - c0),
             crossing=p.cells.hit == "crossing",
         )
-        if p.free_sectors:
-            # every beam's free length (0 for beams left out), to clear what lies between beams
+        lr, lc, dh, dm = _counted_cells(hits, misses)
+        if p.free_sectors and into != "alignment":
+            # every beam's free length (0 for beams left out), to clear what lies between beams;
+            # for the map only: scans are aligned against what the beams themselves saw
             seen = np.where(is_hit, ranges, np.minimum(ranges, p.max_free_range))
             seen = np.where(keep, seen * (1.0 - p.sector_slope), 0.0)
             free = free_sectors(
@@ -323,14 +325,17 @@ class IncrementalMapper:
                 width=p.sector_width * inv,
                 cap=p.sector_range * inv,
             )
+            misses = misses.copy()
             misses[free & (misses == 0) & (hits == 0)] = 1
-        lr, lc, dh, dm = _counted_cells(hits, misses)
-        rr, cc = r0 + lr, c0 + lc
+            mr, mc, mh, mm = _counted_cells(hits, misses)
+        else:
+            mr, mc, mh, mm = lr, lc, dh, dm
         c = p.cells
-        if into != "alignment":
-            _apply_counts(self._hits, self._misses, rr, cc, dh, dm, c.l_occ, c.l_free)  # the whole map
+        if into != "alignment":  # the whole map
+            _apply_counts(self._hits, self._misses, r0 + mr, c0 + mc, mh, mm, c.l_occ, c.l_free)
         if into == "map":
             return
+        rr, cc = r0 + lr, c0 + lc
         self._change(rr, cc, dh, dm)
         if p.window is not None:
             self._recent.append(_Footprint(bx, by, (int(hits.shape[0]), int(hits.shape[1])), lr, lc, dh, dm))
