@@ -168,6 +168,26 @@ def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: Ro
     assert filtered.mapper.grid().occupied().sum() > 0.8 * plain.grid().occupied().sum()
 
 
+def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> None:
+    """The far blobs and the shape rules act on the returned map only: scans are aligned with the
+    tracks and person features judged against a map without those rules, so the path is the
+    path of ``sectors`` (the hall's pillars, seen from afar, are blobs that the map rules hold
+    back until seen repeatedly), while the maps differ."""
+    start = hall_log.reference_poses[0]
+    runs = {}
+    for mode in ("sectors", "blobs", "shapes"):
+        filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.mode(mode))
+        for scan in hall_log.scans[:40]:
+            filtered.add_scan(scan)
+        filtered.finish()
+        runs[mode] = filtered
+    poses = {mode: np.asarray(f.mapper.poses) for mode, f in runs.items()}
+    assert np.array_equal(poses["blobs"], poses["sectors"])
+    assert np.array_equal(poses["shapes"], poses["sectors"])
+    assert runs["blobs"].removed_beams > runs["sectors"].removed_beams
+    assert not np.array_equal(runs["blobs"].mapper.grid().prob, runs["sectors"].mapper.grid().prob)
+
+
 def test_the_modes() -> None:
     paper = PeopleFilterParams.mode("paper")
     assert not paper.free_sectors
