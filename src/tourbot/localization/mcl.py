@@ -83,13 +83,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.errors import TourbotError
-from tourbot.geometry import compose, wrap_angle
+from tourbot.geometry import compose, invert, wrap_angle
 from tourbot.localization.beam_filters import (
     BeamFilter,
     BeamFilterConfig,
     entropy_filter,
     novelty_filter_cast,
 )
+from tourbot.localization.cast_table import CastTable
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel, _wrap
 from tourbot.maps.beam_model import BeamModel
@@ -237,6 +238,10 @@ class MCLConfig:
     injection_long_fraction: float = 0.5
     injection_survivors: int = 1000
     injection_local_candidates: int = 10000
+    table_survivors: int = 500
+    table_spacing: float = 0.25
+    table_directions: int = 90
+    table_beams: int = 12
     recovery_model: BeamModel = field(
         default_factory=lambda: BeamModel(
             z_hit=0.5, z_short=0.4, z_max=0.05, z_rand=0.05, sigma_hit=0.2, lambda_short=0.2
@@ -293,6 +298,7 @@ class MonteCarloLocalization:
         )
         self._fields: dict[float, LikelihoodField] = {}
         self._casters: dict[float, RayCaster] = {}
+        self._tables: dict[float, CastTable] = {}
         self.samples: FloatArray = np.zeros((0, 3))
         self.weights: FloatArray = np.zeros(0)
         # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
@@ -835,6 +841,7 @@ class MonteCarloLocalization:
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
+            pool.append(self._table_poses(ranges, geometry, valid))
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
         cand = np.vstack(pool)
@@ -847,6 +854,29 @@ class MonteCarloLocalization:
 
         drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score, rng)[0]
         return drawn[rng.permutation(drawn.shape[0])[:n]]
+
+    def _table_poses(
+        self, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+    ) -> FloatArray:
+        """The ``table_survivors`` best poses of the cast table's lattice (:class:`CastTable`:
+        ``table_spacing`` metres, ``table_directions`` headings) by the crowd beam model
+        (``recovery_model``) of ``table_beams`` returns spread evenly over the scan. Unlike the
+        likelihood field of the longest returns, this sees a place's short walls and the
+        readings that would pass through them (a nook whose opening the crowd hides)."""
+        cfg = self.config
+        idx = np.flatnonzero(valid)
+        if cfg.table_survivors <= 0 or idx.size == 0:
+            return np.zeros((0, 3))
+        key = float(geometry.max_range)
+        table = self._tables.get(key)
+        if table is None:
+            table = CastTable.build(self.grid, self._caster(key), cfg.table_spacing, cfg.table_directions)
+            self._tables[key] = table
+        idx = idx[
+            np.unique(np.round(np.linspace(0, idx.size - 1, min(cfg.table_beams, idx.size))).astype(np.int64))
+        ]
+        laser, _ = table.screen(ranges[idx], geometry.angles[idx], cfg.recovery_model, cfg.table_survivors)
+        return compose(laser, invert(np.asarray(geometry.offset, dtype=np.float64)))
 
     def _verify(
         self,
