@@ -58,7 +58,8 @@ def test_screen_finds_the_pose_that_took_the_scan() -> None:
         ranges = caster.cast(laser, geometry.angles)[0].astype(np.float64)
         ranges[10:25] = np.minimum(ranges[10:25], 0.8)  # a visitor in front of some beams
         poses, scores = table.screen(ranges, geometry.angles, model, 5)
-        assert poses.shape == (5, 3) and np.all(np.diff(scores) <= 0)
+        assert poses.shape == (5, 3)
+        assert np.all(np.diff(scores) <= 0)
         assert math.hypot(poses[0, 0] - truth[0], poses[0, 1] - truth[1]) < 0.25
         assert abs(float(wrap_angle(poses[0, 2] - truth[2]))) < math.radians(4.0)
 
