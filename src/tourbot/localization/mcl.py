@@ -238,6 +238,7 @@ class MCLConfig:
     injection_long_fraction: float = 0.5
     injection_survivors: int = 1000
     injection_local_candidates: int = 10000
+    verify_candidates: int = 200000
     table_survivors: int = 500
     table_spacing: float = 0.25
     table_directions: int = 90
@@ -806,6 +807,7 @@ class MonteCarloLocalization:
         far: bool,
         keep_fresh: bool = False,
         rng: np.random.Generator | None = None,
+        verifying: bool = False,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -816,7 +818,9 @@ class MonteCarloLocalization:
         ``global_after`` scans in a row, when the fit of the scan triggered the reset, or for a
         verification), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
-        field of the longest returns (cheap, no ray casting), and with ``keep_fresh`` the fresh
+        field of the longest returns (cheap, no ray casting; ``verify_candidates`` of them for a
+        verification, ``verifying``, which also adds the ``table_survivors`` best poses of the cast
+        table, :meth:`_table_poses`), and with ``keep_fresh`` the fresh
         samples (earlier scans' guesses, moved by the odometry since: a search that missed the
         true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
@@ -835,12 +839,14 @@ class MonteCarloLocalization:
                 ]
             )
         ]
-        if far:
-            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, rng)
+        n_far = cfg.verify_candidates if verifying else cfg.injection_candidates
+        if far and n_far > 0:
+            far_poses = _uniform_free_poses(self.grid, self._free_cells, n_far, rng)
             longest = _longest(ranges, valid, cfg.injection_long_fraction)
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
+        if far and verifying:
             pool.append(self._table_poses(ranges, geometry, valid))
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
@@ -906,7 +912,16 @@ class MonteCarloLocalization:
         cfg = self.config
         n = max(1, round(cfg.max_injection * max(self.samples.shape[0], cfg.max_samples)))
         drawn = self._scan_drawn_poses(
-            n, ranges, geometry, field_, valid, pose, True, keep_fresh=True, rng=self._verify_rng
+            n,
+            ranges,
+            geometry,
+            field_,
+            valid,
+            pose,
+            True,
+            keep_fresh=True,
+            rng=self._verify_rng,
+            verifying=True,
         )
         n_valid = int(valid.sum())
         # only another place counts: the track itself a little off is no alternative
