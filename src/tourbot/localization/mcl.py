@@ -185,8 +185,15 @@ class MCLConfig:
         ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` 0.5 nats per
         return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
         docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
-        (about 80 ms at 90 returns on the FHW site). The figures behind the margin are in
-        docs/benchmarks.md (section sim); not tuned beyond them.
+        (about 40 ms at 90 returns on the FHW site). The figures behind the margin are in
+        docs/benchmarks.md (section sim); not tuned beyond them. The verification's search
+        screens its far candidates on the cast table (:class:`tourbot.localization.cast_table.
+        CastTable`: ``table_spacing`` 0.25 m lattice over the free space, ``table_directions`` 90
+        headings, the crowd beam model of ``table_beams`` 12 returns spread over the scan, the
+        ``table_survivors`` 500 best) instead of the likelihood field of the longest returns
+        (``verify_candidates`` 0 of those; 200000 as sensor resetting's): in a nook with short
+        walls all round and the crowd in its opening the field ranks the true place below
+        thousands of others, the beam model among the first ten (FHW, docs/benchmarks.md).
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space. ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
@@ -238,7 +245,7 @@ class MCLConfig:
     injection_long_fraction: float = 0.5
     injection_survivors: int = 1000
     injection_local_candidates: int = 10000
-    verify_candidates: int = 200000
+    verify_candidates: int = 0
     table_survivors: int = 500
     table_spacing: float = 0.25
     table_directions: int = 90
