@@ -49,7 +49,9 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    which a crowd would explain, and about right elsewhere), and a robot that stands gives the
    filter the same scan over and over and no motion to spread its samples. So, when
    ``verify_period`` is set, the track is *verified* every ``verify_period`` seconds: the
-   reset search above (around the estimate and over the whole free space) is run, and the best
+   reset search above (around the estimate, and over the whole free space on a table of ray
+   cast ranges, :mod:`tourbot.localization.cast_table`, whose beam model sees a nook's short
+   walls where the likelihood field of the longest returns does not) is run, and the best
    pose it finds is compared with the tracked estimate under the crowd beam model, a likelihood
    ratio test of the track against its best alternative. When the alternative explains the
    scan better by more than ``verify_margin`` nats per return the track counts as contradicted,
