@@ -187,7 +187,7 @@ class MCLConfig:
         ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` 0.5 nats per
         return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
         docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
-        (about 40 ms at 90 returns on the FHW site). The figures behind the margin are in
+        (about 30 ms at 90 returns on the FHW site). The figures behind the margin are in
         docs/benchmarks.md (section sim); not tuned beyond them. The verification's search
         screens its far candidates on the cast table (:class:`tourbot.localization.cast_table.
         CastTable`: ``table_spacing`` 0.25 m lattice over the free space, ``table_directions`` 90
@@ -196,6 +196,9 @@ class MCLConfig:
         (``verify_candidates`` 0 of those; 200000 as sensor resetting's): in a nook with short
         walls all round and the crowd in its opening the field ranks the true place below
         thousands of others, the beam model among the first ten (FHW, docs/benchmarks.md).
+        Its candidates around the estimate are ``verify_local_candidates`` 3000 (sensor
+        resetting's ``injection_local_candidates`` 10000): only places more than
+        ``verify_distance`` away count, and the table covers the whole free space.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space. ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
@@ -248,6 +251,7 @@ class MCLConfig:
     injection_survivors: int = 1000
     injection_local_candidates: int = 10000
     verify_candidates: int = 0
+    verify_local_candidates: int = 3000
     table_survivors: int = 500
     table_spacing: float = 0.25
     table_directions: int = 90
@@ -838,7 +842,7 @@ class MonteCarloLocalization:
         cfg = self.config
         rng = self.rng if rng is None else rng
         keep = max(n, cfg.injection_survivors)
-        m = cfg.injection_local_candidates
+        m = cfg.verify_local_candidates if verifying else cfg.injection_local_candidates
         pool = [
             np.column_stack(
                 [
