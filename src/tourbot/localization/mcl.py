@@ -49,7 +49,9 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    which a crowd would explain, and about right elsewhere), and a robot that stands gives the
    filter the same scan over and over and no motion to spread its samples. So, when
    ``verify_period`` is set, the track is *verified* every ``verify_period`` seconds: the
-   reset search above (around the estimate and over the whole free space) is run, and the best
+   reset search above (around the estimate, and over the whole free space on a table of ray
+   cast ranges, :mod:`tourbot.localization.cast_table`, whose beam model sees a nook's short
+   walls where the likelihood field of the longest returns does not) is run, and the best
    pose it finds is compared with the tracked estimate under the crowd beam model, a likelihood
    ratio test of the track against its best alternative. When the alternative explains the
    scan better by more than ``verify_margin`` nats per return the track counts as contradicted,
@@ -83,13 +85,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.errors import TourbotError
-from tourbot.geometry import compose, wrap_angle
+from tourbot.geometry import compose, invert, wrap_angle
 from tourbot.localization.beam_filters import (
     BeamFilter,
     BeamFilterConfig,
     entropy_filter,
     novelty_filter_cast,
 )
+from tourbot.localization.cast_table import CastTable
 from tourbot.localization.estimate import LocalizationEstimate
 from tourbot.localization.motion_model import OdometryMotionModel, _wrap
 from tourbot.maps.beam_model import BeamModel
@@ -184,8 +187,18 @@ class MCLConfig:
         ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` 0.5 nats per
         return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
         docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
-        (about 80 ms at 90 returns on the FHW site). The figures behind the margin are in
-        docs/benchmarks.md (section sim); not tuned beyond them.
+        (about 30 ms at 90 returns on the FHW site). The figures behind the margin are in
+        docs/benchmarks.md (section sim); not tuned beyond them. The verification's search
+        screens its far candidates on the cast table (:class:`tourbot.localization.cast_table.
+        CastTable`: ``table_spacing`` 0.25 m lattice over the free space, ``table_directions`` 90
+        headings, the crowd beam model of ``table_beams`` 12 returns spread over the scan, the
+        ``table_survivors`` 500 best) instead of the likelihood field of the longest returns
+        (``verify_candidates`` 0 of those; 200000 as sensor resetting's): in a nook with short
+        walls all round and the crowd in its opening the field ranks the true place below
+        thousands of others, the beam model among the first ten (FHW, docs/benchmarks.md).
+        Its candidates around the estimate are ``verify_local_candidates`` 3000 (sensor
+        resetting's ``injection_local_candidates`` 10000): only places more than
+        ``verify_distance`` away count, and the table covers the whole free space.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space. ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
@@ -237,6 +250,12 @@ class MCLConfig:
     injection_long_fraction: float = 0.5
     injection_survivors: int = 1000
     injection_local_candidates: int = 10000
+    verify_candidates: int = 0
+    verify_local_candidates: int = 3000
+    table_survivors: int = 500
+    table_spacing: float = 0.25
+    table_directions: int = 90
+    table_beams: int = 12
     recovery_model: BeamModel = field(
         default_factory=lambda: BeamModel(
             z_hit=0.5, z_short=0.4, z_max=0.05, z_rand=0.05, sigma_hit=0.2, lambda_short=0.2
@@ -293,6 +312,7 @@ class MonteCarloLocalization:
         )
         self._fields: dict[float, LikelihoodField] = {}
         self._casters: dict[float, RayCaster] = {}
+        self._tables: dict[float, CastTable] = {}
         self.samples: FloatArray = np.zeros((0, 3))
         self.weights: FloatArray = np.zeros(0)
         # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
@@ -800,6 +820,7 @@ class MonteCarloLocalization:
         far: bool,
         keep_fresh: bool = False,
         rng: np.random.Generator | None = None,
+        verifying: bool = False,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -810,7 +831,9 @@ class MonteCarloLocalization:
         ``global_after`` scans in a row, when the fit of the scan triggered the reset, or for a
         verification), also the ``injection_survivors`` best of
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
-        field of the longest returns (cheap, no ray casting), and with ``keep_fresh`` the fresh
+        field of the longest returns (cheap, no ray casting; ``verify_candidates`` of them for a
+        verification, ``verifying``, which also adds the ``table_survivors`` best poses of the cast
+        table, :meth:`_table_poses`), and with ``keep_fresh`` the fresh
         samples (earlier scans' guesses, moved by the odometry since: a search that missed the
         true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
@@ -819,7 +842,7 @@ class MonteCarloLocalization:
         cfg = self.config
         rng = self.rng if rng is None else rng
         keep = max(n, cfg.injection_survivors)
-        m = cfg.injection_local_candidates
+        m = cfg.verify_local_candidates if verifying else cfg.injection_local_candidates
         pool = [
             np.column_stack(
                 [
@@ -829,12 +852,15 @@ class MonteCarloLocalization:
                 ]
             )
         ]
-        if far:
-            far_poses = _uniform_free_poses(self.grid, self._free_cells, cfg.injection_candidates, rng)
+        n_far = cfg.verify_candidates if verifying else cfg.injection_candidates
+        if far and n_far > 0:
+            far_poses = _uniform_free_poses(self.grid, self._free_cells, n_far, rng)
             longest = _longest(ranges, valid, cfg.injection_long_fraction)
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
+        if far and verifying:
+            pool.append(self._table_poses(ranges, geometry, valid))
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
         cand = np.vstack(pool)
@@ -847,6 +873,29 @@ class MonteCarloLocalization:
 
         drawn = self._anneal(cand, keep, ranges, geometry, field_, valid, cfg.injection_stages, score, rng)[0]
         return drawn[rng.permutation(drawn.shape[0])[:n]]
+
+    def _table_poses(
+        self, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+    ) -> FloatArray:
+        """The ``table_survivors`` best poses of the cast table's lattice (:class:`CastTable`:
+        ``table_spacing`` metres, ``table_directions`` headings) by the crowd beam model
+        (``recovery_model``) of ``table_beams`` returns spread evenly over the scan. Unlike the
+        likelihood field of the longest returns, this sees a place's short walls and the
+        readings that would pass through them (a nook whose opening the crowd hides)."""
+        cfg = self.config
+        idx = np.flatnonzero(valid)
+        if cfg.table_survivors <= 0 or idx.size == 0:
+            return np.zeros((0, 3))
+        key = float(geometry.max_range)
+        table = self._tables.get(key)
+        if table is None:
+            table = CastTable.build(self.grid, self._caster(key), cfg.table_spacing, cfg.table_directions)
+            self._tables[key] = table
+        idx = idx[
+            np.unique(np.round(np.linspace(0, idx.size - 1, min(cfg.table_beams, idx.size))).astype(np.int64))
+        ]
+        laser, _ = table.screen(ranges[idx], geometry.angles[idx], cfg.recovery_model, cfg.table_survivors)
+        return compose(laser, invert(np.asarray(geometry.offset, dtype=np.float64)))
 
     def _verify(
         self,
@@ -876,7 +925,16 @@ class MonteCarloLocalization:
         cfg = self.config
         n = max(1, round(cfg.max_injection * max(self.samples.shape[0], cfg.max_samples)))
         drawn = self._scan_drawn_poses(
-            n, ranges, geometry, field_, valid, pose, True, keep_fresh=True, rng=self._verify_rng
+            n,
+            ranges,
+            geometry,
+            field_,
+            valid,
+            pose,
+            True,
+            keep_fresh=True,
+            rng=self._verify_rng,
+            verifying=True,
         )
         n_valid = int(valid.sum())
         # only another place counts: the track itself a little off is no alternative
