@@ -308,8 +308,10 @@ class IncrementalMapper:
             (r1 - r0, c1 - c0),
             crossing=p.cells.hit == "crossing",
         )
-        lr, lc, dh, dm = _counted_cells(hits, misses)
-        if p.free_sectors and into != "alignment":
+        sectors = p.free_sectors and into != "alignment"
+        # the beams' own counts, for the map scans are aligned against (not needed for the map alone)
+        beam_counts = None if sectors and into == "map" else _counted_cells(hits, misses)
+        if sectors:
             # every beam's free length (0 for beams left out), to clear what lies between beams;
             # for the map only: scans are aligned against what the beams themselves saw
             seen = np.where(is_hit, ranges, np.minimum(ranges, p.max_free_range))
@@ -325,16 +327,17 @@ class IncrementalMapper:
                 width=p.sector_width * inv,
                 cap=p.sector_range * inv,
             )
-            misses = misses.copy()
-            misses[free & (misses == 0) & (hits == 0)] = 1
+            misses[free & (misses == 0) & (hits == 0)] = 1  # after the beams' own counts
             mr, mc, mh, mm = _counted_cells(hits, misses)
         else:
-            mr, mc, mh, mm = lr, lc, dh, dm
+            assert beam_counts is not None
+            mr, mc, mh, mm = beam_counts
         c = p.cells
         if into != "alignment":  # the whole map
             _apply_counts(self._hits, self._misses, r0 + mr, c0 + mc, mh, mm, c.l_occ, c.l_free)
-        if into == "map":
+        if into == "map" or beam_counts is None:
             return
+        lr, lc, dh, dm = beam_counts
         rr, cc = r0 + lr, c0 + lc
         self._change(rr, cc, dh, dm)
         if p.window is not None:
