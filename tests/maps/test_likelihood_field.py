@@ -52,10 +52,11 @@ def test_matches_reference(seed: int, sigma: float, max_dist: float) -> None:
     ranges = rng.uniform(0.0, 6.0, GEOM.num_beams)
     ranges[rng.integers(0, GEOM.num_beams)] = np.nan
     got = field.beam_log_likelihoods(poses, ranges, GEOM)
-    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM)
-    np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-5)
+    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM).astype(np.float32)
+    # The table is float32, the endpoint maths float64: the same cells, so the same values.
+    np.testing.assert_array_equal(got, ref)
     np.testing.assert_allclose(
-        field.log_likelihood(poses, ranges, GEOM), ref.sum(axis=1), rtol=1e-5, atol=1e-4
+        field.log_likelihood(poses, ranges, GEOM), ref.astype(np.float64).sum(axis=1), rtol=1e-12, atol=1e-12
     )
 
 
@@ -74,10 +75,26 @@ def test_scan_sums_match_reference_inside_and_near_the_edges(seed: int, longest:
     )
     poses = grid.grid_to_world(np.vstack([middle, near]))
     ranges = rng.uniform(0.0, longest, GEOM.num_beams)
-    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM)
+    ref = beam_log_likelihoods_reference(grid, params, poses, ranges, GEOM).astype(np.float32)
+    np.testing.assert_array_equal(field.beam_log_likelihoods(poses, ranges, GEOM), ref)
     np.testing.assert_allclose(
-        field.log_likelihood(poses, ranges, GEOM), ref.sum(axis=1), rtol=1e-5, atol=1e-4
+        field.log_likelihood(poses, ranges, GEOM), ref.astype(np.float64).sum(axis=1), rtol=1e-12, atol=1e-12
     )
+
+
+def test_endpoints_off_the_grid_score_as_far_from_any_wall() -> None:
+    # Poses beyond every edge and corner (and an odd count, the kernel's single-pose tail): all
+    # endpoints read the padded frame, which holds log p at max_dist.
+    grid = small_grid(3)
+    field = LikelihoodField.from_grid(grid, max_range=GEOM.max_range)
+    assert field.padded.shape == (grid.shape[0] + 2, grid.shape[1] + 2)
+    assert field.outside == pytest.approx(float(field.params.log_p(field.params.max_dist)), rel=1e-6)
+    local = np.array(
+        [[-9.0, 1.5, 0.0], [13.0, 1.5, 1.0], [2.0, -9.0, 2.0], [2.0, 12.0, 3.0], [-9.0, -9.0, 0.5]]
+    )
+    ranges = np.full(GEOM.num_beams, 1.0)
+    total = field.log_likelihood(grid.grid_to_world(local), ranges, GEOM)
+    np.testing.assert_allclose(total, GEOM.num_beams * field.outside, rtol=1e-12)
 
 
 def test_skips_no_return_and_masked_beams() -> None:

@@ -32,6 +32,7 @@ __all__ = [
     "LikelihoodFieldParams",
     "beam_log_likelihoods_reference",
     "endpoint_log_likelihoods",
+    "padded_table",
     "sum_log_likelihoods",
     "surface_distance",
     "used_beams",
@@ -129,10 +130,34 @@ def _laser_pose_in_cells(pose: FloatArray, frame: FloatArray, i: int) -> tuple[f
     return gx, gy, frame[6] * lc - frame[7] * ls, frame[7] * lc + frame[6] * ls
 
 
+def padded_table(table: NDArray[np.float32], outside: float) -> NDArray[np.float32]:
+    """``table`` framed by one cell of ``outside`` on every side, ``(rows + 2, cols + 2)``.
+
+    The kernels clamp an endpoint's cell to the frame, so every look-up is in bounds: off-grid
+    endpoints read ``outside`` with no branch, and the beams of every pose go through one
+    branch-free loop (vector gathers), wherever the pose is.
+    """
+    rows, cols = table.shape
+    out = np.full((rows + 2, cols + 2), outside, dtype=np.float32)
+    out[1:-1, 1:-1] = table
+    return out
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_index(ex: float, ey: float, fc: float, fr: float, pcols: int) -> int:
+    """Flat index in the padded table of the cell under the endpoint ``(ex, ey)`` (in cells).
+
+    ``floor`` of the endpoint clamped to ``[-1, cols]`` x ``[-1, rows]``: the exact cell on the
+    grid, the frame cell off it (``floor`` is exact, the clamp changes only off-grid endpoints).
+    """
+    col = math.floor(min(max(ex, -1.0), fc))
+    row = math.floor(min(max(ey, -1.0), fr))
+    return (row + 1) * pcols + col + 1
+
+
 @numba.njit(cache=True, fastmath=True)
 def endpoint_log_likelihoods(
-    table: NDArray[np.float32],
-    outside: float,
+    padded: NDArray[np.float32],
     poses: FloatArray,
     frame: FloatArray,
     lx: FloatArray,
@@ -142,27 +167,24 @@ def endpoint_log_likelihoods(
 ) -> None:
     """``out[i, beams[k]]`` = table value under endpoint ``k`` seen from robot pose ``i``.
 
-    ``(lx, ly)`` are the beam endpoints in the laser frame, in cells; ``outside`` the value off
-    the grid; ``frame`` as in :func:`_laser_pose_in_cells`.
+    ``padded``: the table framed by the value off the grid (:func:`padded_table`); ``(lx, ly)``
+    the beam endpoints in the laser frame, in cells; ``frame`` as in :func:`_laser_pose_in_cells`.
     """
-    rows, cols = table.shape
-    fr = float(rows)
-    fc = float(cols)
+    pcols = padded.shape[1]
+    fr = float(padded.shape[0] - 2)
+    fc = float(pcols - 2)
+    flat = padded.ravel()
     for i in range(poses.shape[0]):
         x, y, c, s = _laser_pose_in_cells(poses, frame, i)
         for k in range(lx.shape[0]):
             ex = x + c * lx[k] - s * ly[k]
             ey = y + s * lx[k] + c * ly[k]
-            v = outside
-            if ex >= 0.0 and ex < fc and ey >= 0.0 and ey < fr:
-                v = table[int(ey), int(ex)]
-            out[i, beams[k]] = v
+            out[i, beams[k]] = flat[_cell_index(ex, ey, fc, fr, pcols)]
 
 
 @numba.njit(cache=True, fastmath=True)
 def sum_log_likelihoods(
-    table: NDArray[np.float32],
-    outside: float,
+    padded: NDArray[np.float32],
     poses: FloatArray,
     frame: FloatArray,
     lx: FloatArray,
@@ -171,56 +193,39 @@ def sum_log_likelihoods(
 ) -> None:
     """``out[i]`` = sum of the table values under the endpoints seen from robot pose ``i``.
 
-    When every endpoint of a pose is certainly on the grid (the laser is farther from the edges
-    than the longest beam, plus a cell), the bounds checks are skipped: a branch-free loop over
-    the beams that the compiler turns into vector gathers, two poses at a time (two independent
-    chains of look-ups). The same sums as with the checks.
+    ``padded`` as in :func:`endpoint_log_likelihoods`. One branch-free loop over the beams for
+    every pose, on the grid or near its edges (the compiler turns it into vector gathers), two
+    poses at a time (two independent chains of look-ups); the endpoint maths is float64.
     """
-    rows, cols = table.shape
-    fr = float(rows)
-    fc = float(cols)
-    flat = table.ravel()
-    reach = 0.0
-    for k in range(lx.shape[0]):
-        reach = max(reach, math.sqrt(lx[k] * lx[k] + ly[k] * ly[k]))
-    reach += 1.0
+    pcols = padded.shape[1]
+    fr = float(padded.shape[0] - 2)
+    fc = float(pcols - 2)
+    flat = padded.ravel()
     n = poses.shape[0]
     i = 0
-    while i < n:
+    while i + 1 < n:
         x, y, c, s = _laser_pose_in_cells(poses, frame, i)
-        inside = x - reach >= 0.0 and x + reach < fc and y - reach >= 0.0 and y + reach < fr
-        if inside and i + 1 < n:
-            x2, y2, c2, s2 = _laser_pose_in_cells(poses, frame, i + 1)
-            if x2 - reach >= 0.0 and x2 + reach < fc and y2 - reach >= 0.0 and y2 + reach < fr:
-                acc = 0.0
-                acc2 = 0.0
-                for k in range(lx.shape[0]):
-                    ex = x + c * lx[k] - s * ly[k]
-                    ey = y + s * lx[k] + c * ly[k]
-                    ex2 = x2 + c2 * lx[k] - s2 * ly[k]
-                    ey2 = y2 + s2 * lx[k] + c2 * ly[k]
-                    acc += flat[np.int64(ey) * cols + np.int64(ex)]
-                    acc2 += flat[np.int64(ey2) * cols + np.int64(ex2)]
-                out[i] = acc
-                out[i + 1] = acc2
-                i += 2
-                continue
+        x2, y2, c2, s2 = _laser_pose_in_cells(poses, frame, i + 1)
         acc = 0.0
-        if inside:
-            for k in range(lx.shape[0]):
-                ex = x + c * lx[k] - s * ly[k]
-                ey = y + s * lx[k] + c * ly[k]
-                acc += flat[np.int64(ey) * cols + np.int64(ex)]
-        else:
-            for k in range(lx.shape[0]):
-                ex = x + c * lx[k] - s * ly[k]
-                ey = y + s * lx[k] + c * ly[k]
-                if ex >= 0.0 and ex < fc and ey >= 0.0 and ey < fr:
-                    acc += table[int(ey), int(ex)]
-                else:
-                    acc += outside
+        acc2 = 0.0
+        for k in range(lx.shape[0]):
+            ex = x + c * lx[k] - s * ly[k]
+            ey = y + s * lx[k] + c * ly[k]
+            ex2 = x2 + c2 * lx[k] - s2 * ly[k]
+            ey2 = y2 + s2 * lx[k] + c2 * ly[k]
+            acc += flat[_cell_index(ex, ey, fc, fr, pcols)]
+            acc2 += flat[_cell_index(ex2, ey2, fc, fr, pcols)]
         out[i] = acc
-        i += 1
+        out[i + 1] = acc2
+        i += 2
+    if i < n:
+        x, y, c, s = _laser_pose_in_cells(poses, frame, i)
+        acc = 0.0
+        for k in range(lx.shape[0]):
+            ex = x + c * lx[k] - s * ly[k]
+            ey = y + s * lx[k] + c * ly[k]
+            acc += flat[_cell_index(ex, ey, fc, fr, pcols)]
+        out[i] = acc
 
 
 def beam_log_likelihoods_reference(
@@ -254,12 +259,21 @@ def beam_log_likelihoods_reference(
 
 @dataclass
 class LikelihoodField:
-    """A map's likelihood field: ``table[row, col] = log p`` of a beam ending in that cell."""
+    """A map's likelihood field: ``table[row, col] = log p`` of a beam ending in that cell.
+
+    ``outside``: the value off the grid, rounded to float32 as the table is. ``padded``: the
+    table framed by ``outside`` (:func:`padded_table`), which the kernels read; ``table`` is a
+    view of its inside.
+    """
 
     grid: OccupancyGrid
     params: LikelihoodFieldParams
-    table: NDArray[np.float32]
+    padded: NDArray[np.float32]
     outside: float
+
+    @property
+    def table(self) -> NDArray[np.float32]:
+        return self.padded[1:-1, 1:-1]
 
     @classmethod
     def from_grid(
@@ -295,13 +309,13 @@ class LikelihoodField:
             dist = np.full(occ.shape, np.inf)
         if prm.distance == "surface":
             dist = surface_distance(grid, dist)
-        table = prm.log_p(dist).astype(np.float32)
-        outside = float(prm.log_p(np.inf))
-        return cls(grid=grid, params=prm, table=table, outside=outside)
+        outside = float(np.float32(prm.log_p(np.inf)))
+        padded = padded_table(prm.log_p(dist).astype(np.float32), outside)
+        return cls(grid=grid, params=prm, padded=padded, outside=outside)
 
     @property
     def nbytes(self) -> int:
-        return int(self.table.nbytes)
+        return int(self.padded.nbytes)
 
     def _frame(self, poses: ArrayLike, geometry: LaserGeometry) -> tuple[FloatArray, FloatArray]:
         p = np.ascontiguousarray(np.asarray(poses, dtype=np.float64))
@@ -355,7 +369,7 @@ class LikelihoodField:
         out = np.zeros((p.shape[0], geometry.num_beams), dtype=np.float32)
         if out.size and lx.size:
             beams = np.flatnonzero(use).astype(np.int64)
-            endpoint_log_likelihoods(self.table, self.outside, p, frame, lx, ly, beams, out)
+            endpoint_log_likelihoods(self.padded, p, frame, lx, ly, beams, out)
         return out
 
     def log_likelihood(
@@ -372,5 +386,5 @@ class LikelihoodField:
         lx, ly = self._endpoints(ranges, geometry, use)
         out = np.zeros(p.shape[0], dtype=np.float64)
         if lx.shape[0] and out.size:
-            sum_log_likelihoods(self.table, self.outside, p, frame, lx, ly, out)
+            sum_log_likelihoods(self.padded, p, frame, lx, ly, out)
         return out
