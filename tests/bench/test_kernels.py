@@ -35,6 +35,7 @@ def test_bench_kernels_runs_and_casters_agree(tmp_path: Path) -> None:
     assert "cast DDACaster" in kernels
     assert "cast DistanceCaster" in kernels
     assert "likelihood field, scan sums" in kernels
+    assert "likelihood field, scan sums, free space" in kernels
     cast = payload["meta"]["cast_20m"]
     assert cast["within_one_cell"] == 1.0  # the accelerated caster returns the DDA's ranges
     assert 0.5 < cast["mean_range_m"] < 20.0
