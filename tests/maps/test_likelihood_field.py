@@ -14,6 +14,7 @@ from tourbot.maps.likelihood_field import (
     LikelihoodField,
     LikelihoodFieldParams,
     beam_log_likelihoods_reference,
+    padded_table,
     surface_distance,
 )
 from tourbot.records import LaserGeometry
@@ -203,3 +204,9 @@ def test_surface_field_is_not_pulled_into_thick_walls() -> None:
 def test_distance_kind_is_checked() -> None:
     with pytest.raises(MapError, match="distance"):
         LikelihoodFieldParams(distance="edge")  # type: ignore[arg-type]
+
+
+def test_grids_beyond_32_bit_cell_indices_are_refused() -> None:
+    huge = np.broadcast_to(np.float32(0.0), (50_000, 50_000))  # a view: nothing is allocated
+    with pytest.raises(MapError, match="32-bit"):
+        padded_table(huge, -5.0)
