@@ -136,6 +136,8 @@ def test_bad_input_is_reported() -> None:
         field.log_likelihood(np.zeros((2, 3)), np.zeros(5), GEOM)
     with pytest.raises(MapError):
         LikelihoodFieldParams(sigma_hit=0.0)
+    with pytest.raises(MapError, match="finite"):
+        field.log_likelihood(np.array([[0.0, np.nan, 0.0]]), np.ones(GEOM.num_beams), GEOM)
 
 
 def test_surface_distance_counts_depth_behind_the_surface() -> None:

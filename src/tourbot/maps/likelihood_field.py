@@ -48,8 +48,8 @@ class LikelihoodFieldParams:
     Defaults are Nav2 AMCL's for its ``likelihood_field`` model: ``sigma_hit`` 0.2 m, ``z_hit``
     0.95 (the book's mixture weight of the Gaussian), ``z_rand`` 0.05, ``max_dist`` 2.0 m
     (``laser_likelihood_max_dist``); ``max_range`` (``z_max`` in the book) is the laser's, 8 m
-    here unless given. ``distance``: ``"centre"`` (the book's) or ``"surface"`` (see the module
-    docstring).
+    here unless given. ``distance``: ``"centre"`` (the book's) or ``"surface"`` (see
+    :func:`surface_distance`).
     """
 
     sigma_hit: float = 0.2
@@ -325,6 +325,9 @@ class LikelihoodField:
         p = np.ascontiguousarray(np.asarray(poses, dtype=np.float64))
         if p.ndim != 2 or p.shape[1] != 3:
             raise MapError(f"poses must be (N, 3), got shape {p.shape}")
+        if not np.isfinite(p).all():
+            # the kernels clamp endpoints to the padded table, which a NaN would slip through
+            raise MapError("poses must be finite")
         ox, oy, oth = geometry.offset
         inv = invert(self.grid.origin)
         frame = np.array(
