@@ -19,7 +19,7 @@ The lane is the paper's "compressed" directional distance transform (their Sec. 
 zero points are kept, and as merged ``[start, end)`` runs, so a lane holds only the points where a
 ray enters (or, read backwards, leaves) blocking cells, which is the paper's pruning (PCDDT), and
 the reverse heading reuses the lane (the paper's symmetry of ``theta`` and ``theta + pi``). Blocking
-cells whose four neighbours all block are never entered first and are left out. Run ends are
+cells deep inside walls and unknown areas are never met first and are left out. Run ends are
 stored as ``uint16`` in steps of ``1 / scale`` cell (16 on maps up to about 200 m across); a lane
 is ``[0, s_0, e_0, s_1, e_1, ..., 65535]``, so the count ``p`` of its values below ``u`` gives
 everything: ``p`` even means ``u`` is inside a run, otherwise the run ends around ``u`` are the
@@ -90,12 +90,14 @@ class LaneTable:
 
 
 def _edge_cells(blocked: NDArray[np.bool_], ring: bool) -> tuple[IntArray, IntArray]:
-    """``(x, y)`` cell coordinates (unpadded) of the blocking cells a ray can enter first.
+    """``(x, y)`` cell coordinates (unpadded) of the blocking cells that a lane ray may meet first.
 
-    A ray enters a cell through one of its sides, from the neighbour there (through a corner only
-    on a set of measure zero), so a blocking cell whose four neighbours all block is never the
-    first blocking cell of a ray from a non-blocking cell. With ``ring`` the grid is surrounded by
-    a ring of blocking cells (the outside as unknown), beyond which no laser is cast from.
+    A lane ray starts on its lane's centre line, at most one cell (half a lane of at most two
+    cells) from the laser, which sits in a non-blocking cell: so it starts in that cell or one of
+    its eight neighbours, and it can only be in, or enter first, a blocking cell that has a
+    non-blocking cell among its eight neighbours (a ray enters a cell through a side, from the
+    neighbour there). Blocking cells deep inside walls and unknown areas are left out. With
+    ``ring`` the grid is surrounded by a ring of blocking cells (the outside as unknown).
     """
     if ring:
         mask = np.pad(blocked, 1, constant_values=True)
@@ -105,7 +107,11 @@ def _edge_cells(blocked: NDArray[np.bool_], ring: bool) -> tuple[IntArray, IntAr
         mask = blocked
         around = np.pad(mask, 1, constant_values=False)
         off = 0
-    inner = around[:-2, 1:-1] & around[2:, 1:-1] & around[1:-1, :-2] & around[1:-1, 2:]
+    rows, cols = mask.shape
+    inner = np.ones(mask.shape, dtype=bool)
+    for dy in range(3):
+        for dx in range(3):
+            inner &= around[dy : dy + rows, dx : dx + cols]
     ys, xs = np.nonzero(mask & ~inner)
     return xs.astype(np.int64) - off, ys.astype(np.int64) - off
 
@@ -162,7 +168,7 @@ def _lane_runs(
 
 
 def build_lanes(
-    blocked: NDArray[np.bool_], directions: int = 512, ring: bool = True, lane_width: float = 1.0
+    blocked: NDArray[np.bool_], directions: int = 256, ring: bool = True, lane_width: float = 1.0
 ) -> LaneTable:
     """The CDDT of a ``blocked[row, col]`` mask (plain numpy, vectorised per direction).
 
@@ -263,7 +269,7 @@ def cddt_reference(
     idx = lo[:, None] + np.arange(width)[None, :]
     valid = np.arange(width)[None, :] < m[:, None]
     vals = np.where(valid, table.bounds[np.where(valid, idx, 0)], HIGH).astype(np.int64)
-    ui = np.clip(uq, 1.0, HIGH - 1.0).astype(np.int64)
+    ui = np.ceil(np.clip(uq, 1.0, HIGH - 1.0)).astype(np.int64)  # integer b < ui exactly when b < uq
     cnt = np.sum(vals < ui[:, None], axis=1)
     at = lo + cnt - 1
     prev_end = table.bounds[at].astype(np.float64)
@@ -344,7 +350,7 @@ def cddt_kernel(
             r = max_q
             if m > 0:
                 uq = pos[b]
-                ui = np.uint16(min(max(uq, 1.0), HIGH - 1.0))
+                ui = np.uint16(math.ceil(min(max(uq, 1.0), HIGH - 1.0)))  # b < ui iff b < uq
                 lo = los[b]
                 at = lo  # last value below ui: bounds[lo] = LOW is, bounds[lo + m - 1] = HIGH is not
                 while m > 1:
@@ -357,7 +363,7 @@ def cddt_kernel(
                     r = uq - prev_end if prev_end > LOW else max_q
                 else:
                     r = next_start - uq if next_start < HIGH else max_q
-                r = min(max(r, 0.0), max_q) if (at - lo) % 2 == 0 else 0.0
+                r = min(max(r, 0.0), max_q) if ((at - lo) & 1) == 0 else 0.0
             out[i, b] = to_out * r
     return touched
 
@@ -365,7 +371,7 @@ def cddt_kernel(
 class CDDTCaster(RayCaster):
     """Approximate caster on a compressed directional distance transform (Walsh & Karaman 2018).
 
-    ``directions`` heading bins over the full circle (a power of two; default 512, 0.7 degree)
+    ``directions`` heading bins over the full circle (a power of two; default 256, 1.4 degree)
     and lanes ``lane_width`` cells wide; the table does not depend on ``max_range``. See the module
     docstring for the query and what it approximates.
     """
@@ -375,7 +381,7 @@ class CDDTCaster(RayCaster):
         grid: OccupancyGrid,
         max_range: float,
         unknown_blocks: bool = True,
-        directions: int = 512,
+        directions: int = 256,
         lane_width: float = 1.0,
     ) -> None:
         super().__init__(grid, max_range, unknown_blocks)
