@@ -14,7 +14,9 @@ from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
 from tourbot.maps.raycast import DDACaster, cast_rays_reference
 
 
-def random_grid(seed: int, rows: int = 40, cols: int = 50, boxes: int = 12, unknown: bool = True) -> OccupancyGrid:
+def random_grid(
+    seed: int, rows: int = 40, cols: int = 50, boxes: int = 12, unknown: bool = True
+) -> OccupancyGrid:
     rng = np.random.default_rng(seed)
     prob = np.zeros((rows, cols), dtype=np.float32)
     for _ in range(boxes):
@@ -146,7 +148,9 @@ def test_walls_corners_and_max_range_in_a_box_room() -> None:
     off = np.array([0.004, -0.006, 0.013, 0.2])
     r = dda.cast(np.zeros((1, 3)), off)[0]
     half_bin = math.pi / 256
-    bound = (0.05 + r * math.sin(half_bin)) * np.tan(np.abs(off) + half_bin) + r * (1 / math.cos(half_bin) - 1)
+    bound = (0.05 + r * math.sin(half_bin)) * np.tan(np.abs(off) + half_bin) + r * (
+        1 / math.cos(half_bin) - 1
+    )
     assert np.all(np.abs(caster.cast(np.zeros((1, 3)), off)[0] - r) <= bound + 0.1 / 16 + 1e-6)
     # max range
     short = CDDTCaster(grid, 2.0).cast(np.zeros((1, 3)), np.array([0.3, 2.0]))
@@ -177,7 +181,9 @@ def test_agrees_with_dda_on_an_open_map() -> None:
     # few obstacles: most beams end on a wall face, where the approximation is small
     grid = random_grid(7, rows=120, cols=150, boxes=6, unknown=False)
     rng = np.random.default_rng(3)
-    local = np.column_stack([rng.uniform(0, grid.width, 50), rng.uniform(0, grid.height, 50), rng.uniform(-4, 4, 50)])
+    local = np.column_stack(
+        [rng.uniform(0, grid.width, 50), rng.uniform(0, grid.height, 50), rng.uniform(-4, 4, 50)]
+    )
     poses = grid.grid_to_world(local)
     angles = np.linspace(-np.pi, np.pi, 90, endpoint=False)
     got = CDDTCaster(grid, 30.0, directions=1024).cast(poses, angles)

@@ -167,6 +167,43 @@ def _lane_runs(
     return lane[heads], ua[heads], reach[tails] - shift[heads]
 
 
+def _fill_inner_gaps(
+    lane: IntArray,
+    ua: FloatArray,
+    ub: FloatArray,
+    c: float,
+    s: float,
+    v0: float,
+    width: float,
+    solid: NDArray[np.bool_],
+    off: int,
+    outside_blocks: bool,
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Merge runs of a lane separated only by left-out (deep) blocking cells.
+
+    Between two runs, a centre line is either in non-blocking cells or in blocking cells left out
+    by :func:`_edge_cells` (to get from one to the other it would cross a kept cell), so the cell
+    under the middle of the gap tells which. ``solid`` is the blocking mask with its ring, its
+    cell ``(0, 0)`` at ``(-off, -off)``; beyond it, cells block when ``outside_blocks``.
+    """
+    if lane.size < 2:
+        return lane, ua, ub
+    inner = lane[1:] == lane[:-1]
+    mid = 0.5 * (ub[:-1] + ua[1:])
+    vc = v0 + (lane[:-1] + 0.5) * width
+    cx = np.floor(mid * c - vc * s).astype(np.int64) + off
+    cy = np.floor(mid * s + vc * c).astype(np.int64) + off
+    rows, cols = solid.shape
+    inside = (cx >= 0) & (cx < cols) & (cy >= 0) & (cy < rows)
+    deep = np.full(mid.shape, outside_blocks)
+    deep[inside] = solid[cy[inside], cx[inside]]
+    head = np.ones(lane.size, dtype=bool)
+    head[1:] = ~(inner & deep)
+    heads = np.flatnonzero(head)
+    tails = np.append(heads[1:], lane.size) - 1
+    return lane[heads], ua[heads], ub[tails]
+
+
 def build_lanes(
     blocked: NDArray[np.bool_], directions: int = 256, ring: bool = True, lane_width: float = 1.0
 ) -> LaneTable:
@@ -188,6 +225,7 @@ def build_lanes(
     box_y = np.array([-pad, -pad, rows + pad, rows + pad])
     steps = min(_STEPS, (HIGH - 2) / (math.hypot(rows, cols) + 2 * pad + 4.0))
     xs, ys = _edge_cells(blocked, ring)
+    solid = np.pad(blocked, 1, constant_values=True) if ring else blocked
     x, y = xs.astype(np.float64), ys.astype(np.float64)
     params = np.zeros((half, 8))
     lanes = np.zeros(half, dtype=np.int64)
@@ -203,6 +241,7 @@ def build_lanes(
         params[k] = (steps * c, steps * s, 1.0 - steps * u0, -s / lane_width, c / lane_width, -v0 / lane_width,
                      lanes[k], 0.0)  # fmt: skip
         lane, ua, ub = _lane_runs(x, y, c, s, v0, lane_width)
+        lane, ua, ub = _fill_inner_gaps(lane, ua, ub, c, s, v0, lane_width, solid, int(pad), ring)
         keep = (lane >= 0) & (lane < lanes[k])
         lane, ua, ub = lane[keep], ua[keep], ub[keep]
         qa = np.clip(np.floor((ua - u0) * steps + 1.0), 1, HIGH - 1)
@@ -254,7 +293,9 @@ def cddt_reference(
     x = np.asarray(ox, dtype=np.float64).ravel()
     y = np.asarray(oy, dtype=np.float64).ravel()
     per_rad = table.directions / _TWO_PI
-    d = ((np.asarray(heading, dtype=np.float64) * per_rad + 0.5) + np.asarray(angle) * per_rad).astype(np.int64)
+    d = ((np.asarray(heading, dtype=np.float64) * per_rad + 0.5) + np.asarray(angle) * per_rad).astype(
+        np.int64
+    )
     half = table.directions // 2
     back = (d & half) != 0
     k = d & (half - 1)
