@@ -163,7 +163,7 @@ def test_outside_and_unknown_conventions() -> None:
     grid = OccupancyGrid(prob, resolution=1.0)
     pose = np.array([[2.5, 5.5, 0.0]])
     for kwargs in ({}, {"unknown_blocks": False}):
-        cddt, dda = CDDTCaster(grid, 50.0, **kwargs), DDACaster(grid, 50.0, **kwargs)  # type: ignore[arg-type]
+        cddt, dda = CDDTCaster(grid, 50.0, **kwargs), DDACaster(grid, 50.0, **kwargs)
         for p in (pose, np.array([[-3.0, 5.5, 0.0]]), np.array([[2.5, 7.5, 0.0]])):
             for a in (0.0, math.pi, math.pi / 2):
                 assert cddt.cast(p, [a])[0, 0] == pytest.approx(dda.cast(p, [a])[0, 0], abs=1 / 16)

@@ -125,7 +125,7 @@ def _lane_runs(
     vlo = v_sq + min(0.0, -s) + min(0.0, c)
     vhi = v_sq + max(0.0, -s) + max(0.0, c)
     first = np.ceil((vlo - v0) / width - 0.5).astype(np.int64)  # lowest centre line >= vlo
-    span = int(math.ceil((abs(s) + abs(c)) / width)) + 1
+    span = math.ceil((abs(s) + abs(c)) / width) + 1
     lanes, lo_all, hi_all = [], [], []
     for extra in range(span):
         j = first + extra
@@ -237,9 +237,10 @@ def build_lanes(
         u0 = math.floor(float((box_x * c + box_y * s).min())) - 1.0
         box_v = -box_x * s + box_y * c
         v0 = math.floor(float(box_v.min()))
-        lanes[k] = int(math.ceil((float(box_v.max()) - v0) / lane_width)) + 1
-        params[k] = (steps * c, steps * s, 1.0 - steps * u0, -s / lane_width, c / lane_width, -v0 / lane_width,
-                     lanes[k], 0.0)  # fmt: skip
+        lanes[k] = math.ceil((float(box_v.max()) - v0) / lane_width) + 1
+        along = (steps * c, steps * s, 1.0 - steps * u0)
+        across = (-s / lane_width, c / lane_width, -v0 / lane_width)
+        params[k] = (*along, *across, lanes[k], 0.0)
         lane, ua, ub = _lane_runs(x, y, c, s, v0, lane_width)
         lane, ua, ub = _fill_inner_gaps(lane, ua, ub, c, s, v0, lane_width, solid, int(pad), ring)
         keep = (lane >= 0) & (lane < lanes[k])
