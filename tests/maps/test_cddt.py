@@ -48,15 +48,21 @@ def spread_poses(grid: OccupancyGrid, rng: np.random.Generator, n: int, margin: 
     max_range=st.floats(0.3, 9.0),
     directions=st.sampled_from([4, 16, 64, 256]),
     lane_width=st.sampled_from([1.0, 0.5, 1.5]),
+    aim_range=st.sampled_from([None, 0.0, 2.5]),
 )
 def test_kernel_matches_reference(
-    seed: int, unknown_blocks: bool, max_range: float, directions: int, lane_width: float
+    seed: int,
+    unknown_blocks: bool,
+    max_range: float,
+    directions: int,
+    lane_width: float,
+    aim_range: float | None,
 ) -> None:
     grid = random_grid(seed)
     rng = np.random.default_rng(seed + 1)
     poses = spread_poses(grid, rng, 10)
     angles = np.concatenate([np.linspace(-np.pi, np.pi, 37), rng.uniform(-20, 20, 5)])
-    caster = CDDTCaster(grid, max_range, unknown_blocks, directions=directions, lane_width=lane_width)
+    caster = CDDTCaster(grid, max_range, unknown_blocks, directions, lane_width, aim_range)
     got = caster.cast(poses, angles)
     assert got.shape == (10, 42)
     assert got.dtype == np.float32
@@ -64,20 +70,25 @@ def test_kernel_matches_reference(
 
 
 def lane_rays(caster: CDDTCaster, poses: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The ray each beam is cast along: origin on its lane's centre line, heading of its bin, in
-    grid cell units (as ``cast_rays_reference`` takes them)."""
+    """The ray each beam is cast along, in grid cell units (as ``cast_rays_reference`` takes them):
+    the heading of its bin, from the laser moved sideways onto the centre line of the lane the
+    beam is in ``aim`` cells out; and the laser's own position."""
     g = caster.grid.world_to_grid(poses)
     x = np.repeat(g[:, 0] / caster.grid.resolution, angles.size)
     y = np.repeat(g[:, 1] / caster.grid.resolution, angles.size)
-    theta = (g[:, 2:3] + angles[None, :]).ravel()
     t = caster.lanes
     step = 2 * math.pi / t.directions
-    d = np.floor(np.mod(theta, 2 * math.pi) / step + 0.5).astype(np.int64)
-    phi = (d % (t.directions // 2)) * step
+    half = t.directions // 2
+    heading = np.repeat(np.mod(g[:, 2], 2 * math.pi), angles.size)
+    fb = (heading / step + 0.5) + np.tile(np.mod(angles, 2 * math.pi), len(poses)) / step
+    d = np.floor(fb).astype(np.int64)
+    k = d % half
+    phi = k * step
     c, s = np.cos(phi), np.sin(phi)
     v = -x * s + y * c
-    v_min = -t.params[d % (t.directions // 2), 5] * t.lane_width
-    v_lane = v_min + (np.floor((v - v_min) / t.lane_width) + 0.5) * t.lane_width
+    v_min = -t.params[k, 5] * t.lane_width
+    sway = caster.aim_cells * (fb - 0.5 - d) * step * np.where((d % t.directions) >= half, -1.0, 1.0)
+    v_lane = v_min + (np.floor((v + sway - v_min) / t.lane_width) + 0.5) * t.lane_width
     return x - (v_lane - v) * s, y + (v_lane - v) * c, d * step, x, y
 
 
@@ -87,9 +98,10 @@ def lane_rays(caster: CDDTCaster, poses: np.ndarray, angles: np.ndarray) -> tupl
     unknown_blocks=st.booleans(),
     directions=st.sampled_from([16, 64, 256]),
     lane_width=st.sampled_from([1.0, 0.5, 1.5]),  # lane centres never on grid lines
+    aim_range=st.sampled_from([None, 0.0, 1.5]),
 )
 def test_range_is_the_exact_range_of_the_lane_ray(
-    seed: int, unknown_blocks: bool, directions: int, lane_width: float
+    seed: int, unknown_blocks: bool, directions: int, lane_width: float, aim_range: float | None
 ) -> None:
     # the stated tolerance: a CDDT range is the exact (DDA) range of the ray along the beam's
     # heading bin from the laser moved sideways onto its lane's centre line, within 1/16 cell
@@ -97,7 +109,7 @@ def test_range_is_the_exact_range_of_the_lane_ray(
     rng = np.random.default_rng(seed + 2)
     poses = spread_poses(grid, rng, 12)
     angles = rng.uniform(-np.pi, np.pi, 30)
-    caster = CDDTCaster(grid, 4.0, unknown_blocks, directions=directions, lane_width=lane_width)
+    caster = CDDTCaster(grid, 4.0, unknown_blocks, directions, lane_width, aim_range)
     got = caster.cast(poses, angles).ravel() / grid.resolution
     lx, ly, phi, x, y = lane_rays(caster, poses, angles)
     expected = cast_rays_reference(caster.blocked, lx, ly, phi, caster.max_cells, unknown_blocks)

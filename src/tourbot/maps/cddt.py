@@ -7,33 +7,36 @@ is cut into parallel *lanes* ``lane_width`` cells wide, and each lane stores, so
 centre line enters and leaves blocking cells. A ray is answered by one search in one lane instead
 of a walk through the grid:
 
+- heading bin ``d = round(theta / (2 pi / directions))``, ``k = d mod directions / 2``, and the
+  beam's angle to its bin ``delta = theta - 2 pi d / directions``;
 - in direction ``k``'s frame the laser is at ``u = x cos phi + y sin phi`` along the lanes and
-  ``v = -x sin phi + y cos phi`` across them (cell units); its lane is
-  ``floor((v - v_min_k) / lane_width)``;
-- heading bin ``d = round(theta / (2 pi / directions))``, ``k = d mod directions / 2``; forwards
-  (``d < directions / 2``) the range is ``start - u`` of the first run of blocking cells ahead of
-  ``u``, backwards the same lane is read the other way, ``u - end`` of the last run behind ``u``;
-  ``u`` inside a run reads 0, no run ``max_range``.
+  ``v = -x sin phi + y cos phi`` across them (cell units); the lane is the one the beam is in
+  ``aim`` cells out, ``floor((v +- aim delta - v_min_k) / lane_width)`` (``-`` backwards);
+- forwards (``d < directions / 2``) the range is ``start - u`` of the first run of blocking cells
+  ahead of ``u``, backwards the same lane is read the other way, ``u - end`` of the last run
+  behind ``u``; ``u`` inside a run reads 0, no run ``max_range``.
 
 The lane is the paper's "compressed" directional distance transform (their Sec. IV): only the
 zero points are kept, and as merged ``[start, end)`` runs, so a lane holds only the points where a
 ray enters (or, read backwards, leaves) blocking cells, which is the paper's pruning (PCDDT), and
-the reverse heading reuses the lane (the paper's symmetry of ``theta`` and ``theta + pi``). Blocking
-cells deep inside walls and unknown areas are never met first and are left out. Run ends are
-stored as ``uint16`` in steps of ``1 / scale`` cell (16 on maps up to about 200 m across); a lane
-is ``[0, s_0, e_0, s_1, e_1, ..., 65535]``, so the count ``p`` of its values below ``u`` gives
-everything: ``p`` even means ``u`` is inside a run, otherwise the run ends around ``u`` are the
-``p - 1``-th and ``p``-th values.
+the reverse heading reuses the lane (the paper's symmetry of ``theta`` and ``theta + pi``). Run
+ends are stored as ``uint16`` in steps of ``1 / steps`` cell (16 on maps up to about 200 m
+across); a lane is ``[0, s_0, e_0, s_1, e_1, ..., 65535]``, so the count ``p`` of its values below
+``u`` gives everything: ``p`` even means ``u`` is inside a run, otherwise the run ends around
+``u`` are the ``p - 1``-th and ``p``-th values.
 
-What it approximates: the ray is cast along its bin's direction (off by at most half a bin,
-``pi / directions``) and along its lane's centre line (off by at most half a lane sideways), so
-ranges differ from the exact DDA's where a ray grazes a wall or passes an edge
-(``tourbot bench kernels`` reports by how much). The blocking conventions are those of
-:mod:`tourbot.maps.raycast`: unknown cells block when ``unknown_blocks``, and the outside of the
-grid counts as unknown (a ring of blocking cells around the grid; a laser outside the grid or in a
-blocking cell reads 0); with ``unknown_blocks=False`` the outside is empty.
+What it approximates: a range is the exact range (to 1/16 cell, runs rounded outwards) of the
+*lane ray*, cast along the bin's direction from the laser moved sideways onto the lane's centre
+line. That ray is off the beam by at most half a bin in angle (``pi / directions``) and crosses it
+``aim`` cells out, give or take half a lane; ``aim`` defaults to the mean range of the map's beams
+(:meth:`CDDTCaster.typical_range`), where the hits gather. Ranges differ from the DDA's where a
+beam grazes a wall or passes an edge (``tourbot bench kernels`` reports by how much). The blocking
+conventions are those of :mod:`tourbot.maps.raycast`: unknown cells block when
+``unknown_blocks``, and the outside of the grid counts as unknown (a ring of blocking cells
+around the grid, and beyond it everything blocks; a laser outside the grid or in a blocking cell
+reads 0); with ``unknown_blocks=False`` the outside is empty.
 
-Speed (why the kernel is staged): a query is a handful of reads in a table of tens of MB, so its
+Speed (why the kernel is staged): a query is a handful of reads in a table of megabytes, so its
 cost is memory latency. :func:`cddt_kernel` handles the beams of one pose in three passes (lanes,
 then lane bounds, then the searches), so that the slow reads of different beams do not wait for
 one another.
@@ -68,11 +71,13 @@ class LaneTable:
 
     ``params[k]`` holds, for line direction ``k``: ``(a, b, c)`` with the laser's stored
     coordinate along the lanes ``x a + y b + c``, ``(d, e, f)`` with its lane coordinate
-    ``x d + y e + f`` (lane ``floor`` of it), and the number of lanes. Lane ``j`` of direction
-    ``k`` is ``lane_base[k] + j``; its values are ``bounds[ptr[g]:ptr[g + 1]]``.
+    ``x d + y e + f`` (lane ``floor`` of it), the number of lanes and ``1 / lane_width``. Lane
+    ``j`` of direction ``k`` is ``lane_base[k] + j``; its values are ``bounds[ptr[g]:ptr[g + 1]]``.
+    ``ring``: the grid is surrounded by blocking cells, and so is everything beside the lanes.
     """
 
     directions: int
+    ring: bool
     lane_width: float
     steps: float
     params: FloatArray
@@ -90,13 +95,12 @@ class LaneTable:
 
 
 def _edge_cells(blocked: NDArray[np.bool_], ring: bool) -> tuple[IntArray, IntArray]:
-    """``(x, y)`` cell coordinates (unpadded) of the blocking cells that a lane ray may meet first.
+    """``(x, y)`` cell coordinates (unpadded) of the blocking cells next to a non-blocking one.
 
-    A lane ray starts on its lane's centre line, at most one cell (half a lane of at most two
-    cells) from the laser, which sits in a non-blocking cell: so it starts in that cell or one of
-    its eight neighbours, and it can only be in, or enter first, a blocking cell that has a
-    non-blocking cell among its eight neighbours (a ray enters a cell through a side, from the
-    neighbour there). Blocking cells deep inside walls and unknown areas are left out. With
+    Only these cells bound the runs: a centre line passes from a non-blocking cell into a blocking
+    one, or back, through a cell with a non-blocking neighbour (one of the eight). The cells deep
+    inside walls and unknown areas are left out, and the gaps they leave in the runs are filled
+    again (:func:`_fill_inner_gaps`, and the ring's runs extended to the lanes' ends). With
     ``ring`` the grid is surrounded by a ring of blocking cells (the outside as unknown).
     """
     if ring:
@@ -240,7 +244,7 @@ def build_lanes(
         lanes[k] = math.ceil((float(box_v.max()) - v0) / lane_width) + 1
         along = (steps * c, steps * s, 1.0 - steps * u0)
         across = (-s / lane_width, c / lane_width, -v0 / lane_width)
-        params[k] = (*along, *across, lanes[k], 0.0)
+        params[k] = (*along, *across, lanes[k], 1.0 / lane_width)
         lane, ua, ub = _lane_runs(x, y, c, s, v0, lane_width)
         lane, ua, ub = _fill_inner_gaps(lane, ua, ub, c, s, v0, lane_width, solid, int(pad), ring)
         keep = (lane >= 0) & (lane < lanes[k])
@@ -248,6 +252,14 @@ def build_lanes(
         qa = np.clip(np.floor((ua - u0) * steps + 1.0), 1, HIGH - 1)
         qb = np.clip(np.ceil((ub - u0) * steps + 1.0), 1, HIGH - 1)
         n = np.bincount(lane, minlength=int(lanes[k])).astype(np.int64)
+        if ring:
+            # a lane beside the ring is off the grid, which blocks: one run over all of it
+            empty = np.flatnonzero(n == 0)
+            order = np.argsort(np.concatenate([lane, empty]), kind="stable")
+            lane = np.concatenate([lane, empty])[order]
+            qa = np.concatenate([qa, np.ones(empty.size)])[order]
+            qb = np.concatenate([qb, np.full(empty.size, HIGH - 1.0)])[order]
+            n[empty] = 1
         # per lane: LOW, s0, e0, s1, e1, ..., HIGH
         first = np.concatenate([[0], np.cumsum(2 * n + 2)[:-1]])
         out = np.empty(int(2 * n.sum() + 2 * lanes[k]), dtype=np.uint16)
@@ -257,13 +269,18 @@ def build_lanes(
         at = first[lane] + 1 + 2 * rank
         out[at] = qa
         out[at + 1] = qb
+        if ring:
+            # a lane ends in the ring, which blocks: its first run reaches back to where the lane
+            # begins and its last one on to where it ends, even where deep cells were left out
+            out[first + 1] = 1
+            out[first + 2 * n] = HIGH - 1
         counts.append(2 * n + 2)
         values.append(out)
     lane_base = np.concatenate([[0], np.cumsum(lanes)[:-1]]).astype(np.int64)
     ptr = np.concatenate([[0], np.cumsum(np.concatenate(counts))])
     if ptr[-1] >= 2**31:
         raise MapError(f"the CDDT of this grid needs {ptr[-1]} values, more than int32 indexes")
-    return LaneTable(directions, lane_width, steps, params, lane_base, ptr.astype(np.int32),
+    return LaneTable(directions, ring, lane_width, steps, params, lane_base, ptr.astype(np.int32),
                      np.concatenate(values))  # fmt: skip
 
 
@@ -284,9 +301,11 @@ def cddt_reference(
     heading: ArrayLike,
     angle: ArrayLike,
     max_cells: float,
+    aim: float = 0.0,
 ) -> FloatArray:
     """Ranges in cells of flat rays ``(M,)`` (plain numpy): origins in cell units, laser headings
-    and beam angles (both wrapped to ``[0, 2 pi)``), each laser's ``origin_blocked`` (reads 0).
+    and beam angles (both wrapped to ``[0, 2 pi)``), each laser's ``origin_blocked`` (reads 0),
+    lanes taken where the rays are ``aim`` cells out.
 
     The same arithmetic as :func:`cddt_kernel`, the lane search as a count over every lane padded
     to the longest one.
@@ -294,15 +313,15 @@ def cddt_reference(
     x = np.asarray(ox, dtype=np.float64).ravel()
     y = np.asarray(oy, dtype=np.float64).ravel()
     per_rad = table.directions / _TWO_PI
-    d = ((np.asarray(heading, dtype=np.float64) * per_rad + 0.5) + np.asarray(angle) * per_rad).astype(
-        np.int64
-    )
+    fb = (np.asarray(heading, dtype=np.float64) * per_rad + 0.5) + np.asarray(angle) * per_rad
+    d = fb.astype(np.int64)
     half = table.directions // 2
     back = (d & half) != 0
     k = d & (half - 1)
     p = table.params[k]
     uq = x * p[:, 0] + y * p[:, 1] + p[:, 2]
-    jf = x * p[:, 3] + y * p[:, 4] + p[:, 5]
+    sway = aim * ((fb - 0.5 - d) * (_TWO_PI / table.directions)) * p[:, 7]
+    jf = x * p[:, 3] + y * p[:, 4] + p[:, 5] + np.where(back, -sway, sway)
     ok = (jf >= 0.0) & (jf < p[:, 6])
     g = np.where(ok, table.lane_base[k] + np.where(ok, jf, 0.0).astype(np.int64), 0)
     lo = table.ptr[g].astype(np.int64)
@@ -321,7 +340,7 @@ def cddt_reference(
     bwd = np.where(prev_end > LOW, uq - prev_end, max_q)
     r = np.where(back, bwd, fwd)
     r = np.where(cnt % 2 == 0, 0.0, np.clip(r, 0.0, max_q))
-    r = np.where(ok, r, max_q)
+    r = np.where(ok, r, 0.0 if table.ring else max_q)  # beside every lane: off the grid
     r = np.where(np.asarray(origin_blocked, dtype=bool).ravel(), 0.0, r)
     return np.asarray(r / table.steps, dtype=np.float64)
 
@@ -341,6 +360,8 @@ def cddt_kernel(
     angles: FloatArray,
     max_cells: float,
     scale: float,
+    aim: float,
+    outside_blocks: bool,
     out: Float32Array,
 ) -> int:
     """Fill ``out[i, b]`` with ``scale *`` the CDDT range in cells of beam ``b`` from pose ``i``.
@@ -359,7 +380,9 @@ def cddt_kernel(
     per_rad = directions / (2.0 * math.pi)
     a_bins = angles * per_rad
     max_q = max_cells * steps
+    beside = 0.0 if outside_blocks else max_q  # range of a ray beside every lane
     to_out = scale / steps
+    bin_rad = 2.0 * math.pi / directions
     los = np.empty(nb, dtype=np.int64)
     lens = np.empty(nb, dtype=np.int64)
     pos = np.empty(nb)
@@ -374,11 +397,13 @@ def cddt_kernel(
         y = oy[i]
         base = heading[i] * per_rad + 0.5
         for b in range(nb):  # pass 1
-            d = np.int64(base + a_bins[b])
+            fb = base + a_bins[b]
+            d = np.int64(fb)
             back[b] = (d & half) != 0
             k = d & kmask
             pos[b] = x * params[k, 0] + y * params[k, 1] + params[k, 2]
-            jf = x * params[k, 3] + y * params[k, 4] + params[k, 5]
+            sway = aim * ((fb - 0.5 - d) * bin_rad) * params[k, 7]  # aim * (theta - bin) / lane width
+            jf = x * params[k, 3] + y * params[k, 4] + params[k, 5] + (-sway if back[b] else sway)
             lane[b] = lane_base[k] + np.int64(jf) if 0.0 <= jf < params[k, 6] else -1
         for b in range(nb):  # pass 2
             g = max(lane[b], 0)
@@ -389,7 +414,7 @@ def cddt_kernel(
             touched += bounds[lo] + bounds[lo + m - 1]
         for b in range(nb):  # pass 3
             m = lens[b]
-            r = max_q
+            r = beside  # lanes have two values at least; none: no lane
             if m > 0:
                 uq = pos[b]
                 ui = np.uint16(math.ceil(min(max(uq, 1.0), HIGH - 1.0)))  # b < ui iff b < uq
@@ -413,9 +438,11 @@ def cddt_kernel(
 class CDDTCaster(RayCaster):
     """Approximate caster on a compressed directional distance transform (Walsh & Karaman 2018).
 
-    ``directions`` heading bins over the full circle (a power of two; default 256, 1.4 degree)
-    and lanes ``lane_width`` cells wide; the table does not depend on ``max_range``. See the module
-    docstring for the query and what it approximates.
+    ``directions`` heading bins over the full circle (a power of two; default 256, 1.4 degree),
+    lanes ``lane_width`` cells wide, each beam's lane taken where the beam is ``aim_range`` metres
+    out (default: the mean range of beams cast from the grid's non-blocking cells, see
+    :meth:`typical_range`). The table does not depend on ``max_range``. See the module docstring
+    for the query and what it approximates.
     """
 
     def __init__(
@@ -425,9 +452,39 @@ class CDDTCaster(RayCaster):
         unknown_blocks: bool = True,
         directions: int = 256,
         lane_width: float = 1.0,
+        aim_range: float | None = None,
     ) -> None:
         super().__init__(grid, max_range, unknown_blocks)
         self.lanes = build_lanes(self.blocked, directions, ring=unknown_blocks, lane_width=lane_width)
+        if aim_range is not None and not 0.0 <= aim_range < math.inf:
+            raise MapError(f"aim_range must be a finite distance >= 0, got {aim_range}")
+        self.aim_cells = self.typical_range() if aim_range is None else aim_range / grid.resolution
+
+    def typical_range(self, lasers: int = 256, beams: int = 64) -> float:
+        """Mean range in cells (capped at ``max_range``) of ``beams`` beams around each of
+        ``lasers`` non-blocking cells drawn with a fixed seed, lanes taken at the laser.
+
+        The lane ray meets the true ray where its lane is taken; the hits are spread around the
+        mean range, which is where the lane should be taken to keep it closest to the beam where
+        the beam ends (least squares over the hit distances).
+        """
+        free = np.flatnonzero(~self.blocked.ravel())
+        if free.size == 0:
+            return 0.0
+        rng = np.random.default_rng(0)
+        cells = rng.choice(free, size=min(lasers, free.size), replace=False)
+        cols = self.grid.shape[1]
+        ox = (cells % cols + 0.5).astype(np.float64)
+        oy = (cells // cols + 0.5).astype(np.float64)
+        heading = rng.uniform(0.0, _TWO_PI, cells.size)
+        angles = np.linspace(0.0, _TWO_PI, beams, endpoint=False)
+        out = np.empty((cells.size, beams), dtype=np.float32)
+        t = self.lanes
+        cddt_kernel(
+            t.directions, t.steps, t.params, t.lane_base, t.ptr, t.bounds, np.zeros(cells.size, np.bool_), ox,
+            oy, heading, angles, self.max_cells, 1.0, 0.0, t.ring, out,
+        )  # fmt: skip
+        return float(out.mean())
 
     @property
     def nbytes(self) -> int:
@@ -452,7 +509,7 @@ class CDDTCaster(RayCaster):
             t = self.lanes
             cddt_kernel(
                 t.directions, t.steps, t.params, t.lane_base, t.ptr, t.bounds, blocked, ox, oy, heading,
-                a, self.max_cells, self.grid.resolution, out,
+                a, self.max_cells, self.grid.resolution, self.aim_cells, t.ring, out,
             )  # fmt: skip
         return out
 
@@ -469,5 +526,6 @@ class CDDTCaster(RayCaster):
             np.repeat(heading, nb),
             np.tile(a, n),
             self.max_cells,
+            self.aim_cells,
         )
         return (r * self.grid.resolution).astype(np.float32).reshape(n, nb)
