@@ -37,10 +37,9 @@ around the grid, and beyond it everything blocks; a laser outside the grid or in
 reads 0); with ``unknown_blocks=False`` the outside is empty.
 
 Speed (why the kernel is staged): a query is a handful of reads in a table of megabytes, so its
-cost is memory latency and mispredicted branches. :func:`cddt_kernel` handles the beams of one
-pose in three passes (lanes, then lane bounds, then the searches), so that the slow reads of
-different beams do not wait for one another, and nearly every search takes the same number of
-halvings (measured on FHW: 1.3x for the passes, 1.7x more for the fixed halvings).
+cost is memory latency. :func:`cddt_kernel` handles the beams of one pose in three passes (lanes,
+then lane bounds, then the searches), so that the slow reads of different beams do not wait for
+one another (1.5-1.8x over one beam at a time, side by side on FHW).
 """
 
 from __future__ import annotations
@@ -75,14 +74,12 @@ class LaneTable:
     ``x d + y e + f`` (lane ``floor`` of it), the number of lanes and ``1 / lane_width``. Lane
     ``j`` of direction ``k`` is ``lane_base[k] + j``; its values are ``bounds[ptr[g]:ptr[g + 1]]``.
     ``ring``: the grid is surrounded by blocking cells, and so is everything beside the lanes.
-    ``trips``: halvings that bring a search down to one value in 95% of the lanes.
     """
 
     directions: int
     ring: bool
     lane_width: float
     steps: float
-    trips: int
     params: FloatArray
     lane_base: IntArray
     ptr: NDArray[np.int32]
@@ -283,8 +280,7 @@ def build_lanes(
     ptr = np.concatenate([[0], np.cumsum(np.concatenate(counts))])
     if ptr[-1] >= 2**31:
         raise MapError(f"the CDDT of this grid needs {ptr[-1]} values, more than int32 indexes")
-    trips = max(1, math.ceil(math.log2(float(np.percentile(np.diff(ptr), 95)))))
-    return LaneTable(directions, ring, lane_width, steps, trips, params, lane_base, ptr.astype(np.int32),
+    return LaneTable(directions, ring, lane_width, steps, params, lane_base, ptr.astype(np.int32),
                      np.concatenate(values))  # fmt: skip
 
 
@@ -353,7 +349,6 @@ def cddt_reference(
 def cddt_kernel(
     directions: int,
     steps: float,
-    trips: int,
     params: FloatArray,
     lane_base: IntArray,
     ptr: NDArray[np.int32],
@@ -374,11 +369,9 @@ def cddt_kernel(
     Headings and angles wrapped to ``[0, 2 pi)``. The query of :func:`cddt_reference`, per pose in
     three passes over its beams: (1) bin, lane and position along it, (2) the lane's bounds in
     ``ptr`` and a read of its first and last values, (3) a branch-free binary search for the count
-    of values below the position, ``trips`` halvings for every lane and more only in the few
-    longer ones. The reads of pass 2 do not depend on each other, so the CPU keeps many in flight,
-    and pass 3 finds its lanes in cache and almost never a loop end to mispredict. Returns a
-    checksum of the pass-2 reads (they are done for their effect on the cache). Not parallel: one
-    core, by design.
+    of values below the position. The reads of pass 2 do not depend on each other, so the CPU
+    keeps many in flight, and pass 3 finds its lanes in cache. Returns a checksum of the pass-2
+    reads (they are done for their effect on the cache). Not parallel: one core, by design.
     """
     n = ox.shape[0]
     nb = angles.shape[0]
@@ -427,11 +420,7 @@ def cddt_kernel(
                 ui = np.uint16(math.ceil(min(max(uq, 1.0), HIGH - 1.0)))  # b < ui iff b < uq
                 lo = los[b]
                 at = lo  # last value below ui: bounds[lo] = LOW is, bounds[lo + m - 1] = HIGH is not
-                for _ in range(trips):  # as many as most lanes need: a predictable loop
-                    h = m >> 1  # 0 once m is 1
-                    at += h * np.int64(bounds[at + h] < ui)
-                    m -= h
-                while m > 1:  # the few longer lanes
+                while m > 1:
                     h = m >> 1
                     at += h * np.int64(bounds[at + h] < ui)
                     m -= h
@@ -506,7 +495,7 @@ class CDDTCaster(RayCaster):
     ) -> None:
         t = self.lanes
         cddt_kernel(
-            t.directions, t.steps, t.trips, t.params, t.lane_base, t.ptr, t.bounds, blocked, ox, oy, heading,
+            t.directions, t.steps, t.params, t.lane_base, t.ptr, t.bounds, blocked, ox, oy, heading,
             angles, self.max_cells, scale, aim, t.ring, out,
         )  # fmt: skip
 
