@@ -211,6 +211,14 @@ def test_bad_parameters() -> None:
         CDDTCaster(grid, 5.0, lane_width=3.0)
     with pytest.raises(MapError, match="finite"):
         CDDTCaster(grid, 5.0).cast(np.array([[1.0, np.nan, 0.0]]), [0.0])
+    with pytest.raises(MapError, match="aim_range"):
+        CDDTCaster(grid, 5.0, aim_range=-1.0)
+    # the default aim: the mean range from the free cells (all beams reach the walls of the room)
+    room = CDDTCaster(grid, 20.0)
+    assert 1.0 / 0.1 < room.aim_cells < 7.1 / 0.1
+    assert 4.0 < CDDTCaster(grid, 0.5).aim_cells <= 5.0 + 1e-6  # capped at max_range (0.5 m)
+    solid = OccupancyGrid(np.ones((4, 4), dtype=np.float32), 1.0)
+    assert CDDTCaster(solid, 5.0).aim_cells == 0.0
     empty = build_lanes(np.zeros((3, 4), dtype=bool), 8, ring=False)
     assert empty.runs == 0
     r = CDDTCaster(OccupancyGrid(np.zeros((3, 4), dtype=np.float32), 1.0), 5.0, unknown_blocks=False)
