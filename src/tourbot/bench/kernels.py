@@ -269,6 +269,12 @@ def _run(
             "load_average_1min": os.getloadavg()[0],
         }
     )
+    report.notes.insert(
+        0,
+        f"FHW map {rows} x {cols} at {resolution} m; {particles} poses (true poses + N(0, 0.2 m, 0.1 rad)) x "
+        f"{geom.num_beams} beams; numba pinned to 1 thread, CPU time of the thread, best of {repeat}; "
+        f"machine load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs (shared machine).",
+    )
     casts = [v for key, v in report.meta.items() if key.startswith("cast_")]
     accelerated = [("distance", "DistanceCaster (exact)")]
     accelerated += [(f"cddt{d}", f"CDDTCaster, {d} directions (approximate)") for d in cddt_directions]
