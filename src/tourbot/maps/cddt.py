@@ -16,10 +16,11 @@ of a walk through the grid:
   ahead of ``u``, backwards the same lane is read the other way, ``u - end`` of the last run
   behind ``u``; ``u`` inside a run reads 0, no run ``max_range``.
 
-The lane is the paper's "compressed" directional distance transform (their Sec. IV): only the
-zero points are kept, and as merged ``[start, end)`` runs, so a lane holds only the points where a
-ray enters (or, read backwards, leaves) blocking cells, which is the paper's pruning (PCDDT), and
-the reverse heading reuses the lane (the paper's symmetry of ``theta`` and ``theta + pi``). Run
+The lane is the paper's "compressed" directional distance transform: of the distance along the
+lane to the next blocking cell only the zero points are kept, here as merged ``[start, end)`` runs,
+so a lane holds only the points where a ray enters (or, read backwards, leaves) blocking cells,
+which is what the paper's pruned variant (PCDDT) keeps; and the reverse heading reuses the lane,
+as the paper's ``theta`` and ``theta + pi`` share one. Run
 ends are stored as ``uint16`` in steps of ``1 / steps`` cell (16 on maps up to about 200 m
 across); a lane is ``[0, s_0, e_0, s_1, e_1, ..., 65535]``, so the count ``p`` of its values below
 ``u`` gives everything: ``p`` even means ``u`` is inside a run, otherwise the run ends around
