@@ -69,6 +69,26 @@ def test_kernel_matches_reference(
     np.testing.assert_array_equal(got, caster.cast_cddt_reference(poses, angles))
 
 
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), ring=st.booleans(), directions=st.sampled_from([4, 32, 256]))
+def test_lanes_are_sorted_runs_between_sentinels(seed: int, ring: bool, directions: int) -> None:
+    rng = np.random.default_rng(seed)
+    blocked = rng.random((rng.integers(1, 30), rng.integers(1, 30))) < rng.uniform(0.0, 0.6)
+    t = build_lanes(blocked, directions, ring, lane_width=float(rng.choice([0.5, 1.0, 1.5])))
+    assert t.ptr[-1] == t.bounds.size
+    for g in range(t.ptr.size - 1):
+        lane = t.bounds[t.ptr[g] : t.ptr[g + 1]].astype(np.int64)
+        assert lane.size >= 2
+        assert lane.size % 2 == 0
+        assert lane[0] == 0
+        assert lane[-1] == 65535
+        assert np.all(np.diff(lane) >= 0)  # sorted: the binary search needs it
+        runs = lane[1:-1]
+        assert np.all(runs >= 1)
+        assert np.all(runs <= 65534)
+        assert np.all(runs[1::2] > runs[0::2])  # no empty run
+
+
 def lane_rays(caster: CDDTCaster, poses: np.ndarray, angles: np.ndarray) -> tuple[np.ndarray, ...]:
     """The ray each beam is cast along, in grid cell units (as ``cast_rays_reference`` takes them):
     the heading of its bin, from the laser moved sideways onto the centre line of the lane the

@@ -252,6 +252,12 @@ def build_lanes(
         lane, ua, ub = lane[keep], ua[keep], ub[keep]
         qa = np.clip(np.floor((ua - u0) * steps + 1.0), 1, HIGH - 1)
         qb = np.clip(np.ceil((ub - u0) * steps + 1.0), 1, HIGH - 1)
+        if lane.size > 1:  # runs rounded outwards into each other (gaps under a step) merge
+            head = np.ones(lane.size, dtype=bool)
+            head[1:] = (lane[1:] != lane[:-1]) | (qa[1:] > qb[:-1])
+            heads = np.flatnonzero(head)
+            tails = np.append(heads[1:], lane.size) - 1
+            lane, qa, qb = lane[heads], qa[heads], qb[tails]
         n = np.bincount(lane, minlength=int(lanes[k])).astype(np.int64)
         if ring:
             # a lane beside the ring is off the grid, which blocks: one run over all of it
