@@ -20,13 +20,13 @@ The lane is the paper's "compressed" directional distance transform: of the dist
 lane to the next blocking cell only the zero points are kept, here as merged ``[start, end)`` runs,
 so a lane holds only the points where a ray enters (or, read backwards, leaves) blocking cells,
 which is what the paper's pruned variant (PCDDT) keeps; and the reverse heading reuses the lane,
-as the paper's ``theta`` and ``theta + pi`` share one. Run
-ends are stored as ``uint16`` in steps of ``1 / steps`` cell (16 on maps up to about 200 m
-across); a lane is ``[0, s_0, e_0, s_1, e_1, ..., 65535]``, so the count ``p`` of its values below
-``u`` gives everything: ``p`` even means ``u`` is inside a run, otherwise the run ends around
-``u`` are the ``p - 1``-th and ``p``-th values.
+as the paper's ``theta`` and ``theta + pi`` share one. Run ends are stored as ``uint16`` in steps
+of ``1 / steps`` cell (``steps`` 16 on maps up to about 200 m across); a lane is ``[0, s_0, e_0,
+s_1, e_1, ..., 65535]``, so the count ``p`` of its values below ``u`` gives everything: ``p`` even
+means ``u`` is inside a run, otherwise the run ends around ``u`` are the ``p - 1``-th and
+``p``-th values.
 
-What it approximates: a range is the exact range (to 1/16 cell, runs rounded outwards) of the
+What it approximates: a range is the exact range (to one step, runs rounded outwards) of the
 *lane ray*, cast along the bin's direction from the laser moved sideways onto the lane's centre
 line. That ray is off the beam by at most half a bin in angle (``pi / directions``) and crosses it
 ``aim`` cells out, give or take half a lane; ``aim`` defaults to the mean range of the map's beams
