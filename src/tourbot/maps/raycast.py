@@ -27,6 +27,9 @@ Methods
       blocking cell is ``D`` cells away, a ray can safely jump ``D - sqrt(2)`` cells at once
       (ray marching / sphere tracing, range_libc "RM"), and it falls back to exact DDA steps near
       obstacles, so it returns the DDA's ranges (not an approximation within a threshold).
+    - :class:`tourbot.maps.cddt.CDDTCaster` (its own module): an approximate caster on a
+      compressed directional distance transform, one table search per ray, faster again but off
+      the DDA where beams graze walls or pass edges (``tourbot bench kernels`` measures both).
 """
 
 from __future__ import annotations
