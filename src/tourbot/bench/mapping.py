@@ -235,7 +235,7 @@ def register(bench: typer.Typer) -> None:
             str,
             typer.Option(
                 help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
-                "shapes, consistent, thorough); "
+                "shapes, consistent, thorough, confirmed); "
                 "the first is drawn and used for scan matching."
             ),
         ] = "consistent,blobs,paper",
