@@ -238,7 +238,7 @@ def register(bench: typer.Typer) -> None:
                 "shapes, consistent, thorough, confirmed); "
                 "the first is drawn and used for scan matching."
             ),
-        ] = "consistent,blobs,paper",
+        ] = "confirmed,consistent,blobs,paper",
     ) -> None:
         """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
         from tourbot.bench._report import BenchReport
