@@ -373,8 +373,9 @@ class PeopleFilteredMapper:
             self._write(self._pending.popleft())
 
     def grid(self) -> OccupancyGrid:
-        """The map of the scans written so far (call :meth:`finish` first for all of them), with
-        the specks it contradicts cleared when ``params.consistency`` is set."""
+        """The map of the scans written so far (call :meth:`finish` first for all of them): with
+        ``params.confirmation``, the left-out beams that other scans' kept beams confirm given
+        their hits back; then, with ``params.consistency``, the specks it contradicts cleared."""
         p = self.params
         origins = np.concatenate([np.zeros((0, 2)), *self._origins])
         ends = np.concatenate([np.zeros((0, 2)), *self._ends])
