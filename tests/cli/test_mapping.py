@@ -47,7 +47,7 @@ def test_slam_missing_log_is_one_clear_line(tmp_path: Path, capsys: pytest.Captu
     assert "Traceback" not in err
 
 
-@pytest.mark.parametrize("mode", ["paper", "sectors", "consistent"])
+@pytest.mark.parametrize("mode", ["paper", "sectors", "consistent", "confirmed"])
 def test_slam_with_a_people_filter_mode(tmp_path: Path, mode: str) -> None:
     log = drive(building(), n=12)
     log.odometry = []

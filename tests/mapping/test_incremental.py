@@ -152,6 +152,26 @@ def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
     assert cut[1] == 0
 
 
+def test_extra_hits_go_into_the_returned_grid_only() -> None:
+    """A free-only beam's end given back as an extra hit makes the grid what writing the beam whole
+    gives there; the map itself keeps its counts."""
+    geom = LaserGeometry(3, -0.1, 0.1, 30.0)
+    scan = Scan(0.0, np.array([2.0, 2.0, 2.0]), geom, odom=(0.0, 0.0, 0.0))
+    both = IncrementalMapper(start=np.zeros(3))
+    both.integrate(scan, np.zeros(3))
+    person = IncrementalMapper(start=np.zeros(3))
+    person.integrate(scan, np.zeros(3), free_only=np.array([False, True, False]))
+    end = np.array([[2.0, 0.0]])
+    cell = tuple(person.grid().world_to_cell(end)[0])
+    back = person.grid(extra_hits=end)
+    assert not person.grid().occupied()[cell]
+    assert back.occupied()[cell]
+    assert back.prob[cell] == pytest.approx(both.grid().prob[cell])
+    assert person.evidence(end)[0] == 0  # the map itself is unchanged
+    far = person.grid(extra_hits=np.array([[500.0, 500.0]]))  # outside the map: ignored
+    assert np.array_equal(far.prob, person.grid().prob)
+
+
 @settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 10_000), fill=st.floats(0.0, 1.0))
 def test_counted_cells_kernel_matches_numpy_reference(seed: int, fill: float) -> None:

@@ -175,7 +175,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     back until seen repeatedly), while the maps differ."""
     start = hall_log.reference_poses[0]
     runs = {}
-    for mode in ("sectors", "blobs", "shapes"):
+    for mode in ("sectors", "blobs", "shapes", "confirmed"):
         filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.mode(mode))
         for scan in hall_log.scans[:40]:
             filtered.add_scan(scan)
@@ -184,6 +184,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     poses = {mode: np.asarray(f.mapper.poses) for mode, f in runs.items()}
     assert np.array_equal(poses["blobs"], poses["sectors"])
     assert np.array_equal(poses["shapes"], poses["sectors"])
+    assert np.array_equal(poses["confirmed"], poses["sectors"])
     assert runs["blobs"].removed_beams > runs["sectors"].removed_beams
     assert not np.array_equal(runs["blobs"].mapper.grid().prob, runs["sectors"].mapper.grid().prob)
 
@@ -210,7 +211,14 @@ def test_the_modes() -> None:
     thorough = PeopleFilterParams.mode("thorough")
     assert thorough.leg_segments
     assert thorough.consistency is not None
-    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "shapes", "consistent", "thorough"}
+    confirmed = PeopleFilterParams.mode("confirmed")
+    assert confirmed.far_blobs
+    assert not confirmed.leg_segments
+    assert confirmed.confirmation is not None
+    assert confirmed.consistency is not None
+    assert confirmed.consistency.ring_free < consistent.consistency.ring_free
+    assert PeopleFilterParams.mode("consistent").confirmation is None
+    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed"}
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("magic")
@@ -239,6 +247,37 @@ def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> Non
     assert left["blobs"][:3, 10:12].all()  # the pole the first three times
     assert not left["blobs"][3:, 10:12].any()  # ... then it is static
     assert left["blobs"].sum() == 8
+
+
+def test_the_confirmed_mode_gives_back_a_pole_other_scans_confirm_but_not_a_visitor() -> None:
+    """The pole of the test above is left out as a blob the first three times, then mapped; the
+    kept beams of the later scans end where those left-out beams ended, so the finished map gets
+    their hits back. The visitor, seen in one scan where no other scan's kept beam ended, is not
+    given back."""
+    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
+    wall = 12.0 / np.cos(geom.angles)
+    pole = wall.copy()
+    pole[10:12] = 8.0
+    visitor = pole.copy()
+    visitor[40:42] = 9.0
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([pole] * 8 + [visitor])]
+    runs = {}
+    for mode in ("blobs", "confirmed"):
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+        for scan in scans:
+            filtered.add_scan(scan, pose=np.zeros(3))
+        filtered.finish()
+        runs[mode] = (filtered, filtered.grid())
+    blobs, confirmed = runs["blobs"], runs["confirmed"]
+    assert np.array_equal(np.asarray(blobs[0].left_out), np.asarray(confirmed[0].left_out))
+    assert confirmed[0].restored_beams == 6  # the pole's two beams in each of the first three scans
+    assert blobs[0].restored_beams == 0
+    ends = 8.0 * np.stack([np.cos(geom.angles[10:12]), np.sin(geom.angles[10:12])], axis=1)
+    cells = blobs[1].world_to_cell(ends)
+    assert (confirmed[1].prob[cells[:, 0], cells[:, 1]] > blobs[1].prob[cells[:, 0], cells[:, 1]]).all()
+    spots = 9.0 * np.stack([np.cos(geom.angles[40:42]), np.sin(geom.angles[40:42])], axis=1)
+    cells = confirmed[1].world_to_cell(spots)
+    assert not confirmed[1].occupied()[cells[:, 0], cells[:, 1]].any()
 
 
 def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around() -> None:

@@ -35,9 +35,10 @@ def register(app: typer.Typer) -> None:
                 "beams of leg-shaped segments and of ends where the floor was seen free), consistent "
                 "(blobs, and small specks, alone or in groups, that the finished map sees free floor around "
                 "and behind cleared), "
-                "thorough (shapes and the check of consistent)."
+                "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
+                "that other scans' kept beams confirm given back to the finished map, then a looser check)."
             ),
-        ] = "consistent",
+        ] = "confirmed",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,

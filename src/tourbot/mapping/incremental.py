@@ -192,10 +192,26 @@ class IncrementalMapper:
         out[ok] = self._hits[rows[ok], cols[ok]] * c.l_occ + self._misses[rows[ok], cols[ok]] * c.l_free
         return out
 
-    def grid(self) -> OccupancyGrid:
-        """The map so far as an occupancy grid (cells no beam reached are unknown)."""
+    def grid(self, extra_hits: FloatArray | None = None) -> OccupancyGrid:
+        """The map so far as an occupancy grid (cells no beam reached are unknown).
+
+        ``extra_hits``: world points ``(N, 2)`` whose cells count one hit more each in the grid
+        returned (not in the map kept here; points outside it are ignored)."""
         cells = replace(self.params.cells, resolution=self.params.resolution)
-        return grid_from_counts(self._hits, self._misses, (self._x0, self._y0), cells)
+        hits = self._hits
+        pts = (
+            np.zeros((0, 2))
+            if extra_hits is None
+            else np.asarray(extra_hits, dtype=np.float64).reshape(-1, 2)
+        )
+        if len(pts) and not math.isnan(self._x0):
+            res = self.params.resolution
+            cols = np.floor((pts[:, 0] - self._x0) / res).astype(np.int64)
+            rows = np.floor((pts[:, 1] - self._y0) / res).astype(np.int64)
+            ok = (rows >= 0) & (rows < hits.shape[0]) & (cols >= 0) & (cols < hits.shape[1])
+            hits = hits.copy()
+            np.add.at(hits, (rows[ok], cols[ok]), 1)
+        return grid_from_counts(hits, self._misses, (self._x0, self._y0), cells)
 
     # ------------------------------------------------------------------------------------------
     def _centre_on(self, pose: FloatArray) -> None:

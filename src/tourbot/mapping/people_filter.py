@@ -32,7 +32,9 @@ segments, beams ending in space seen free) are for that map only: a scan is alig
 tracks and person features alone (Eq. 12), and these are judged against a map written with
 the same rules (``evidence map``), so that what the map-only rules leave out does not make
 the alignment take more real structure for people (on the real Intel log, without a crowd, they
-did: 0.051 m relative error with the far blobs against 0.033 m without).
+did: 0.051 m relative error with the far blobs against 0.033 m without). The passes over the
+finished map (:mod:`tourbot.mapping.confirmation`, :mod:`tourbot.mapping.consistency`) act on
+the returned map alone.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
+from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
@@ -55,6 +58,7 @@ from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
 __all__ = [
+    "CONFIRMED_CHECK",
     "FILTER_MODES",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
@@ -65,7 +69,10 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough")
+# the check of the ``confirmed`` mode: looser than ``consistent``'s, since the beams given back
+# keep static cells that the filter had cost (values chosen on crowd seeds 30-35)
+CONFIRMED_CHECK = ConsistencyParams(ring_free=0.4, group_member_cells=6)
+FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed")
 
 
 @dataclass(frozen=True)
@@ -120,6 +127,9 @@ class PeopleFilterParams:
     (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
     decimetres across (visitors standing together), with free floor around them and behind them
     along the beams that hit them are cleared (None: no check).
+    ``confirmation``: before that check, the left-out beams whose ends kept beams of several
+    other scans confirm (:mod:`tourbot.mapping.confirmation`) get their hits back in the finished
+    map (None: none).
     """
 
     bin_size: float = 0.15
@@ -146,6 +156,7 @@ class PeopleFilterParams:
     leg_repeats: int = 3
     seen_free: float | None = None
     consistency: ConsistencyParams | None = None
+    confirmation: ConfirmationParams | None = None
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
@@ -153,16 +164,24 @@ class PeopleFilterParams:
         ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``shapes`` (and
         leg segments and beams ending in space seen free), ``consistent`` (``blobs``, and the
         finished map's specks that its free space contradicts cleared), ``thorough`` (``shapes``
-        and the check of ``consistent``)."""
+        and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
+        scans confirm given back to the finished map, then a looser check: a ring at least 40 %
+        seen free, groups of components up to 6 cells)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
         shapes = name in ("shapes", "thorough")
+        checks = {
+            "consistent": ConsistencyParams(),
+            "thorough": ConsistencyParams(),
+            "confirmed": CONFIRMED_CHECK,
+        }
         return cls(
             free_sectors=name != "paper",
             far_blobs=name not in {"paper", "sectors"},
             leg_segments=shapes,
             seen_free=-0.6 if shapes else None,
-            consistency=ConsistencyParams() if name in ("consistent", "thorough") else None,
+            consistency=checks.get(name),
+            confirmation=ConfirmationParams() if name == "confirmed" else None,
         )
 
 
@@ -272,6 +291,7 @@ class PeopleFilteredMapper:
     removed_beams: int = 0
     left_out: list[NDArray[np.bool_]] = field(default_factory=list)  # per scan written: beams left out
     cleared_cells: int = 0  # cells the consistency check of the last grid() cleared
+    restored_beams: int = 0  # left-out beams the last grid() gave back (other scans confirm them)
 
     def __post_init__(self) -> None:
         self._confirmed: set[int] = set()  # ids of every track confirmed so far
@@ -281,6 +301,9 @@ class PeopleFilteredMapper:
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
         self._origins: list[FloatArray] = []  # per scan written: the laser position of each kept end
         self._ends: list[FloatArray] = []  # per scan written: the world ends of the kept beams
+        self._written_index: list[int] = []  # per scan written: its index
+        self._left_origins: list[FloatArray] = []  # per scan written: laser position of each left-out end
+        self._left_ends: list[FloatArray] = []  # per scan written: the world ends of the left-out beams
         self._leg_spots: dict[tuple[int, int], int] = {}  # leg segments' beams left out, by map cell
         # the map that alignment-time judgements read, when the map-only rules make the returned
         # map differ from it (written from the first aligned scan on; None: the returned map)
@@ -350,15 +373,30 @@ class PeopleFilteredMapper:
             self._write(self._pending.popleft())
 
     def grid(self) -> OccupancyGrid:
-        """The map of the scans written so far (call :meth:`finish` first for all of them), with
-        the specks it contradicts cleared when ``params.consistency`` is set."""
-        grid = self.mapper.grid()
-        check = self.params.consistency
-        if check is None:
-            return grid
+        """The map of the scans written so far (call :meth:`finish` first for all of them): with
+        ``params.confirmation``, the left-out beams that other scans' kept beams confirm given
+        their hits back; then, with ``params.consistency``, the specks it contradicts cleared."""
+        p = self.params
         origins = np.concatenate([np.zeros((0, 2)), *self._origins])
         ends = np.concatenate([np.zeros((0, 2)), *self._ends])
-        grid, self.cleared_cells = clear_specks(grid, origins, ends, check)
+        if p.confirmation is None:
+            grid = self.mapper.grid()
+        else:
+            left = np.concatenate([np.zeros((0, 2)), *self._left_ends])
+            scans = np.asarray(self._written_index, dtype=np.int64)
+            left_scans = np.repeat(scans, [len(e) for e in self._left_ends])
+            kept_scans = np.repeat(scans, [len(e) for e in self._ends])
+            back = confirmed_beams(
+                left, left_scans, ends, kept_scans, self.mapper.params.resolution, p.confirmation
+            )
+            self.restored_beams = int(back.sum())
+            grid = self.mapper.grid(extra_hits=left[back])
+            left_origins = np.concatenate([np.zeros((0, 2)), *self._left_origins])
+            origins = np.concatenate([origins, left_origins[back]])
+            ends = np.concatenate([ends, left[back]])
+        if p.consistency is None:
+            return grid
+        grid, self.cleared_cells = clear_specks(grid, origins, ends, p.consistency)
         return grid
 
     def _map_only_rules(self) -> bool:
@@ -476,12 +514,17 @@ class PeopleFilteredMapper:
         person = self._person_beams(item, into="map")
         self.removed_beams += int(person.sum())
         self.left_out.append(person)
-        if self.params.consistency is not None:
+        if self.params.consistency is not None or self.params.confirmation is not None:
             pts, hit = beam_endpoints(item.scan, item.pose)
             kept = pts[hit & ~person]
             laser = compose(item.pose, item.scan.geometry.offset)[:2]
             self._ends.append(kept)
             self._origins.append(np.repeat(laser[None, :], len(kept), axis=0))
+            self._written_index.append(item.index)
+            if self.params.confirmation is not None:
+                left = pts[hit & person]
+                self._left_ends.append(left)
+                self._left_origins.append(np.repeat(laser[None, :], len(left), axis=0))
         self._integrate(item, person, "map")
         if self._evidence_map is not None:
             aligned = self._person_beams(item, into="alignment")
