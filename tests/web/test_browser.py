@@ -170,6 +170,22 @@ def test_visitor_books_drives_to_an_exhibit_and_hands_over(
         assert visitor.errors == []
 
 
+def test_a_click_while_the_connection_reopens_is_not_lost(
+    server: tuple[str, FakeRobot], browser: Any
+) -> None:
+    """A visitor who clicks while the page's connection is down (just loaded, or dropped and
+    reconnecting) gets what they asked for once it is up again."""
+    url, _ = server
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function(
+        "() => window.tourbot && window.tourbot.live && window.tourbot.live.ws.readyState === WebSocket.OPEN"
+    )
+    visitor.page.evaluate("() => window.tourbot.live.ws.close()")  # dropped: reconnects in 0.5 s
+    visitor.page.click("#book")
+    visitor.slot("holder")
+    assert visitor.errors == []
+
+
 def test_3d_view_really_draws(server: tuple[str, FakeRobot], browser: Any) -> None:
     url, _ = server
     visitor = _Visitor(browser, url)

@@ -1,6 +1,9 @@
 // The live connection of a page to one robot: binary stream in, JSON status and commands.
 import { StreamDecoder } from "./stream.js";
 
+const PENDING_S = 5; // a command waits at most this long for the connection to open
+const PENDING_MAX = 16;
+
 export class Live {
   constructor(robot, streamConfig, { screen = "web", onStatus, onPath, onSay, onReply, onOpen } = {}) {
     this.robot = robot;
@@ -13,6 +16,9 @@ export class Live {
     this.closed = false;
     this.retry = 500;
     this.bytes = 0;
+    // Commands given while the connection is (re)opening, sent once it opens: a visitor's click
+    // is never lost to a connection that is not up yet; one older than PENDING_S is dropped.
+    this.pending = [];
     this.connect();
     this.heartbeat = setInterval(() => this.send({ type: "ping" }), 5000);
   }
@@ -26,6 +32,10 @@ export class Live {
       this.retry = 500;
       this.decoder = new StreamDecoder(this.config);
       if (this.handlers.onOpen) this.handlers.onOpen();
+      const now = performance.now();
+      for (const { command, at } of this.pending.splice(0)) {
+        if (now - at <= PENDING_S * 1000) ws.send(JSON.stringify(command));
+      }
     };
     ws.onmessage = (event) => this.receive(event.data);
     ws.onclose = () => {
@@ -62,6 +72,10 @@ export class Live {
 
   send(command) {
     if (this.ws && this.ws.readyState === WebSocket.OPEN) this.ws.send(JSON.stringify(command));
+    else if (command.type !== "ping" && !this.closed) {
+      this.pending.push({ command, at: performance.now() });
+      if (this.pending.length > PENDING_MAX) this.pending.shift();
+    }
   }
 
   close() {
