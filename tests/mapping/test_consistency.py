@@ -165,3 +165,59 @@ def test_a_speck_at_the_map_edge_counts_the_outside_as_unknown() -> None:
     # behind: 10 to 50 cm past the end are columns 12 to 20, and column 20 is outside
     assert ev.behind_cells[0] == 9
     assert ev.behind_free[0] == pytest.approx(8 / 9)
+
+
+def _far_speck() -> np.ndarray:
+    """A speck on seen-free floor with little of the floor just behind it seen (a visitor far
+    away: the floor behind was seldom reached by a beam)."""
+    prob = _floor()
+    prob[30, 30] = OCC
+    prob[28:33, 32:38] = UNKNOWN
+    return prob
+
+
+FAR = ConsistencyParams(ring_free=0.4, group_member_cells=6, far_range=6.0)
+
+
+def test_a_speck_seen_once_from_afar_only_is_judged_with_the_looser_test() -> None:
+    prob = _far_speck()
+    origins, ends = _beam_to(30, 30, back=8.0)
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))
+    assert 0.2 <= ev.behind_free[0] < 0.5  # too little behind for the test of every speck
+    assert ev.ring_free[0] >= 0.75
+    assert ev.nearest[0] == pytest.approx(8.0)
+    assert ev.scans[0] == 1
+    without = ConsistencyParams(ring_free=0.4, group_member_cells=6)
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, without, np.array([0]))[1] == 0
+    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))
+    assert n == 1
+    assert not out.occupied().any()
+
+
+def test_a_speck_seen_from_near_or_by_two_scans_keeps_the_test_of_every_speck() -> None:
+    prob = _far_speck()
+    near = _beam_to(30, 30, back=3.0)
+    assert clear_specks(OccupancyGrid(prob, RES), *near, FAR, np.array([0]))[1] == 0
+    o_far, e_far = _beam_to(30, 30, back=8.0)
+    o_near, e_near = near
+    both = np.concatenate([o_far, o_near]), np.concatenate([e_far, e_near])
+    assert clear_specks(OccupancyGrid(prob, RES), *both, FAR, np.array([0, 1]))[1] == 0  # one near
+    twice = np.concatenate([o_far, o_far]), np.concatenate([e_far, e_far])
+    assert clear_specks(OccupancyGrid(prob, RES), *twice, FAR, np.array([0, 1]))[1] == 0  # two scans
+    assert clear_specks(OccupancyGrid(prob, RES), *twice, FAR, np.array([4, 4]))[1] == 1  # one scan
+
+
+def test_a_far_face_with_nothing_seen_behind_or_a_busy_ring_stays() -> None:
+    origins, ends = _beam_to(30, 30, back=8.0)
+    prob = _far_speck()
+    prob[28:33, 32:] = UNKNOWN  # nothing behind seen at all
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))[1] == 0
+    prob = _far_speck()
+    prob[28:33, 28] = UNKNOWN  # ring 14 / 24 seen free
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))[1] == 0
+
+
+def test_the_far_test_needs_the_scan_of_each_beam() -> None:
+    origins, ends = _beam_to(30, 30, back=8.0)
+    with pytest.raises(ValueError, match="scan of each beam"):
+        clear_specks(OccupancyGrid(_far_speck(), RES), origins, ends, FAR)
