@@ -35,7 +35,10 @@ any other beam, so ``behind_free`` rarely passes. A component of at most ``far_c
 whose beams (every beam that ended in it) all ended farther than ``far_range`` metres from the
 laser, from at most ``far_scans`` scans, is also cleared when its ring is at least
 ``far_ring_free`` seen free with no occupied cell in it and the cells behind it are at least
-``far_behind_free`` seen free. Structure seen once from afar is what the laser sees live anyway;
+``far_behind_free`` seen free. A group (above) whose members were each hit from beyond
+``far_range`` only, by at most ``far_group_scans`` scans each, is judged as other groups are but
+with ``far_behind_free`` in place of ``behind_free`` (a few far visitors standing together).
+Structure seen once from afar is what the laser sees live anyway;
 a wall seen from afar continues into neighbouring occupied cells (the ring), and what lies behind
 it is its body or unknown.
 
@@ -77,6 +80,7 @@ class ConsistencyParams:
     far_cells: int = 2  # at most max_cells (only those have their ring and behind evidence)
     far_ring_free: float = 0.75
     far_behind_free: float = 0.2
+    far_group_scans: int = 2
 
 
 @dataclass(frozen=True)
@@ -128,6 +132,20 @@ class SpeckEvidence:
                 & (self.behind_cells > 0)
                 & (self.behind_free >= p.far_behind_free)
             )
+            seen_far = (self.nearest > p.far_range) & (self.scans <= p.far_group_scans)
+            all_far = np.ones(len(self.group_cells) + 1, dtype=bool)
+            member = self.group > 0
+            np.logical_and.at(all_far, self.group[member], seen_far[member])
+            far_group = np.zeros(len(self.group_cells) + 1, dtype=bool)
+            far_group[1:] = (
+                all_far[1:]
+                & (self.group_cells <= p.group_cells)
+                & (self.group_ring_free >= p.ring_free)
+                & (self.group_ring_occupied <= 0.0)
+                & (self.group_behind_cells > 0)
+                & (self.group_behind_free >= p.far_behind_free)
+            )
+            far |= member & far_group[self.group]
         return np.asarray(alone | together[self.group] | far)
 
 

@@ -75,9 +75,16 @@ FloatArray = NDArray[np.float64]
 CONFIRMED_CHECK = ConsistencyParams(ring_free=0.4, group_member_cells=6)
 # the check of the ``far`` mode: ``confirmed``'s, and specks of at most 2 cells that beams of one
 # scan hit from beyond 6 m only cleared with a ring at least 75 % seen free and at least 20 %
-# behind them (values chosen on crowd seeds 50-55)
+# behind them; groups of specks each hit from beyond 6 m only by at most 2 scans need 20 %
+# behind them instead of 50 % (values chosen on crowd seeds 50-55)
 FAR_CHECK = replace(
-    CONFIRMED_CHECK, far_range=6.0, far_scans=1, far_cells=2, far_ring_free=0.75, far_behind_free=0.2
+    CONFIRMED_CHECK,
+    far_range=6.0,
+    far_scans=1,
+    far_cells=2,
+    far_ring_free=0.75,
+    far_behind_free=0.2,
+    far_group_scans=2,
 )
 FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far")
 
