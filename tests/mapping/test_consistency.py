@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -165,3 +167,87 @@ def test_a_speck_at_the_map_edge_counts_the_outside_as_unknown() -> None:
     # behind: 10 to 50 cm past the end are columns 12 to 20, and column 20 is outside
     assert ev.behind_cells[0] == 9
     assert ev.behind_free[0] == pytest.approx(8 / 9)
+
+
+def _far_speck() -> np.ndarray:
+    """A speck on seen-free floor with little of the floor just behind it seen (a visitor far
+    away: the floor behind was seldom reached by a beam)."""
+    prob = _floor()
+    prob[30, 30] = OCC
+    prob[28:33, 32:38] = UNKNOWN
+    return prob
+
+
+FAR = ConsistencyParams(ring_free=0.4, group_member_cells=6, far_range=6.0)
+
+
+def test_a_speck_seen_once_from_afar_only_is_judged_with_the_looser_test() -> None:
+    prob = _far_speck()
+    origins, ends = _beam_to(30, 30, back=8.0)
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))
+    assert 0.2 <= ev.behind_free[0] < 0.5  # too little behind for the test of every speck
+    assert ev.ring_free[0] >= 0.75
+    assert ev.nearest[0] == pytest.approx(8.0)
+    assert ev.scans[0] == 1
+    without = ConsistencyParams(ring_free=0.4, group_member_cells=6)
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, without, np.array([0]))[1] == 0
+    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))
+    assert n == 1
+    assert not out.occupied().any()
+
+
+def test_a_speck_seen_from_near_or_by_three_scans_keeps_the_test_of_every_speck() -> None:
+    prob = _far_speck()
+    near = _beam_to(30, 30, back=3.0)
+    assert clear_specks(OccupancyGrid(prob, RES), *near, FAR, np.array([0]))[1] == 0
+    o_far, e_far = _beam_to(30, 30, back=8.0)
+    o_near, e_near = near
+    both = np.concatenate([o_far, o_near]), np.concatenate([e_far, e_near])
+    assert clear_specks(OccupancyGrid(prob, RES), *both, FAR, np.array([0, 1]))[1] == 0  # one near
+    thrice = np.concatenate([o_far] * 3), np.concatenate([e_far] * 3)
+    assert clear_specks(OccupancyGrid(prob, RES), *thrice, FAR, np.array([0, 1, 2]))[1] == 0
+    alone = replace(FAR, far_group_scans=0)  # the lone test only: one scan
+    assert clear_specks(OccupancyGrid(prob, RES), *thrice, alone, np.array([0, 1, 1]))[1] == 0
+    assert clear_specks(OccupancyGrid(prob, RES), *thrice, alone, np.array([4, 4, 4]))[1] == 1
+    # two scans: a group of one whose member was seen from afar (ring >= 40 %, behind >= 20 %)
+    assert clear_specks(OccupancyGrid(prob, RES), *thrice, FAR, np.array([0, 1, 1]))[1] == 1
+
+
+def test_a_far_face_with_nothing_seen_behind_or_around_stays() -> None:
+    origins, ends = _beam_to(30, 30, back=8.0)
+    prob = _far_speck()
+    prob[28:33, 32:] = UNKNOWN  # nothing behind seen at all
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))[1] == 0
+    prob = _far_speck()
+    prob[28:33, 28:30] = UNKNOWN  # ring 9 / 24 seen free
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, np.array([0]))[1] == 0
+
+
+def test_the_far_test_needs_the_scan_of_each_beam() -> None:
+    origins, ends = _beam_to(30, 30, back=8.0)
+    with pytest.raises(ValueError, match="scan of each beam"):
+        clear_specks(OccupancyGrid(_far_speck(), RES), origins, ends, FAR)
+
+
+def test_a_group_of_specks_each_seen_from_afar_by_two_scans_needs_less_free_behind() -> None:
+    """Two far visitors standing together, each hit by beams of two scans from 8 m: too many
+    scans for the lone far test, too little seen behind for the test of every group."""
+    prob = _floor()
+    prob[30, 30] = OCC
+    prob[34, 30] = OCC
+    prob[28:37, 32:38] = UNKNOWN
+    o1, e1 = _beam_to(30, 30, back=8.0)
+    o2, e2 = _beam_to(34, 30, back=8.0)
+    origins, ends = np.concatenate([o1, o1, o2, o2]), np.concatenate([e1, e1, e2, e2])
+    scans = np.array([0, 1, 0, 1])
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends, FAR, scans)
+    assert ev.group[0] == ev.group[1] > 0
+    assert 0.2 <= ev.group_behind_free[0] < 0.5
+    assert list(ev.scans) == [2, 2]
+    without = ConsistencyParams(ring_free=0.4, group_member_cells=6)
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, without, scans)[1] == 0
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, scans)[1] == 2
+    three = np.array([0, 1, 0, 2])  # one member hit by scans 0 and 1, the other by 0 and 2: still two each
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, three)[1] == 2
+    near = np.concatenate([o1, o1, e2[None, 0] - [3.0, 0.0], o2]), ends  # one member seen from 3 m
+    assert clear_specks(OccupancyGrid(prob, RES), *near, FAR, scans)[1] == 0

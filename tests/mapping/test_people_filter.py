@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -175,7 +176,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     back until seen repeatedly), while the maps differ."""
     start = hall_log.reference_poses[0]
     runs = {}
-    for mode in ("sectors", "blobs", "shapes", "confirmed"):
+    for mode in ("sectors", "blobs", "shapes", "confirmed", "far"):
         filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.mode(mode))
         for scan in hall_log.scans[:40]:
             filtered.add_scan(scan)
@@ -185,6 +186,10 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     assert np.array_equal(poses["blobs"], poses["sectors"])
     assert np.array_equal(poses["shapes"], poses["sectors"])
     assert np.array_equal(poses["confirmed"], poses["sectors"])
+    assert np.array_equal(poses["far"], poses["sectors"])
+    runs["confirmed"].grid()
+    runs["far"].grid()  # the far test gets the scan of each beam
+    assert runs["far"].cleared_cells >= runs["confirmed"].cleared_cells
     assert runs["blobs"].removed_beams > runs["sectors"].removed_beams
     assert not np.array_equal(runs["blobs"].mapper.grid().prob, runs["sectors"].mapper.grid().prob)
 
@@ -218,7 +223,14 @@ def test_the_modes() -> None:
     assert confirmed.consistency is not None
     assert confirmed.consistency.ring_free < consistent.consistency.ring_free
     assert PeopleFilterParams.mode("consistent").confirmation is None
-    assert set(FILTER_MODES) == {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed"}
+    far = PeopleFilterParams.mode("far")
+    assert far.confirmation == confirmed.confirmation
+    assert far.consistency is not None
+    assert far.consistency.far_range is not None
+    assert replace(far.consistency, far_range=None) == confirmed.consistency
+    assert confirmed.consistency.far_range is None
+    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far"}
+    assert set(FILTER_MODES) == modes
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("magic")

@@ -36,7 +36,9 @@ def register(app: typer.Typer) -> None:
                 "(blobs, and small specks, alone or in groups, that the finished map sees free floor around "
                 "and behind cleared), "
                 "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
-                "that other scans' kept beams confirm given back to the finished map, then a looser check)."
+                "that other scans' kept beams confirm given back to the finished map, then a looser check), "
+                "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
+                "looser check)."
             ),
         ] = "confirmed",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,

@@ -29,7 +29,20 @@ its members are at least ``behind_free`` seen free. A lone component is a group 
 ``group_member_cells`` above ``max_cells`` an isolated speck of up to that many cells can go too;
 ``group_radius = 0`` turns group judging off (the check of the first version).
 
-A component that passes either test is cleared (its cells take the mean probability of the free
+Specks seen only from afar (``far_range``, None: off): a visitor far away is hit by one or two
+beams of one scan (about 10 cm apart at 6 m), and the floor just behind it was seldom seen by
+any other beam, so ``behind_free`` rarely passes. A component of at most ``far_cells`` cells
+whose beams (every beam that ended in it) all ended farther than ``far_range`` metres from the
+laser, from at most ``far_scans`` scans, is also cleared when its ring is at least
+``far_ring_free`` seen free with no occupied cell in it and the cells behind it are at least
+``far_behind_free`` seen free. A group (above) whose members were each hit from beyond
+``far_range`` only, by at most ``far_group_scans`` scans each, is judged as other groups are but
+with ``far_behind_free`` in place of ``behind_free`` (a few far visitors standing together).
+Structure seen once from afar is what the laser sees live anyway;
+a wall seen from afar continues into neighbouring occupied cells (the ring), and what lies behind
+it is its body or unknown.
+
+A component that passes any test is cleared (its cells take the mean probability of the free
 cells around them). The pass is plain numpy over the small components and the beams ending in them.
 """
 
@@ -62,6 +75,12 @@ class ConsistencyParams:
     group_radius: int = 5  # 0: no group judging
     group_member_cells: int = 4
     group_cells: int = 10
+    far_range: float | None = None  # metres; None: no test of specks seen only from afar
+    far_scans: int = 1
+    far_cells: int = 2  # at most max_cells (only those have their ring and behind evidence)
+    far_ring_free: float = 0.75
+    far_behind_free: float = 0.2
+    far_group_scans: int = 2
 
 
 @dataclass(frozen=True)
@@ -81,6 +100,8 @@ class SpeckEvidence:
     group_ring_occupied: FloatArray  # (G,) share of the group's ring occupied
     group_behind_free: FloatArray  # (G,) share of the cells behind the group's ends seen free
     group_behind_cells: IntArray  # (G,) how many cells behind the group were looked at
+    nearest: FloatArray  # (K,) shortest range (m) at which a beam ended in it (inf: none did)
+    scans: IntArray  # (K,) distinct scans with a beam ending in it (0 without scan indices)
 
     def contradicted(self, params: ConsistencyParams) -> NDArray[np.bool_]:
         """Which components the map contradicts ``(K,)``: alone, or as a member of a group."""
@@ -100,7 +121,32 @@ class SpeckEvidence:
             & (self.group_behind_cells > 0)
             & (self.group_behind_free >= p.behind_free)
         )
-        return np.asarray(alone | together[self.group])
+        far = np.zeros(len(self.cells), dtype=bool)
+        if p.far_range is not None:
+            far = (
+                (self.cells <= min(p.far_cells, p.max_cells))
+                & (self.nearest > p.far_range)
+                & (self.scans <= p.far_scans)
+                & (self.ring_free >= p.far_ring_free)
+                & (self.ring_occupied <= 0.0)
+                & (self.behind_cells > 0)
+                & (self.behind_free >= p.far_behind_free)
+            )
+            seen_far = (self.nearest > p.far_range) & (self.scans <= p.far_group_scans)
+            all_far = np.ones(len(self.group_cells) + 1, dtype=bool)
+            member = self.group > 0
+            np.logical_and.at(all_far, self.group[member], seen_far[member])
+            far_group = np.zeros(len(self.group_cells) + 1, dtype=bool)
+            far_group[1:] = (
+                all_far[1:]
+                & (self.group_cells <= p.group_cells)
+                & (self.group_ring_free >= p.ring_free)
+                & (self.group_ring_occupied <= 0.0)
+                & (self.group_behind_cells > 0)
+                & (self.group_behind_free >= p.far_behind_free)
+            )
+            far |= member & far_group[self.group]
+        return np.asarray(alone | together[self.group] | far)
 
 
 def _categories(grid: OccupancyGrid) -> NDArray[np.int8]:
@@ -188,11 +234,13 @@ def speck_evidence(
     origins: FloatArray,
     ends: FloatArray,
     params: ConsistencyParams | None = None,
+    scans: IntArray | None = None,
 ) -> SpeckEvidence:
     """The ring and behind evidence of each occupied component of ``grid`` with at most
     ``max_cells`` cells (larger ones get zeros), and of each group of components with at most
     ``group_member_cells`` cells, from the kept beams that returned: laser positions ``origins``
-    ``(B, 2)`` and world endpoints ``ends`` ``(B, 2)``."""
+    ``(B, 2)`` and world endpoints ``ends`` ``(B, 2)``; with the scan index of each beam ``scans``
+    ``(B,)``, also how many distinct scans ended beams in each component."""
     p = params or ConsistencyParams()
     cat = _categories(grid)
     labels, count = ndimage.label(cat == 1, structure=np.ones((3, 3), dtype=bool))
@@ -228,10 +276,38 @@ def speck_evidence(
         g_cells = np.bincount(group_labels.ravel(), minlength=n_groups + 1)[1:].astype(np.int64)
         cells = np.argwhere(mask)
         group[labels[cells[:, 0], cells[:, 1]] - 1] = group_labels[cells[:, 0], cells[:, 1]]
+    nearest, n_scans = _ranges(grid, labels, count, origins, ends, scans)
     return SpeckEvidence(
         labels, sizes[1:].astype(np.int64), ring_free, ring_occ, behind_free, behind_n,
-        group, g_cells, g_rf, g_ro, g_bf, g_bn,
+        group, g_cells, g_rf, g_ro, g_bf, g_bn, nearest, n_scans,
     )  # fmt: skip
+
+
+def _ranges(
+    grid: OccupancyGrid,
+    labels: NDArray[np.int32],
+    count: int,
+    origins: FloatArray,
+    ends: FloatArray,
+    scans: IntArray | None,
+) -> tuple[FloatArray, IntArray]:
+    """Per component (labels 1..count): the shortest range of the beams that ended in it (inf when
+    none did) and how many distinct scans they came from (0 without ``scans``)."""
+    o = np.asarray(origins, dtype=np.float64).reshape(-1, 2)
+    e = np.asarray(ends, dtype=np.float64).reshape(-1, 2)
+    cells = grid.world_to_cell(e)
+    ok = grid.inside(cells)
+    label = np.zeros(len(e), np.int64)
+    label[ok] = labels[cells[ok, 0], cells[ok, 1]]
+    nearest = np.full(count + 1, np.inf)
+    np.minimum.at(nearest, label, np.linalg.norm(e - o, axis=1))
+    n_scans = np.zeros(count + 1, np.int64)
+    if scans is not None:
+        s = np.asarray(scans, dtype=np.int64).reshape(-1)
+        inside = label > 0
+        pairs = np.unique(np.stack([label[inside], s[inside]], axis=1), axis=0)
+        n_scans = np.bincount(pairs[:, 0], minlength=count + 1).astype(np.int64)
+    return nearest[1:], n_scans[1:]
 
 
 def _own(labels: NDArray[np.int32], cells: IntArray, label: IntArray) -> NDArray[np.bool_]:
@@ -248,11 +324,15 @@ def clear_specks(
     origins: FloatArray,
     ends: FloatArray,
     params: ConsistencyParams | None = None,
+    scans: IntArray | None = None,
 ) -> tuple[OccupancyGrid, int]:
     """``grid`` with the occupied specks its own free space contradicts cleared, and how many
-    cells were cleared (see :func:`speck_evidence` for ``origins`` and ``ends``)."""
+    cells were cleared (see :func:`speck_evidence` for ``origins``, ``ends`` and ``scans``, which
+    the test of specks seen only from afar needs)."""
     p = params or ConsistencyParams()
-    ev = speck_evidence(grid, origins, ends, p)
+    if p.far_range is not None and scans is None:
+        raise ValueError("the test of specks seen only from afar needs the scan of each beam")
+    ev = speck_evidence(grid, origins, ends, p, scans)
     gone = np.zeros(len(ev.cells) + 1, dtype=bool)
     gone[1:] = ev.contradicted(p)
     cleared = gone[ev.labels]

@@ -59,6 +59,7 @@ from tourbot.records import Scan
 
 __all__ = [
     "CONFIRMED_CHECK",
+    "FAR_CHECK",
     "FILTER_MODES",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
@@ -72,7 +73,20 @@ FloatArray = NDArray[np.float64]
 # the check of the ``confirmed`` mode: looser than ``consistent``'s, since the beams given back
 # keep static cells that the filter had cost (values chosen on crowd seeds 30-35)
 CONFIRMED_CHECK = ConsistencyParams(ring_free=0.4, group_member_cells=6)
-FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed")
+# the check of the ``far`` mode: ``confirmed``'s, and specks of at most 2 cells that beams of one
+# scan hit from beyond 6 m only cleared with a ring at least 75 % seen free and at least 20 %
+# behind them; groups of specks each hit from beyond 6 m only by at most 2 scans need 20 %
+# behind them instead of 50 % (values chosen on crowd seeds 50-55)
+FAR_CHECK = replace(
+    CONFIRMED_CHECK,
+    far_range=6.0,
+    far_scans=1,
+    far_cells=2,
+    far_ring_free=0.75,
+    far_behind_free=0.2,
+    far_group_scans=2,
+)
+FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far")
 
 
 @dataclass(frozen=True)
@@ -166,7 +180,8 @@ class PeopleFilterParams:
         finished map's specks that its free space contradicts cleared), ``thorough`` (``shapes``
         and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
         scans confirm given back to the finished map, then a looser check: a ring at least 40 %
-        seen free, groups of components up to 6 cells)."""
+        seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
+        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
         shapes = name in ("shapes", "thorough")
@@ -174,6 +189,7 @@ class PeopleFilterParams:
             "consistent": ConsistencyParams(),
             "thorough": ConsistencyParams(),
             "confirmed": CONFIRMED_CHECK,
+            "far": FAR_CHECK,
         }
         return cls(
             free_sectors=name != "paper",
@@ -181,7 +197,7 @@ class PeopleFilterParams:
             leg_segments=shapes,
             seen_free=-0.6 if shapes else None,
             consistency=checks.get(name),
-            confirmation=ConfirmationParams() if name == "confirmed" else None,
+            confirmation=ConfirmationParams() if name in ("confirmed", "far") else None,
         )
 
 
@@ -379,13 +395,14 @@ class PeopleFilteredMapper:
         p = self.params
         origins = np.concatenate([np.zeros((0, 2)), *self._origins])
         ends = np.concatenate([np.zeros((0, 2)), *self._ends])
+        scans = np.asarray(self._written_index, dtype=np.int64)
+        kept_scans = np.repeat(scans, [len(e) for e in self._ends])
+        beam_scans = kept_scans
         if p.confirmation is None:
             grid = self.mapper.grid()
         else:
             left = np.concatenate([np.zeros((0, 2)), *self._left_ends])
-            scans = np.asarray(self._written_index, dtype=np.int64)
             left_scans = np.repeat(scans, [len(e) for e in self._left_ends])
-            kept_scans = np.repeat(scans, [len(e) for e in self._ends])
             back = confirmed_beams(
                 left, left_scans, ends, kept_scans, self.mapper.params.resolution, p.confirmation
             )
@@ -394,9 +411,10 @@ class PeopleFilteredMapper:
             left_origins = np.concatenate([np.zeros((0, 2)), *self._left_origins])
             origins = np.concatenate([origins, left_origins[back]])
             ends = np.concatenate([ends, left[back]])
+            beam_scans = np.concatenate([kept_scans, left_scans[back]])
         if p.consistency is None:
             return grid
-        grid, self.cleared_cells = clear_specks(grid, origins, ends, p.consistency)
+        grid, self.cleared_cells = clear_specks(grid, origins, ends, p.consistency, beam_scans)
         return grid
 
     def _map_only_rules(self) -> bool:
