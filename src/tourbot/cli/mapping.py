@@ -38,9 +38,9 @@ def register(app: typer.Typer) -> None:
                 "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
                 "that other scans' kept beams confirm given back to the finished map, then a looser check), "
                 "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
-                "looser check)."
+                "looser check; the default)."
             ),
-        ] = "confirmed",
+        ] = "far",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
