@@ -317,7 +317,9 @@ class MonteCarloLocalization:
         self.weights: FloatArray = np.zeros(0)
         # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
         self._fresh: NDArray[np.bool_] = np.zeros(0, dtype=bool)
-        self._fresh_won = 0  # consecutive scans on which the fresh samples held the heaviest cluster
+        self._fresh_won = 0  # consecutive scans on which a recovery guess beat the track
+        self._guess_holds = False  # a guess won this scan: no new guesses replace it (``_resample``)
+        self._n_returns = 0  # returns of the scan being integrated (the guesses' margin per return)
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -369,6 +371,7 @@ class MonteCarloLocalization:
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
         self._fresh = np.zeros(samples.shape[0], dtype=bool)
         self._fresh_won = 0
+        self._guess_holds = False
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -466,11 +469,11 @@ class MonteCarloLocalization:
         def judge(p: FloatArray) -> float:
             return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
 
-        def compare(guess: FloatArray, tracked: FloatArray) -> bool:
-            ll = self._crowd_log_likelihood(np.stack([guess, tracked]), ranges, geometry, valid)
-            return bool(ll[0] > ll[1])
+        def score(poses: FloatArray) -> FloatArray:
+            return self._crowd_log_likelihood(poses, ranges, geometry, valid)
 
-        pose, cov, cluster_weight, too_long = self._estimate(judge, compare)
+        self._n_returns = int(valid.sum())
+        pose, cov, cluster_weight, too_long = self._estimate(judge, score)
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
@@ -703,20 +706,26 @@ class MonteCarloLocalization:
     def _estimate(
         self,
         judge: Callable[[FloatArray], float],
-        compare: Callable[[FloatArray, FloatArray], bool],
+        score: Callable[[FloatArray], FloatArray],
     ) -> tuple[FloatArray, FloatArray, float, float]:
         """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
         estimate (the fraction of too-long readings there, NaN when not judged).
 
         Freshly injected samples count only once they have *won a scan*: the scan contradicts
         the tracked estimate (more than ``lost_fraction`` of its readings pass through mapped
-        walls there; always so during global localization) and the heaviest cluster of fresh
-        samples explains it better, by weight or by ``compare(fresh, tracked)`` (the crowd beam
-        model at both means). After ``fresh_wins`` such scans in a row the winning cluster
-        becomes the belief (the other samples lose their weight) and every sample is
-        established; until then the estimate is the heaviest cluster of the established
-        samples. A crowd makes a look-alike place fit some scans better than the true one, but
-        it cannot make the true pose see through walls.
+        walls there; always so during global localization) and the best *guess*, of the
+        clusters of fresh samples the one whose mean the crowd beam model rates highest
+        (``score``, :meth:`_crowd_log_likelihood`), explains it better than the tracked
+        estimate does. The guess is chosen by that model and not by the weights: the weights
+        carry the likelihood field, which scores a beam by its endpoint alone and, in a crowd,
+        may rate a look-alike place turned around above the true one (FHW, docs/benchmarks.md)
+        while the beam model sees the look-alike's readings pass through walls. On a scan the
+        guess wins, the other fresh samples lose their weight and no new guesses are injected
+        (:meth:`_resample`), so that the same guess must win the next scan too. After
+        ``fresh_wins`` such scans in a row the guess's cluster becomes the belief (the other
+        samples lose their weight) and every sample is established; until then the estimate is
+        the heaviest cluster of the established samples. A crowd makes a look-alike place fit
+        some scans better than the true one, but it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
@@ -728,35 +737,75 @@ class MonteCarloLocalization:
             self._lost_scans += 1
         else:
             self._lost_scans = 0
+        self._guess_holds = False
         if self._fresh.any():
-            w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
-            w_old = np.bincount(
-                labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
-            )
-            best = int(np.argmax(w_fresh + w_old))
             # The track stays contradicted through scans that are no evidence (NaN), and while
             # the last verification found a clearly better place (``_suspect``).
             contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
-            won = contradicted and w_fresh[best] > w_old[best]
-            guess = int(np.argmax(w_fresh))
-            if contradicted and not won and w_fresh[guess] > 0:
-                mine = labels == guess
-                f_pose = best_cluster_estimate(
-                    self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
-                )[0]
-                won = compare(f_pose, pose)
-                best = guess
-            self._fresh_won = self._fresh_won + 1 if won else 0
-            if self._fresh_won >= cfg.fresh_wins:
-                w = np.where(labels == best, self.weights, 0.0)
-                self.weights = w / w.sum() if w.sum() > 0 else self.weights
+            guess = self._best_guess(labels, pose, score, contradicted)
+            self._fresh_won = self._fresh_won + 1 if guess is not None else 0
+            if guess is not None and self._fresh_won >= cfg.fresh_wins:
+                mine = labels == int(labels[np.flatnonzero(guess)[0]])
+                w = np.where(mine, self.weights, 0.0)
+                self.weights = w / w.sum() if w.sum() > 0 else mine / mine.sum()
                 self._fresh[:] = False
                 self._fresh_won = 0
                 pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
                 # a recovery guess is now the track: verify it on this scan already
                 self._suspect = cfg.verify_period is not None
                 self._recovered = True
+            elif guess is not None:
+                # The guess holds the fresh share until the next scan: the other guesses go.
+                w = np.where(self._fresh & ~guess, 0.0, self.weights)
+                if not w[guess].sum() > 0:
+                    w[guess] = w.sum() / guess.sum() if w.sum() > 0 else 1.0
+                self.weights = w / w.sum()
+                self._guess_holds = True
         return pose, cov, weight, too_long
+
+    def _best_guess(
+        self,
+        labels: IntArray,
+        tracked: FloatArray,
+        score: Callable[[FloatArray], FloatArray],
+        contradicted: bool,
+    ) -> NDArray[np.bool_] | None:
+        """The fresh samples of the best guess, if it beats the ``tracked`` estimate.
+
+        The guesses are the clusters of fresh samples that carry weight, each judged at its
+        weighted mean by ``score`` (the scan's log-likelihood under the crowd beam model per
+        pose) beside the tracked estimate. When the track is ``contradicted`` (too-long readings,
+        a failed verification, global localization) the best guess wins when it scores above the
+        track. Otherwise only guesses at another place (more than ``verify_distance`` from the
+        track) are judged, and the best wins when it explains the scan better than the track by
+        more than ``verify_margin`` nats per return: the verification's likelihood ratio test
+        (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
+        too-long test cannot see (moved along a hall, every reading shorter than expected).
+        Returns the mask of the winning guess's fresh samples, or None."""
+        cfg = self.config
+        live = self._fresh & (self.weights > 0)
+        if not live.any():
+            live = self._fresh
+        ids = np.unique(labels[live])
+        means = np.empty((ids.size, 3))
+        for k, c in enumerate(ids.tolist()):
+            mine = live & (labels == c)
+            w = self.weights[mine]
+            means[k] = _weighted_mean_cov(self.samples[mine], w if w.sum() > 0 else np.ones(w.size))[0]
+        judged = np.ones(ids.size, dtype=bool)
+        if not contradicted:
+            judged = (np.hypot(means[:, 0] - tracked[0], means[:, 1] - tracked[1]) > cfg.verify_distance[0]) | (
+                np.abs(wrap_angle(means[:, 2] - tracked[2])) > cfg.verify_distance[1]
+            )
+            if not judged.any():
+                return None
+        ids, means = ids[judged], means[judged]
+        ll = score(np.vstack([means, tracked[None, :]]))
+        k = int(np.argmax(ll[:-1]))
+        margin = float(ll[k] - ll[-1])
+        if not (margin > 0.0 if contradicted else margin > cfg.verify_margin * self._n_returns):
+            return None
+        return live & (labels == int(ids[k]))
 
     def _resample(
         self,
@@ -792,7 +841,8 @@ class MonteCarloLocalization:
         n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
         new = drawn[:n].copy()
         fresh = self._fresh[idx[:n]].copy()
-        n_inject = round(inject_fraction * n)
+        # A guess that has just won a scan must win the next one too: no new guess replaces it.
+        n_inject = 0 if self._guess_holds else round(inject_fraction * n)
         if n_inject:
             # The new guesses replace the older ones that have not won first, so fresh samples
             # never outnumber max_injection of the set, however long a crowd keeps resetting.
