@@ -466,8 +466,8 @@ class MonteCarloLocalization:
         # however many beams the filter dropped: only then may a recovery guess replace it.
         judged = bool(n_used) and not global_start and not self._global_phase
 
-        def judge(p: FloatArray) -> float:
-            return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
+        def judge(p: FloatArray, others: FloatArray | None = None) -> float:
+            return self._too_long_fraction(p, ranges, geometry, valid, others) if judged else math.nan
 
         def score(poses: FloatArray) -> FloatArray:
             return self._crowd_log_likelihood(poses, ranges, geometry, valid)
@@ -705,7 +705,7 @@ class MonteCarloLocalization:
 
     def _estimate(
         self,
-        judge: Callable[[FloatArray], float],
+        judge: Callable[[FloatArray, FloatArray | None], float],
         score: Callable[[FloatArray], FloatArray],
     ) -> tuple[FloatArray, FloatArray, float, float]:
         """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
@@ -730,7 +730,7 @@ class MonteCarloLocalization:
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
         pose, cov, weight = best_cluster_estimate(self.samples, self._established_weights(), labels)
-        too_long = judge(pose)
+        too_long = judge(pose, None)
         if math.isnan(too_long):
             pass  # not judged, or the crowd hides the building: no evidence either way
         elif too_long > cfg.lost_fraction:
@@ -738,11 +738,18 @@ class MonteCarloLocalization:
         else:
             self._lost_scans = 0
         self._guess_holds = False
-        if self._fresh.any():
-            # The track stays contradicted through scans that are no evidence (NaN), and while
-            # the last verification found a clearly better place (``_suspect``).
-            contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
-            guess = self._best_guess(labels, pose, score, contradicted)
+        # The track stays contradicted through scans that are no evidence (NaN), and while the
+        # last verification found a clearly better place (``_suspect``).
+        contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
+        if self._fresh.any() and not contradicted:
+            # Guesses that lie in the track's own cluster on a scan that does not contradict it
+            # are the track: they join it (and no longer pose as another place).
+            track = int(np.argmax(np.bincount(labels, weights=self._established_weights())))
+            self._fresh &= labels != track
+        if not self._fresh.any():
+            self._fresh_won = 0
+        else:
+            guess = self._best_guess(labels, pose, score, judge, contradicted)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
             if guess is not None and self._fresh_won >= cfg.fresh_wins:
                 mine = labels == int(labels[np.flatnonzero(guess)[0]])
@@ -768,6 +775,7 @@ class MonteCarloLocalization:
         labels: IntArray,
         tracked: FloatArray,
         score: Callable[[FloatArray], FloatArray],
+        judge: Callable[[FloatArray, FloatArray | None], float],
         contradicted: bool,
     ) -> NDArray[np.bool_] | None:
         """The fresh samples of the best guess, if it beats the ``tracked`` estimate.
@@ -775,23 +783,27 @@ class MonteCarloLocalization:
         The guesses are the clusters of fresh samples that carry weight, each judged at its
         weighted mean by ``score`` (the scan's log-likelihood under the crowd beam model per
         pose) beside the tracked estimate. When the track is ``contradicted`` (too-long readings,
-        a failed verification, global localization) the best guess wins when it scores above the
+        a failed verification, global localization) a guess wins when it scores above the
         track. Otherwise only guesses at another place (more than ``verify_distance`` from the
-        track) are judged, and the best wins when it explains the scan better than the track by
-        more than ``verify_margin`` nats per return: the verification's likelihood ratio test
+        track) are judged, and one wins when it explains the scan better than the track by more
+        than ``verify_margin`` nats per return: the verification's likelihood ratio test
         (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
         too-long test cannot see (moved along a hall, every reading shorter than expected).
-        Returns the mask of the winning guess's fresh samples, or None."""
+        Either way a guess that the scan contradicts itself (``judge``, the too-long test at
+        its mean and its ``lost_hypotheses`` heaviest samples) cannot win: against a track that
+        a crowd has pulled off by a few decimetres, a place the scan sees through the walls of
+        may score higher and would replace a nearly right track by a wrong one. The best
+        guess that passes wins (the ``lost_hypotheses`` best are tried). Returns the mask of the
+        winning guess's fresh samples, or None."""
         cfg = self.config
         live = self._fresh & (self.weights > 0)
         if not live.any():
-            live = self._fresh
+            return None
         ids = np.unique(labels[live])
         means = np.empty((ids.size, 3))
         for k, c in enumerate(ids.tolist()):
             mine = live & (labels == c)
-            w = self.weights[mine]
-            means[k] = _weighted_mean_cov(self.samples[mine], w if w.sum() > 0 else np.ones(w.size))[0]
+            means[k] = _weighted_mean_cov(self.samples[mine], self.weights[mine])[0]
         judged = np.ones(ids.size, dtype=bool)
         if not contradicted:
             judged = (np.hypot(means[:, 0] - tracked[0], means[:, 1] - tracked[1]) > cfg.verify_distance[0]) | (
@@ -801,11 +813,15 @@ class MonteCarloLocalization:
                 return None
         ids, means = ids[judged], means[judged]
         ll = score(np.vstack([means, tracked[None, :]]))
-        k = int(np.argmax(ll[:-1]))
-        margin = float(ll[k] - ll[-1])
-        if not (margin > 0.0 if contradicted else margin > cfg.verify_margin * self._n_returns):
-            return None
-        return live & (labels == int(ids[k]))
+        need = 0.0 if contradicted else cfg.verify_margin * self._n_returns
+        for k in np.argsort(-ll[:-1], kind="stable")[: cfg.lost_hypotheses].tolist():
+            if not ll[k] - ll[-1] > need:
+                break
+            mine = live & (labels == int(ids[k]))
+            heaviest = np.flatnonzero(mine)[np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]]
+            if not judge(means[k], self.samples[heaviest]) > cfg.lost_fraction:  # NaN: no evidence
+                return mine
+        return None
 
     def _resample(
         self,
@@ -998,7 +1014,12 @@ class MonteCarloLocalization:
         return drawn, max(0.0, float(ll[1:].max() - ll[0]) / n_valid)
 
     def _too_long_fraction(
-        self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+        self,
+        pose: FloatArray,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        valid: NDArray[np.bool_],
+        others: FloatArray | None = None,
     ) -> float:
         """Of the returns that are not shorter than expected (the ones a crowd left alone), the
         fraction longer than expected by more than ``lost_margin``: readings through mapped
@@ -1007,13 +1028,16 @@ class MonteCarloLocalization:
         ``lost_hypotheses`` samples drawn by weight from the established belief; the smallest
         fraction counts, so a scan contradicts the track only when no plausible pose of it
         explains the scan (a few centimetres or a degree off, long beams may graze past a
-        corner). NaN when every pose has fewer than ``lost_min_beams`` returns to judge."""
+        corner). ``others``, when given, replace those samples (a recovery guess's own). NaN
+        when every pose has fewer than ``lost_min_beams`` returns to judge."""
         cfg = self.config
         if not valid.any():
             return math.nan
-        k = min(cfg.lost_hypotheses, self.samples.shape[0])
-        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
-        poses = np.vstack([pose[None, :], self.samples[idx]])
+        if others is None:
+            k = min(cfg.lost_hypotheses, self.samples.shape[0])
+            idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
+            others = self.samples[idx]
+        poses = np.vstack([pose[None, :], others])
         laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
         expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])
         measured = ranges[valid][None, :]
