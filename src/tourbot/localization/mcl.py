@@ -749,7 +749,10 @@ class MonteCarloLocalization:
         if not self._fresh.any():
             self._fresh_won = 0
         else:
-            guess = self._best_guess(labels, pose, score, judge, contradicted)
+            if self._global_phase:
+                guess = self._heaviest_guess(labels, pose, score)
+            else:
+                guess = self._best_guess(labels, pose, score, judge, contradicted)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
             if guess is not None and self._fresh_won >= cfg.fresh_wins:
                 mine = labels == int(labels[np.flatnonzero(guess)[0]])
@@ -761,7 +764,7 @@ class MonteCarloLocalization:
                 # a recovery guess is now the track: verify it on this scan already
                 self._suspect = cfg.verify_period is not None
                 self._recovered = True
-            elif guess is not None:
+            elif guess is not None and not self._global_phase:
                 # The guess holds the fresh share until the next scan: the other guesses go.
                 w = np.where(self._fresh & ~guess, 0.0, self.weights)
                 if not w[guess].sum() > 0:
@@ -769,6 +772,27 @@ class MonteCarloLocalization:
                 self.weights = w / w.sum()
                 self._guess_holds = True
         return pose, cov, weight, too_long
+
+    def _heaviest_guess(
+        self, labels: IntArray, tracked: FloatArray, score: Callable[[FloatArray], FloatArray]
+    ) -> NDArray[np.bool_] | None:
+        """During global localization (a spread belief, no track to contradict): the samples of
+        the heaviest cluster if fresh samples hold most of its weight, else those of the
+        heaviest cluster of fresh samples if the crowd beam model (``score``) rates its mean
+        above the ``tracked`` estimate (the heaviest established cluster); None otherwise."""
+        fresh_w = np.where(self._fresh, self.weights, 0.0)
+        w_fresh = np.bincount(labels, weights=fresh_w)
+        w_old = np.bincount(labels, weights=self.weights - fresh_w, minlength=w_fresh.size)
+        best = int(np.argmax(w_fresh + w_old))
+        if w_fresh[best] > w_old[best]:
+            return labels == best
+        guess = int(np.argmax(w_fresh))
+        if not w_fresh[guess] > 0:
+            return None
+        mine = labels == guess
+        f_pose = best_cluster_estimate(self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64))[0]
+        ll = score(np.stack([f_pose, tracked]))
+        return mine if ll[0] > ll[1] else None
 
     def _best_guess(
         self,
@@ -789,10 +813,12 @@ class MonteCarloLocalization:
         than ``verify_margin`` nats per return: the verification's likelihood ratio test
         (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
         too-long test cannot see (moved along a hall, every reading shorter than expected).
-        Either way a guess that the scan contradicts itself (``judge``, the too-long test at
-        its mean and its ``lost_hypotheses`` heaviest samples) cannot win: against a track that
-        a crowd has pulled off by a few decimetres, a place the scan sees through the walls of
-        may score higher and would replace a nearly right track by a wrong one. The best
+        Either way a guess wins only if the too-long test (``judge``, at its mean and its
+        ``lost_hypotheses`` heaviest samples) finds it consistent with the scan (a fraction at
+        most ``lost_fraction``; not when too few returns are left to judge): against a track
+        that a crowd has pulled off by a few decimetres, a place whose walls the scan sees
+        through, or one where every reading is shorter than expected, may score higher under
+        the crowd beam model and would replace a nearly right track by a wrong one. The best
         guess that passes wins (the ``lost_hypotheses`` best are tried). Returns the mask of the
         winning guess's fresh samples, or None."""
         cfg = self.config
@@ -819,7 +845,7 @@ class MonteCarloLocalization:
                 break
             mine = live & (labels == int(ids[k]))
             heaviest = np.flatnonzero(mine)[np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]]
-            if not judge(means[k], self.samples[heaviest]) > cfg.lost_fraction:  # NaN: no evidence
+            if judge(means[k], self.samples[heaviest]) <= cfg.lost_fraction:  # NaN: no evidence
                 return mine
         return None
 
