@@ -317,8 +317,9 @@ class MonteCarloLocalization:
         self.weights: FloatArray = np.zeros(0)
         # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
         self._fresh: NDArray[np.bool_] = np.zeros(0, dtype=bool)
-        self._fresh_won = 0  # consecutive scans on which a recovery guess beat the track
-        self._guess_holds = False  # a guess won this scan: no new guesses replace it (``_resample``)
+        self._fresh_won = 0  # consecutive scans on which the held recovery guess beat the track
+        # The samples of the guess that won the last scan (``_estimate``): no new guess replaces them.
+        self._held: NDArray[np.bool_] = np.zeros(0, dtype=bool)
         self._n_returns = 0  # returns of the scan being integrated (the guesses' margin per return)
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
@@ -371,7 +372,7 @@ class MonteCarloLocalization:
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
         self._fresh = np.zeros(samples.shape[0], dtype=bool)
         self._fresh_won = 0
-        self._guess_holds = False
+        self._held = np.zeros(samples.shape[0], dtype=bool)
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -401,6 +402,8 @@ class MonteCarloLocalization:
 
         if self._fresh.shape != self.weights.shape:  # the belief was set from outside
             self._fresh = np.zeros(self.weights.shape, dtype=bool)
+        if self._held.shape != self.weights.shape:
+            self._held = np.zeros(self.weights.shape, dtype=bool)
 
         # 1. Motion (Eq. 1): sample the odometry motion model.
         if self._odom is not None:
@@ -626,6 +629,7 @@ class MonteCarloLocalization:
         self.samples = samples
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
         self._fresh = np.zeros(samples.shape[0], dtype=bool)
+        self._held = np.zeros(samples.shape[0], dtype=bool)
         return stages
 
     def _anneal(
@@ -737,7 +741,6 @@ class MonteCarloLocalization:
             self._lost_scans += 1
         else:
             self._lost_scans = 0
-        self._guess_holds = False
         # The track stays contradicted through scans that are no evidence (NaN), and while the
         # last verification found a clearly better place (``_suspect``).
         contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
@@ -746,31 +749,36 @@ class MonteCarloLocalization:
             # are the track: they join it (and no longer pose as another place).
             track = int(np.argmax(np.bincount(labels, weights=self._established_weights())))
             self._fresh &= labels != track
-        if not self._fresh.any():
-            self._fresh_won = 0
-        else:
-            if self._global_phase:
-                guess = self._heaviest_guess(labels, pose, score)
-            else:
-                guess = self._best_guess(labels, pose, score, judge, contradicted)
+        guess: NDArray[np.bool_] | None = None
+        if self._global_phase and self._fresh.any():
+            guess = self._heaviest_guess(labels, pose, score)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
-            if guess is not None and self._fresh_won >= cfg.fresh_wins:
-                mine = labels == int(labels[np.flatnonzero(guess)[0]])
-                w = np.where(mine, self.weights, 0.0)
-                self.weights = w / w.sum() if w.sum() > 0 else mine / mine.sum()
-                self._fresh[:] = False
-                self._fresh_won = 0
-                pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
-                # a recovery guess is now the track: verify it on this scan already
-                self._suspect = cfg.verify_period is not None
-                self._recovered = True
-            elif guess is not None and not self._global_phase:
-                # The guess holds the fresh share until the next scan: the other guesses go.
-                w = np.where(self._fresh & ~guess, 0.0, self.weights)
-                if not w[guess].sum() > 0:
-                    w[guess] = w.sum() / guess.sum() if w.sum() > 0 else 1.0
-                self.weights = w / w.sum()
-                self._guess_holds = True
+        elif self._fresh.any():
+            guess = self._best_guess(labels, pose, score, judge, contradicted)
+            # The same guess (it holds samples of the last scan's winner) must win in a row.
+            same = guess is not None and bool((guess & self._held).any())
+            self._fresh_won = 0 if guess is None else self._fresh_won + 1 if same else 1
+        else:
+            self._fresh_won = 0
+        self._held = np.zeros(self._fresh.shape, dtype=bool)
+        if guess is not None and self._fresh_won >= cfg.fresh_wins:
+            mine = labels == int(labels[np.flatnonzero(guess)[0]])
+            w = np.where(mine, self.weights, 0.0)
+            self.weights = w / w.sum() if w.sum() > 0 else mine / mine.sum()
+            self._fresh[:] = False
+            self._fresh_won = 0
+            pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+            # a recovery guess is now the track: verify it on this scan already
+            self._suspect = cfg.verify_period is not None
+            self._recovered = True
+        elif guess is not None and not self._global_phase:
+            # The guess is held until the next scan (new guesses do not replace it); the other
+            # guesses go.
+            w = np.where(self._fresh & ~guess, 0.0, self.weights)
+            if not w[guess].sum() > 0:
+                w[guess] = w.sum() / guess.sum() if w.sum() > 0 else 1.0
+            self.weights = w / w.sum()
+            self._held = guess
         return pose, cov, weight, too_long
 
     def _heaviest_guess(
@@ -840,12 +848,14 @@ class MonteCarloLocalization:
         ids, means = ids[judged], means[judged]
         ll = score(np.vstack([means, tracked[None, :]]))
         need = 0.0 if contradicted else cfg.verify_margin * self._n_returns
-        for k in np.argsort(-ll[:-1], kind="stable")[: cfg.lost_hypotheses].tolist():
-            if not ll[k] - ll[-1] > need:
-                break
+        # The guess held since the last scan comes first: if it wins again, it has won twice.
+        held = np.isin(ids, labels[self._held & live])
+        order = np.lexsort((-ll[:-1], ~held))
+        order = order[ll[:-1][order] - ll[-1] > need][: cfg.lost_hypotheses]
+        for k in order.tolist():
             mine = live & (labels == int(ids[k]))
             heaviest = np.flatnonzero(mine)[np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]]
-            if judge(means[k], self.samples[heaviest]) <= cfg.lost_fraction:  # NaN: no evidence
+            if not judge(means[k], self.samples[heaviest]) > cfg.lost_fraction:  # NaN: no evidence
                 return mine
         return None
 
@@ -883,12 +893,13 @@ class MonteCarloLocalization:
         n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
         new = drawn[:n].copy()
         fresh = self._fresh[idx[:n]].copy()
-        # A guess that has just won a scan must win the next one too: no new guess replaces it.
-        n_inject = 0 if self._guess_holds else round(inject_fraction * n)
+        held = self._held[idx[:n]]
+        n_inject = round(inject_fraction * n)
         if n_inject:
             # The new guesses replace the older ones that have not won first, so fresh samples
-            # never outnumber max_injection of the set, however long a crowd keeps resetting.
-            slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
+            # never outnumber max_injection of the set, however long a crowd keeps resetting,
+            # besides the guess that won this scan (held: it must win the next one too).
+            slots = np.concatenate([np.flatnonzero(fresh & ~held), np.flatnonzero(~fresh)])[:n_inject]
             drawn_poses = reset_poses
             if drawn_poses is None:
                 far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
@@ -899,6 +910,7 @@ class MonteCarloLocalization:
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         self._fresh = fresh
+        self._held = held & fresh
         return n_inject
 
     def _scan_drawn_poses(
