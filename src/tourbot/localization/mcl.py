@@ -798,7 +798,9 @@ class MonteCarloLocalization:
         if not w_fresh[guess] > 0:
             return None
         mine = labels == guess
-        f_pose = best_cluster_estimate(self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64))[0]
+        f_pose = best_cluster_estimate(
+            self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
+        )[0]
         ll = score(np.stack([f_pose, tracked]))
         return mine if ll[0] > ll[1] else None
 
@@ -840,9 +842,9 @@ class MonteCarloLocalization:
             means[k] = _weighted_mean_cov(self.samples[mine], self.weights[mine])[0]
         judged = np.ones(ids.size, dtype=bool)
         if not contradicted:
-            judged = (np.hypot(means[:, 0] - tracked[0], means[:, 1] - tracked[1]) > cfg.verify_distance[0]) | (
-                np.abs(wrap_angle(means[:, 2] - tracked[2])) > cfg.verify_distance[1]
-            )
+            judged = (
+                np.hypot(means[:, 0] - tracked[0], means[:, 1] - tracked[1]) > cfg.verify_distance[0]
+            ) | (np.abs(wrap_angle(means[:, 2] - tracked[2])) > cfg.verify_distance[1])
             if not judged.any():
                 return None
         ids, means = ids[judged], means[judged]
@@ -854,7 +856,9 @@ class MonteCarloLocalization:
         order = order[ll[:-1][order] - ll[-1] > need][: cfg.lost_hypotheses]
         for k in order.tolist():
             mine = live & (labels == int(ids[k]))
-            heaviest = np.flatnonzero(mine)[np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]]
+            heaviest = np.flatnonzero(mine)[
+                np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]
+            ]
             if not judge(means[k], self.samples[heaviest]) > cfg.lost_fraction:  # NaN: no evidence
                 return mine
         return None
