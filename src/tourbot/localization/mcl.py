@@ -38,13 +38,24 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    free space, annealed on the scan's likelihood under a beam model with ray-cast expected
    ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
    field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
-   Injected samples are *fresh* until they have won ``fresh_wins`` consecutive scans that
-   contradict the track (by weight, or by the crowd beam model at the two clusters' means);
-   the novelty filter averages Eq. 6 over the established samples only (a two-peaked belief
-   would let a crowd's short beams through), the estimate is the heaviest cluster of the
-   established samples, resampling keeps each group's share, and new guesses replace older
-   fresh ones. So a crowd that makes a look-alike place fit a few scans better cannot hand it
-   the belief while the track still explains the scan. The too-long test cannot see every
+   Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
+   scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
+   crowd beam model against the track, and the best one that the too-long test does not
+   contradict wins when the scan contradicts the track, or, on a scan that does not, when it is
+   at another place and explains the scan better by the verification's ``verify_margin``. A
+   guess that wins is *held*: the other guesses lose their weight and new guesses do not
+   replace it, so that it must win the next scan itself. The guesses are judged by the beam
+   model and not by their weights, which carry the likelihood field: in a crowd the field may
+   rate a look-alike place turned around above the true one, whose readings the beam model sees
+   pass through walls (FHW, docs/benchmarks.md "Run 7"). Guesses that lie in the track's own
+   cluster on a scan that does not contradict it join the track. The novelty filter averages
+   Eq. 6 over the established samples only (a two-peaked belief would let a crowd's short beams
+   through), the estimate is the heaviest cluster of the established samples, resampling keeps
+   each group's share, and new guesses replace older fresh ones. So a crowd that makes a
+   look-alike place fit a few scans better cannot hand it the belief while the track still
+   explains the scan. During global localization (no track yet) the heaviest cluster wins
+   instead, when fresh samples hold most of its weight (or the crowd beam model prefers the
+   heaviest fresh cluster to the heaviest established one). The too-long test cannot see every
    wrong pose (moved along a hall, the track's readings are shorter than expected on one side,
    which a crowd would explain, and about right elsewhere), and a robot that stands gives the
    filter the same scan over and over and no motion to spread its samples. So, when
@@ -173,12 +184,12 @@ class MCLConfig:
         returns leave the averages alone. ``max_injection`` 0.2: at most this fraction of the
         samples is replaced per update, so a false alarm in a crowd adds a small cluster that
         must then win on the next scans rather than replacing the belief.
-        ``fresh_wins`` 2: injected samples stay *fresh* until they have won this many
-        consecutive scans that contradict the track. Fresh samples are left out of the novelty
-        filter's belief average (Eq. 6) and out of the estimate, and resampling keeps the fresh
-        and the established samples' shares, so a recovery guess at a look-alike place must beat
-        the track twice before it replaces it (in the simulated peak crowd one scan sometimes
-        favours such a place).
+        ``fresh_wins`` 2: injected samples stay *fresh* until one guess (a cluster of them) has
+        beaten the track on this many consecutive scans (:meth:`MonteCarloLocalization.
+        _estimate`). Fresh samples are left out of the novelty filter's belief average (Eq. 6)
+        and out of the estimate, and resampling keeps the fresh and the established samples'
+        shares, so a recovery guess at a look-alike place must beat the track twice before it
+        replaces it (in the simulated peak crowd one scan sometimes favours such a place).
         ``lost_margin`` 0.5 m, ``lost_fraction`` 0.3, ``lost_min_beams`` 20, ``lost_hypotheses``
         8: the too-long test (module docstring, step 4). Measured on the peak-crowd FHW and Intel
         logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
@@ -715,21 +726,25 @@ class MonteCarloLocalization:
         """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
         estimate (the fraction of too-long readings there, NaN when not judged).
 
-        Freshly injected samples count only once they have *won a scan*: the scan contradicts
-        the tracked estimate (more than ``lost_fraction`` of its readings pass through mapped
-        walls there; always so during global localization) and the best *guess*, of the
-        clusters of fresh samples the one whose mean the crowd beam model rates highest
-        (``score``, :meth:`_crowd_log_likelihood`), explains it better than the tracked
-        estimate does. The guess is chosen by that model and not by the weights: the weights
-        carry the likelihood field, which scores a beam by its endpoint alone and, in a crowd,
-        may rate a look-alike place turned around above the true one (FHW, docs/benchmarks.md)
-        while the beam model sees the look-alike's readings pass through walls. On a scan the
-        guess wins, the other fresh samples lose their weight and no new guesses are injected
-        (:meth:`_resample`), so that the same guess must win the next scan too. After
-        ``fresh_wins`` such scans in a row the guess's cluster becomes the belief (the other
-        samples lose their weight) and every sample is established; until then the estimate is
-        the heaviest cluster of the established samples. A crowd makes a look-alike place fit
-        some scans better than the true one, but it cannot make the true pose see through walls.
+        Freshly injected samples count only once a *guess* (a cluster of them) has won
+        ``fresh_wins`` scans in a row (:meth:`_best_guess`): on a scan that contradicts the
+        tracked estimate (more than ``lost_fraction`` of its readings pass through mapped walls
+        there, or a verification failed), the guess that the crowd beam model (``score``,
+        :meth:`_crowd_log_likelihood`) rates highest at its mean, and that the too-long test
+        (``judge``) does not contradict, wins if it scores above the track; on a scan that does
+        not, only a guess at another place can win, by the verification's margin. The guess is
+        chosen by that model and not by the weights: the weights carry the likelihood field,
+        which scores a beam by its endpoint alone and, in a crowd, may rate a look-alike place
+        turned around above the true one (FHW, docs/benchmarks.md) while the beam model sees the
+        look-alike's readings pass through walls. The guess that wins a scan is *held*: the
+        other fresh samples lose their weight, new guesses do not replace it
+        (:meth:`_resample`), and it is judged first on the next scan, where it must win again.
+        Then its cluster becomes the belief (the other samples lose their weight) and every
+        sample is established; until then the estimate is the heaviest cluster of the
+        established samples. Guesses in the track's own cluster on a scan that does not
+        contradict the track join it. During global localization the rule of
+        :meth:`_heaviest_guess` applies. A crowd makes a look-alike place fit some scans better
+        than the true one, but it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
@@ -823,13 +838,13 @@ class MonteCarloLocalization:
         than ``verify_margin`` nats per return: the verification's likelihood ratio test
         (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
         too-long test cannot see (moved along a hall, every reading shorter than expected).
-        Either way a guess wins only if the too-long test (``judge``, at its mean and its
-        ``lost_hypotheses`` heaviest samples) finds it consistent with the scan (a fraction at
-        most ``lost_fraction``; not when too few returns are left to judge): against a track
-        that a crowd has pulled off by a few decimetres, a place whose walls the scan sees
-        through, or one where every reading is shorter than expected, may score higher under
-        the crowd beam model and would replace a nearly right track by a wrong one. The best
-        guess that passes wins (the ``lost_hypotheses`` best are tried). Returns the mask of the
+        Either way a guess that the too-long test (``judge``, at its mean and its
+        ``lost_hypotheses`` heaviest samples) contradicts cannot win (too few returns left to
+        judge is no evidence either way): against a track that a crowd has pulled off by a few
+        decimetres, a place whose walls the scan sees through may score higher under the crowd
+        beam model and would replace a nearly right track by a wrong one. The guess held since
+        the last scan (``_held``) is tried first, then the others by score, at most
+        ``lost_hypotheses`` of them; the first that passes wins. Returns the mask of the
         winning guess's fresh samples, or None."""
         cfg = self.config
         live = self._fresh & (self.weights > 0)
