@@ -17,7 +17,10 @@ novelty filter; Nav2 AMCL through the ``amcl`` package), on logs overlaid with t
 
 Every figure is a mean over seeds with a 95 % confidence interval (Student t). Speed at the
 project's target budget (5000 samples, all 180 beams) is measured side by side for MCL and AMCL on
-``speed_scans`` scans. Crowded logs and maps are cached in ``--cache``.
+``speed_scans`` scans. Crowded logs and maps are cached in ``--cache``. Seed ``s`` (of
+``--first-seed`` .. ``--first-seed + --seeds - 1``) seeds the crowds, the kidnaps and the
+localizers alike, so fresh seeds can be run apart from the earlier ones; the JSON keeps each
+kidnap's outcome per seed.
 """
 
 from __future__ import annotations
@@ -290,6 +293,8 @@ def register(bench: typer.Typer) -> None:
         from tourbot.records import RobotLog
 
         console = Console()
+        if first_seed < 0:
+            raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         root = data_dir()
         if root is None:
             raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
@@ -301,8 +306,6 @@ def register(bench: typer.Typer) -> None:
         if "amcl" in chosen and not amcl_available():
             console.print("[yellow]amcl not installed: Nav2 AMCL left out (pip install amcl)[/]")
             chosen.remove("amcl")
-        if first_seed < 0:
-            raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         n_seeds = 1 if quick else seeds
         limit = 25 if quick else scans
         g_scans = min(global_scans, 25) if quick else global_scans
