@@ -41,8 +41,9 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
    scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
    crowd beam model against the track, and the best one that the too-long test does not
-   contradict wins when the scan contradicts the track, or, on a scan that does not, when it is
-   at another place and explains the scan better by the verification's ``verify_margin``. A
+   contradict (or contradicts less than the track) wins when the scan contradicts the track,
+   or, on a scan that does not, when it is at another place and explains the scan better by the
+   verification's ``verify_margin``. A
    guess that wins is *held*: the other guesses lose their weight and new guesses do not
    replace it, so that it must win the next scan itself. The guesses are judged by the beam
    model and not by their weights, which carry the likelihood field: in a crowd the field may
@@ -731,7 +732,7 @@ class MonteCarloLocalization:
         tracked estimate (more than ``lost_fraction`` of its readings pass through mapped walls
         there, or a verification failed), the guess that the crowd beam model (``score``,
         :meth:`_crowd_log_likelihood`) rates highest at its mean, and that the too-long test
-        (``judge``) does not contradict, wins if it scores above the track; on a scan that does
+        (``judge``) contradicts less than the track, wins if it scores above the track; on a scan that does
         not, only a guess at another place can win, by the verification's margin. The guess is
         chosen by that model and not by the weights: the weights carry the likelihood field,
         which scores a beam by its endpoint alone and, in a crowd, may rate a look-alike place
@@ -769,7 +770,7 @@ class MonteCarloLocalization:
             guess = self._heaviest_guess(labels, pose, score)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
         elif self._fresh.any():
-            guess = self._best_guess(labels, pose, score, judge, contradicted)
+            guess = self._best_guess(labels, pose, score, judge, contradicted, too_long)
             # The same guess (it holds samples of the last scan's winner) must win in a row.
             same = guess is not None and bool((guess & self._held).any())
             self._fresh_won = 0 if guess is None else self._fresh_won + 1 if same else 1
@@ -826,6 +827,7 @@ class MonteCarloLocalization:
         score: Callable[[FloatArray], FloatArray],
         judge: Callable[[FloatArray, FloatArray | None], float],
         contradicted: bool,
+        track_too_long: float = math.nan,
     ) -> NDArray[np.bool_] | None:
         """The fresh samples of the best guess, if it beats the ``tracked`` estimate.
 
@@ -839,13 +841,17 @@ class MonteCarloLocalization:
         (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
         too-long test cannot see (moved along a hall, every reading shorter than expected).
         Either way a guess that the too-long test (``judge``, at its mean and its
-        ``lost_hypotheses`` heaviest samples) contradicts cannot win (too few returns left to
-        judge is no evidence either way): against a track that a crowd has pulled off by a few
-        decimetres, a place whose walls the scan sees through may score higher under the crowd
-        beam model and would replace a nearly right track by a wrong one. The guess held since
-        the last scan (``_held``) is tried first, then the others by score, at most
-        ``lost_hypotheses`` of them; the first that passes wins. Returns the mask of the
-        winning guess's fresh samples, or None."""
+        ``lost_hypotheses`` heaviest samples) contradicts cannot win unless the track's own
+        fraction (``track_too_long``) is larger still (too few returns left to judge is no
+        evidence either way): against a track that a crowd has pulled off by a few decimetres, a
+        place whose walls the scan sees through may score higher under the crowd beam model and
+        would replace a nearly right track by a wrong one, while the true pose itself fails the
+        test on a few per cent of the scans where the map and the building disagree (glass,
+        corners; ``lost_fraction`` in :class:`MCLConfig`). The best guess that passes wins,
+        except that the guess held since the last scan (``_held``) stays the guess if it passes
+        and scores within the verification's margin of the best: the means of small clusters
+        score higher than those of spread ones by chance. Returns the mask of the winning
+        guess's fresh samples, or None."""
         cfg = self.config
         live = self._fresh & (self.weights > 0)
         if not live.any():
@@ -864,19 +870,28 @@ class MonteCarloLocalization:
                 return None
         ids, means = ids[judged], means[judged]
         ll = score(np.vstack([means, tracked[None, :]]))
-        need = 0.0 if contradicted else cfg.verify_margin * self._n_returns
-        # The guess held since the last scan comes first: if it wins again, it has won twice.
+        margin = cfg.verify_margin * self._n_returns
+        need = 0.0 if contradicted else margin
         held = np.isin(ids, labels[self._held & live])
-        order = np.lexsort((-ll[:-1], ~held))
-        order = order[ll[:-1][order] - ll[-1] > need][: cfg.lost_hypotheses]
-        for k in order.tolist():
+        best: int | None = None
+        for k in np.argsort(-ll[:-1], kind="stable").tolist():
+            if not ll[k] - ll[-1] > need or (best is not None and not held[k]):
+                continue
             mine = live & (labels == int(ids[k]))
             heaviest = np.flatnonzero(mine)[
                 np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]
             ]
-            if not judge(means[k], self.samples[heaviest]) > cfg.lost_fraction:  # NaN: no evidence
-                return mine
-        return None
+            too_long = judge(means[k], self.samples[heaviest])
+            if too_long > cfg.lost_fraction and not too_long < track_too_long:  # NaN: no evidence
+                continue
+            if held[k] and (best is None or ll[k] >= ll[best] - margin):
+                best = k  # the held guess stays the guess unless another is clearly better
+                break
+            if best is None:
+                best = k
+                if not held.any():
+                    break
+        return None if best is None else live & (labels == int(ids[best]))
 
     def _resample(
         self,
