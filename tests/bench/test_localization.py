@@ -101,3 +101,34 @@ def test_quick_run_writes_the_table(tmp_path: Path) -> None:
     assert [r["method"] for r in payload["rows"]] == methods.split(",")
     assert payload["meta"]["seeds"] == 1
     assert (tmp_path / "localization-fig5.png").exists()
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("shared_data")
+def test_first_seed_chooses_the_seeds(tmp_path: Path) -> None:
+    # Fresh seeds can be run without the earlier ones: --first-seed 3 --seeds 1 is seed 3 alone
+    # (its crowds, kidnaps and localizer), recorded in the JSON.
+    out = tmp_path / "loc.json"
+    main(
+        [
+            "bench", "localization", "--quick", "--first-seed", "3", "--methods", "mcl-novelty",
+            "--cache", str(tmp_path / "cache"), "--global-scans", "8", "--speed-scans", "3",
+            "--no-figure", "-o", str(out),
+        ]
+    )  # fmt: skip
+    payload = json.loads(out.read_text())
+    assert payload["meta"]["first_seed"] == 3
+    assert sorted(p.name for p in (tmp_path / "cache").glob("*.log.gz")) == [
+        "fhw25-peak-3.log.gz",
+        "fhw25-sparse-3.log.gz",
+    ]
+    assert set(payload["rows"][0]["raw"]["kidnaps_per_seed"]) <= {"3"}
+
+
+def test_a_negative_first_seed_is_a_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bench", "localization", "--first-seed", "-1"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "--first-seed" in err
+    assert len(err.splitlines()) == 1

@@ -17,7 +17,10 @@ novelty filter; Nav2 AMCL through the ``amcl`` package), on logs overlaid with t
 
 Every figure is a mean over seeds with a 95 % confidence interval (Student t). Speed at the
 project's target budget (5000 samples, all 180 beams) is measured side by side for MCL and AMCL on
-``speed_scans`` scans. Crowded logs and maps are cached in ``--cache``.
+``speed_scans`` scans. Crowded logs and maps are cached in ``--cache``. Seed ``s`` (of
+``--first-seed`` .. ``--first-seed + --seeds - 1``) seeds the crowds, the kidnaps and the
+localizers alike, so fresh seeds can be run apart from the earlier ones; the JSON keeps each
+kidnap's outcome per seed.
 """
 
 from __future__ import annotations
@@ -257,6 +260,9 @@ def register(bench: typer.Typer) -> None:
         seeds: Annotated[
             int, typer.Option(help="Seeds (crowds, kidnaps, filters); >= 5 for the report.")
         ] = 5,
+        first_seed: Annotated[
+            int, typer.Option(help="First seed: seeds FIRST_SEED .. FIRST_SEED + SEEDS - 1 are run.")
+        ] = 0,
         particles: Annotated[
             int, typer.Option(help="Sample budget of MCL and AMCL for accuracy (Nav2's max_particles).")
         ] = 2000,
@@ -287,6 +293,8 @@ def register(bench: typer.Typer) -> None:
         from tourbot.records import RobotLog
 
         console = Console()
+        if first_seed < 0:
+            raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         root = data_dir()
         if root is None:
             raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
@@ -323,6 +331,7 @@ def register(bench: typer.Typer) -> None:
         )
         report.meta = {
             "seeds": n_seeds,
+            "first_seed": first_seed,
             "particles": particles,
             "global_scans": g_scans,
             "scans": limit,
@@ -342,7 +351,7 @@ def register(bench: typer.Typer) -> None:
                 path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
                 data: list[dict[str, Any]] = []
                 task = progress.add_task(f"{name}: crowds", total=2 * n_seeds)
-                for seed in range(n_seeds):
+                for seed in range(first_seed, first_seed + n_seeds):
                     sparse, sparse_truth = _crowded(base, grid, name, "sparse", seed, cache)
                     progress.advance(task)
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
@@ -356,6 +365,7 @@ def register(bench: typer.Typer) -> None:
                             "sparse": sparse,
                             "peak": peak,
                             "kidnapped": apply_kidnaps(peak, kidnaps),
+                            "seed": seed,
                             "kidnaps": [k.scan for k in kidnaps],
                             "fraction": (
                                 float(sparse_truth.fraction.mean()),
@@ -378,9 +388,11 @@ def register(bench: typer.Typer) -> None:
                     rec_d: list[float] = []
                     glob_ok, glob_t = [], []
                     censored = 0
+                    outcomes: dict[int, list[Any]] = {}
                     make = _factory(method, grid, particles)
                     first = tuple(ref[0])
-                    for seed, d in enumerate(data):
+                    for d in data:
+                        seed = d["seed"]
                         r_s = _run(make("tracking", first, seed), d["sparse"])
                         e_s, _ = tracking_errors(r_s.est, ref[: len(r_s.est)])
                         fails_s.append(100.0 * float(np.mean(e_s > FAIL_DISTANCE)))
@@ -391,12 +403,17 @@ def register(bench: typer.Typer) -> None:
                         heads.append(float(np.degrees(h_p.mean())))
                         secs.append(1000.0 * float(np.mean(r_p.seconds)))
                         rtf.append(duration / max(float(r_p.seconds.sum()), 1e-12))
-                        if seed == 0:
+                        if seed == first_seed:
                             figure_runs[method] = (r_p, d["peak"])
                         if d["kidnaps"]:
                             r_k = _run(make("tracking", first, seed), d["kidnapped"])
                             e_k, _ = tracking_errors(r_k.est, ref[: len(r_k.est)])
-                            for outcome in recovery(e_k, base.times, path, d["kidnaps"]):
+                            judged = recovery(e_k, base.times, path, d["kidnaps"])
+                            outcomes[seed] = [
+                                {"scan": k, "outcome": None if o is None else list(o)}
+                                for k, o in zip(d["kidnaps"], judged, strict=True)
+                            ]
+                            for outcome in judged:
                                 if outcome is None:
                                     censored += 1
                                     continue
@@ -439,6 +456,7 @@ def register(bench: typer.Typer) -> None:
                                 "heading_peak_deg": heads,
                                 "recovered": rec_ok,
                                 "kidnaps_censored": censored,
+                                "kidnaps_per_seed": outcomes,
                                 "recovery_s": rec_t,
                                 "recovery_m": rec_d,
                                 "global_ok": glob_ok,
@@ -455,7 +473,7 @@ def register(bench: typer.Typer) -> None:
                         "localization-fig5.png"
                     )
                     _figure(figure_runs, grid, ref, pic)
-                    report.notes.append(f"Fig. 5-like picture (peak crowd, seed 0): {pic}")
+                    report.notes.append(f"Fig. 5-like picture (peak crowd, seed {first_seed}): {pic}")
         for name, c in report.meta["crowd"].items():
             s, p, longest = c["sparse_mean_corrupted"], c["peak_mean_corrupted"], c["peak_longest_above_50_s"]
             report.notes.append(

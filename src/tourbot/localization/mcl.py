@@ -38,13 +38,25 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    free space, annealed on the scan's likelihood under a beam model with ray-cast expected
    ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
    field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
-   Injected samples are *fresh* until they have won ``fresh_wins`` consecutive scans that
-   contradict the track (by weight, or by the crowd beam model at the two clusters' means);
-   the novelty filter averages Eq. 6 over the established samples only (a two-peaked belief
-   would let a crowd's short beams through), the estimate is the heaviest cluster of the
-   established samples, resampling keeps each group's share, and new guesses replace older
-   fresh ones. So a crowd that makes a look-alike place fit a few scans better cannot hand it
-   the belief while the track still explains the scan. The too-long test cannot see every
+   Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
+   scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
+   crowd beam model against the track, and the best one that the too-long test does not
+   contradict (or contradicts less than the track) wins when the scan contradicts the track,
+   or, on a scan that does not, when it is at another place and explains the scan better by the
+   verification's ``verify_margin``. A
+   guess that wins is *held*: the other guesses lose their weight and new guesses do not
+   replace it, so that it must win the next scan itself. The guesses are judged by the beam
+   model and not by their weights, which carry the likelihood field: in a crowd the field may
+   rate a look-alike place turned around above the true one, whose readings the beam model sees
+   pass through walls (FHW, docs/benchmarks.md "Run 7"). Guesses that lie in the track's own
+   cluster on a scan that does not contradict it join the track. The novelty filter averages
+   Eq. 6 over the established samples only (a two-peaked belief would let a crowd's short beams
+   through), the estimate is the heaviest cluster of the established samples, resampling keeps
+   each group's share, and new guesses replace older fresh ones. So a crowd that makes a
+   look-alike place fit a few scans better cannot hand it the belief while the track still
+   explains the scan. During global localization (no track yet) the heaviest cluster wins
+   instead, when fresh samples hold most of its weight (or the crowd beam model prefers the
+   heaviest fresh cluster to the heaviest established one). The too-long test cannot see every
    wrong pose (moved along a hall, the track's readings are shorter than expected on one side,
    which a crowd would explain, and about right elsewhere), and a robot that stands gives the
    filter the same scan over and over and no motion to spread its samples. So, when
@@ -173,12 +185,12 @@ class MCLConfig:
         returns leave the averages alone. ``max_injection`` 0.2: at most this fraction of the
         samples is replaced per update, so a false alarm in a crowd adds a small cluster that
         must then win on the next scans rather than replacing the belief.
-        ``fresh_wins`` 2: injected samples stay *fresh* until they have won this many
-        consecutive scans that contradict the track. Fresh samples are left out of the novelty
-        filter's belief average (Eq. 6) and out of the estimate, and resampling keeps the fresh
-        and the established samples' shares, so a recovery guess at a look-alike place must beat
-        the track twice before it replaces it (in the simulated peak crowd one scan sometimes
-        favours such a place).
+        ``fresh_wins`` 2: injected samples stay *fresh* until one guess (a cluster of them) has
+        beaten the track on this many consecutive scans (:meth:`MonteCarloLocalization.
+        _estimate`). Fresh samples are left out of the novelty filter's belief average (Eq. 6)
+        and out of the estimate, and resampling keeps the fresh and the established samples'
+        shares, so a recovery guess at a look-alike place must beat the track twice before it
+        replaces it (in the simulated peak crowd one scan sometimes favours such a place).
         ``lost_margin`` 0.5 m, ``lost_fraction`` 0.3, ``lost_min_beams`` 20, ``lost_hypotheses``
         8: the too-long test (module docstring, step 4). Measured on the peak-crowd FHW and Intel
         logs (crowd seeds 0-2, 2026-12-01): at 0.3, 2-4 % of the scans of a correct track are
@@ -317,7 +329,10 @@ class MonteCarloLocalization:
         self.weights: FloatArray = np.zeros(0)
         # Samples injected by recovery that have not yet won a scan (see ``update``, step 4).
         self._fresh: NDArray[np.bool_] = np.zeros(0, dtype=bool)
-        self._fresh_won = 0  # consecutive scans on which the fresh samples held the heaviest cluster
+        self._fresh_won = 0  # consecutive scans on which the held recovery guess beat the track
+        # The samples of the guess that won the last scan (``_estimate``): no new guess replaces them.
+        self._held: NDArray[np.bool_] = np.zeros(0, dtype=bool)
+        self._n_returns = 0  # returns of the scan being integrated (the guesses' margin per return)
         self._odom: FloatArray | None = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -369,6 +384,7 @@ class MonteCarloLocalization:
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
         self._fresh = np.zeros(samples.shape[0], dtype=bool)
         self._fresh_won = 0
+        self._held = np.zeros(samples.shape[0], dtype=bool)
         self._odom = None
         self._w_slow = 0.0
         self._w_fast = 0.0
@@ -398,6 +414,8 @@ class MonteCarloLocalization:
 
         if self._fresh.shape != self.weights.shape:  # the belief was set from outside
             self._fresh = np.zeros(self.weights.shape, dtype=bool)
+        if self._held.shape != self.weights.shape:
+            self._held = np.zeros(self.weights.shape, dtype=bool)
 
         # 1. Motion (Eq. 1): sample the odometry motion model.
         if self._odom is not None:
@@ -463,14 +481,14 @@ class MonteCarloLocalization:
         # however many beams the filter dropped: only then may a recovery guess replace it.
         judged = bool(n_used) and not global_start and not self._global_phase
 
-        def judge(p: FloatArray) -> float:
-            return self._too_long_fraction(p, ranges, geometry, valid) if judged else math.nan
+        def judge(p: FloatArray, others: FloatArray | None = None) -> float:
+            return self._too_long_fraction(p, ranges, geometry, valid, others) if judged else math.nan
 
-        def compare(guess: FloatArray, tracked: FloatArray) -> bool:
-            ll = self._crowd_log_likelihood(np.stack([guess, tracked]), ranges, geometry, valid)
-            return bool(ll[0] > ll[1])
+        def score(poses: FloatArray) -> FloatArray:
+            return self._crowd_log_likelihood(poses, ranges, geometry, valid)
 
-        pose, cov, cluster_weight, too_long = self._estimate(judge, compare)
+        self._n_returns = int(valid.sum())
+        pose, cov, cluster_weight, too_long = self._estimate(judge, score)
         ess = 1.0 / float(np.sum(self.weights**2))
         info["ess"] = ess
         info["cluster_weight"] = cluster_weight
@@ -623,6 +641,7 @@ class MonteCarloLocalization:
         self.samples = samples
         self.weights = np.full(samples.shape[0], 1.0 / samples.shape[0])
         self._fresh = np.zeros(samples.shape[0], dtype=bool)
+        self._held = np.zeros(samples.shape[0], dtype=bool)
         return stages
 
     def _anneal(
@@ -702,61 +721,177 @@ class MonteCarloLocalization:
 
     def _estimate(
         self,
-        judge: Callable[[FloatArray], float],
-        compare: Callable[[FloatArray, FloatArray], bool],
+        judge: Callable[[FloatArray, FloatArray | None], float],
+        score: Callable[[FloatArray], FloatArray],
     ) -> tuple[FloatArray, FloatArray, float, float]:
         """The heaviest cluster's mean and covariance, its weight, and ``judge`` of the tracked
         estimate (the fraction of too-long readings there, NaN when not judged).
 
-        Freshly injected samples count only once they have *won a scan*: the scan contradicts
-        the tracked estimate (more than ``lost_fraction`` of its readings pass through mapped
-        walls there; always so during global localization) and the heaviest cluster of fresh
-        samples explains it better, by weight or by ``compare(fresh, tracked)`` (the crowd beam
-        model at both means). After ``fresh_wins`` such scans in a row the winning cluster
-        becomes the belief (the other samples lose their weight) and every sample is
-        established; until then the estimate is the heaviest cluster of the established
-        samples. A crowd makes a look-alike place fit some scans better than the true one, but
-        it cannot make the true pose see through walls.
+        Freshly injected samples count only once a *guess* (a cluster of them) has won
+        ``fresh_wins`` scans in a row (:meth:`_best_guess`): on a scan that contradicts the
+        tracked estimate (more than ``lost_fraction`` of its readings pass through mapped walls
+        there, or a verification failed), the guess that the crowd beam model (``score``,
+        :meth:`_crowd_log_likelihood`) rates highest at its mean, and that the too-long test
+        (``judge``) contradicts less than the track, wins if it scores above the track; on a scan that does
+        not, only a guess at another place can win, by the verification's margin. The guess is
+        chosen by that model and not by the weights: the weights carry the likelihood field,
+        which scores a beam by its endpoint alone and, in a crowd, may rate a look-alike place
+        turned around above the true one (FHW, docs/benchmarks.md) while the beam model sees the
+        look-alike's readings pass through walls. The guess that wins a scan is *held*: the
+        other fresh samples lose their weight, new guesses do not replace it
+        (:meth:`_resample`), and it is judged first on the next scan, where it must win again.
+        Then its cluster becomes the belief (the other samples lose their weight) and every
+        sample is established; until then the estimate is the heaviest cluster of the
+        established samples. Guesses in the track's own cluster on a scan that does not
+        contradict the track join it. During global localization the rule of
+        :meth:`_heaviest_guess` applies. A crowd makes a look-alike place fit some scans better
+        than the true one, but it cannot make the true pose see through walls.
         """
         cfg = self.config
         labels = cluster_bins(self.samples, cfg.kld_bin[0], cfg.kld_bin[2])
         pose, cov, weight = best_cluster_estimate(self.samples, self._established_weights(), labels)
-        too_long = judge(pose)
+        too_long = judge(pose, None)
         if math.isnan(too_long):
             pass  # not judged, or the crowd hides the building: no evidence either way
         elif too_long > cfg.lost_fraction:
             self._lost_scans += 1
         else:
             self._lost_scans = 0
-        if self._fresh.any():
-            w_fresh = np.bincount(labels, weights=np.where(self._fresh, self.weights, 0.0))
-            w_old = np.bincount(
-                labels, weights=np.where(self._fresh, 0.0, self.weights), minlength=w_fresh.size
-            )
-            best = int(np.argmax(w_fresh + w_old))
-            # The track stays contradicted through scans that are no evidence (NaN), and while
-            # the last verification found a clearly better place (``_suspect``).
-            contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
-            won = contradicted and w_fresh[best] > w_old[best]
-            guess = int(np.argmax(w_fresh))
-            if contradicted and not won and w_fresh[guess] > 0:
-                mine = labels == guess
-                f_pose = best_cluster_estimate(
-                    self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
-                )[0]
-                won = compare(f_pose, pose)
-                best = guess
-            self._fresh_won = self._fresh_won + 1 if won else 0
-            if self._fresh_won >= cfg.fresh_wins:
-                w = np.where(labels == best, self.weights, 0.0)
-                self.weights = w / w.sum() if w.sum() > 0 else self.weights
-                self._fresh[:] = False
-                self._fresh_won = 0
-                pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
-                # a recovery guess is now the track: verify it on this scan already
-                self._suspect = cfg.verify_period is not None
-                self._recovered = True
+        # The track stays contradicted through scans that are no evidence (NaN), and while the
+        # last verification found a clearly better place (``_suspect``).
+        contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
+        if self._fresh.any() and not contradicted:
+            # Guesses that lie in the track's own cluster on a scan that does not contradict it
+            # are the track: they join it (and no longer pose as another place).
+            track = int(np.argmax(np.bincount(labels, weights=self._established_weights())))
+            self._fresh &= labels != track
+        guess: NDArray[np.bool_] | None = None
+        if self._global_phase and self._fresh.any():
+            guess = self._heaviest_guess(labels, pose, score)
+            self._fresh_won = self._fresh_won + 1 if guess is not None else 0
+        elif self._fresh.any():
+            guess = self._best_guess(labels, pose, score, judge, contradicted, too_long)
+            # The same guess (it holds samples of the last scan's winner) must win in a row.
+            same = guess is not None and bool((guess & self._held).any())
+            self._fresh_won = 0 if guess is None else self._fresh_won + 1 if same else 1
+        else:
+            self._fresh_won = 0
+        self._held = np.zeros(self._fresh.shape, dtype=bool)
+        if guess is not None and self._fresh_won >= cfg.fresh_wins:
+            mine = labels == int(labels[np.flatnonzero(guess)[0]])
+            w = np.where(mine, self.weights, 0.0)
+            self.weights = w / w.sum() if w.sum() > 0 else mine / mine.sum()
+            self._fresh[:] = False
+            self._fresh_won = 0
+            pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
+            # a recovery guess is now the track: verify it on this scan already
+            self._suspect = cfg.verify_period is not None
+            self._recovered = True
+        elif guess is not None and not self._global_phase:
+            # The guess is held until the next scan (new guesses do not replace it); the other
+            # guesses go.
+            w = np.where(self._fresh & ~guess, 0.0, self.weights)
+            if not w[guess].sum() > 0:
+                w[guess] = w.sum() / guess.sum() if w.sum() > 0 else 1.0
+            self.weights = w / w.sum()
+            self._held = guess
         return pose, cov, weight, too_long
+
+    def _heaviest_guess(
+        self, labels: IntArray, tracked: FloatArray, score: Callable[[FloatArray], FloatArray]
+    ) -> NDArray[np.bool_] | None:
+        """During global localization (a spread belief, no track to contradict): the samples of
+        the heaviest cluster if fresh samples hold most of its weight, else those of the
+        heaviest cluster of fresh samples if the crowd beam model (``score``) rates its mean
+        above the ``tracked`` estimate (the heaviest established cluster); None otherwise."""
+        fresh_w = np.where(self._fresh, self.weights, 0.0)
+        w_fresh = np.bincount(labels, weights=fresh_w)
+        w_old = np.bincount(labels, weights=self.weights - fresh_w, minlength=w_fresh.size)
+        best = int(np.argmax(w_fresh + w_old))
+        if w_fresh[best] > w_old[best]:
+            return labels == best
+        guess = int(np.argmax(w_fresh))
+        if not w_fresh[guess] > 0:
+            return None
+        mine = labels == guess
+        f_pose = best_cluster_estimate(
+            self.samples[mine], self.weights[mine], np.zeros(int(mine.sum()), np.int64)
+        )[0]
+        ll = score(np.stack([f_pose, tracked]))
+        return mine if ll[0] > ll[1] else None
+
+    def _best_guess(
+        self,
+        labels: IntArray,
+        tracked: FloatArray,
+        score: Callable[[FloatArray], FloatArray],
+        judge: Callable[[FloatArray, FloatArray | None], float],
+        contradicted: bool,
+        track_too_long: float = math.nan,
+    ) -> NDArray[np.bool_] | None:
+        """The fresh samples of the best guess, if it beats the ``tracked`` estimate.
+
+        The guesses are the clusters of fresh samples that carry weight, each judged at its
+        weighted mean by ``score`` (the scan's log-likelihood under the crowd beam model per
+        pose) beside the tracked estimate. When the track is ``contradicted`` (too-long readings,
+        a failed verification, global localization) a guess wins when it scores above the
+        track. Otherwise only guesses at another place (more than ``verify_distance`` from the
+        track) are judged, and one wins when it explains the scan better than the track by more
+        than ``verify_margin`` nats per return: the verification's likelihood ratio test
+        (:meth:`_verify`) on the guesses the filter already carries, for a wrong track that the
+        too-long test cannot see (moved along a hall, every reading shorter than expected).
+        Either way a guess that the too-long test (``judge``, at its mean and its
+        ``lost_hypotheses`` heaviest samples) contradicts cannot win unless the track's own
+        fraction (``track_too_long``) is larger still (too few returns left to judge is no
+        evidence either way): against a track that a crowd has pulled off by a few decimetres, a
+        place whose walls the scan sees through may score higher under the crowd beam model and
+        would replace a nearly right track by a wrong one, while the true pose itself fails the
+        test on a few per cent of the scans where the map and the building disagree (glass,
+        corners; ``lost_fraction`` in :class:`MCLConfig`). The best guess that passes wins,
+        except that the guess held since the last scan (``_held``) stays the guess if it passes
+        and scores within the verification's margin of the best: the means of small clusters
+        score higher than those of spread ones by chance. Returns the mask of the winning
+        guess's fresh samples, or None."""
+        cfg = self.config
+        live = self._fresh & (self.weights > 0)
+        if not live.any():
+            return None
+        ids = np.unique(labels[live])
+        means = np.empty((ids.size, 3))
+        for k, c in enumerate(ids.tolist()):
+            mine = live & (labels == c)
+            means[k] = _weighted_mean_cov(self.samples[mine], self.weights[mine])[0]
+        judged = np.ones(ids.size, dtype=bool)
+        if not contradicted:
+            judged = (
+                np.hypot(means[:, 0] - tracked[0], means[:, 1] - tracked[1]) > cfg.verify_distance[0]
+            ) | (np.abs(wrap_angle(means[:, 2] - tracked[2])) > cfg.verify_distance[1])
+            if not judged.any():
+                return None
+        ids, means = ids[judged], means[judged]
+        ll = score(np.vstack([means, tracked[None, :]]))
+        margin = cfg.verify_margin * self._n_returns
+        need = 0.0 if contradicted else margin
+        held = np.isin(ids, labels[self._held & live])
+        best: int | None = None
+        for k in np.argsort(-ll[:-1], kind="stable").tolist():
+            if not ll[k] - ll[-1] > need or (best is not None and not held[k]):
+                continue
+            mine = live & (labels == int(ids[k]))
+            heaviest = np.flatnonzero(mine)[
+                np.argsort(-self.weights[mine], kind="stable")[: cfg.lost_hypotheses]
+            ]
+            too_long = judge(means[k], self.samples[heaviest])
+            if too_long > cfg.lost_fraction and not too_long < track_too_long:  # NaN: no evidence
+                continue
+            if held[k] and (best is None or ll[k] >= ll[best] - margin):
+                best = k  # the held guess stays the guess unless another is clearly better
+                break
+            if best is None:
+                best = k
+                if not held.any():
+                    break
+        return None if best is None else live & (labels == int(ids[best]))
 
     def _resample(
         self,
@@ -792,11 +927,13 @@ class MonteCarloLocalization:
         n = kld_sample_count(drawn, cfg.kld_bin, cfg.kld_epsilon, cfg.kld_quantile, cfg.min_samples, n_max)
         new = drawn[:n].copy()
         fresh = self._fresh[idx[:n]].copy()
+        held = self._held[idx[:n]]
         n_inject = round(inject_fraction * n)
         if n_inject:
             # The new guesses replace the older ones that have not won first, so fresh samples
-            # never outnumber max_injection of the set, however long a crowd keeps resetting.
-            slots = np.concatenate([np.flatnonzero(fresh), np.flatnonzero(~fresh)])[:n_inject]
+            # never outnumber max_injection of the set, however long a crowd keeps resetting,
+            # besides the guess that won this scan (held: it must win the next one too).
+            slots = np.concatenate([np.flatnonzero(fresh & ~held), np.flatnonzero(~fresh)])[:n_inject]
             drawn_poses = reset_poses
             if drawn_poses is None:
                 far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
@@ -807,6 +944,7 @@ class MonteCarloLocalization:
         self.samples = np.ascontiguousarray(new)
         self.weights = np.full(n, 1.0 / n)
         self._fresh = fresh
+        self._held = held & fresh
         return n_inject
 
     def _scan_drawn_poses(
@@ -948,7 +1086,12 @@ class MonteCarloLocalization:
         return drawn, max(0.0, float(ll[1:].max() - ll[0]) / n_valid)
 
     def _too_long_fraction(
-        self, pose: FloatArray, ranges: FloatArray, geometry: LaserGeometry, valid: NDArray[np.bool_]
+        self,
+        pose: FloatArray,
+        ranges: FloatArray,
+        geometry: LaserGeometry,
+        valid: NDArray[np.bool_],
+        others: FloatArray | None = None,
     ) -> float:
         """Of the returns that are not shorter than expected (the ones a crowd left alone), the
         fraction longer than expected by more than ``lost_margin``: readings through mapped
@@ -957,13 +1100,16 @@ class MonteCarloLocalization:
         ``lost_hypotheses`` samples drawn by weight from the established belief; the smallest
         fraction counts, so a scan contradicts the track only when no plausible pose of it
         explains the scan (a few centimetres or a degree off, long beams may graze past a
-        corner). NaN when every pose has fewer than ``lost_min_beams`` returns to judge."""
+        corner). ``others``, when given, replace those samples (a recovery guess's own). NaN
+        when every pose has fewer than ``lost_min_beams`` returns to judge."""
         cfg = self.config
         if not valid.any():
             return math.nan
-        k = min(cfg.lost_hypotheses, self.samples.shape[0])
-        idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
-        poses = np.vstack([pose[None, :], self.samples[idx]])
+        if others is None:
+            k = min(cfg.lost_hypotheses, self.samples.shape[0])
+            idx = low_variance_resample(self._established_weights(), k, float(self.rng.random()))
+            others = self.samples[idx]
+        poses = np.vstack([pose[None, :], others])
         laser = compose(poses, np.asarray(geometry.offset, dtype=np.float64))
         expected = self._caster(float(geometry.max_range)).cast(laser, geometry.angles[valid])
         measured = ranges[valid][None, :]
