@@ -571,18 +571,3 @@ def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: Oc
     assert won[near].all()
     assert mcl._best_guess(labels, mcl.samples[0], score, glassy, True, 0.3) is None
     assert mcl._best_guess(labels, mcl.samples[0], score, judge, True, math.nan) is not None
-
-
-def test_a_guess_that_becomes_the_track_is_judged_afresh(room: OccupancyGrid) -> None:
-    # The too-long count belongs to the track it was measured on: once a guess has replaced a
-    # contradicted track, the new track is judged on that scan itself, so a scan that is no
-    # evidence (too few returns, as often with the entropy filter in a crowd) does not keep the
-    # replaced track's contradiction alive and let the next guess replace the found one.
-    mcl, *_, judge, score = _guess_scene(room, lost_track=True)
-    truth = waypoints_path(10)[4]
-    mcl._estimate(judge, score)
-    assert mcl._lost_scans == 1
-    pose, _, _, too_long = mcl._estimate(judge, score)
-    assert np.hypot(*(pose[:2] - truth[:2])) < 0.1  # found
-    assert too_long == judge(pose, None) <= mcl.config.lost_fraction  # the found track's fraction
-    assert mcl._lost_scans == 0

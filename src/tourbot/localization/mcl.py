@@ -784,10 +784,6 @@ class MonteCarloLocalization:
             self._fresh[:] = False
             self._fresh_won = 0
             pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
-            # The too-long count was that of the replaced track: the new track is judged afresh,
-            # or the old track's contradiction would let the next guess replace it at once.
-            too_long = judge(pose, None)
-            self._lost_scans = int(too_long > cfg.lost_fraction)  # NaN: no evidence, not lost
             # a recovery guess is now the track: verify it on this scan already
             self._suspect = cfg.verify_period is not None
             self._recovered = True
