@@ -571,18 +571,3 @@ def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: Oc
     assert won[near].all()
     assert mcl._best_guess(labels, mcl.samples[0], score, glassy, True, 0.3) is None
     assert mcl._best_guess(labels, mcl.samples[0], score, judge, True, math.nan) is not None
-
-
-def test_a_recovered_track_decides_the_scans_injection_and_stays_on_trial(room: OccupancyGrid) -> None:
-    # When a guess becomes the track, the scan's too-long fraction (which decides whether new
-    # guesses are drawn) is that of the new track, not of the track it replaced: guesses drawn
-    # for the replaced track could displace the found one on the next scan that is no evidence.
-    # The lost count is kept, so the next scans still test the new track.
-    mcl, *_, judge, score = _guess_scene(room, lost_track=True)
-    truth = waypoints_path(10)[4]
-    _, _, _, first = mcl._estimate(judge, score)
-    assert first > mcl.config.lost_fraction  # the replaced track is contradicted
-    pose, _, _, too_long = mcl._estimate(judge, score)
-    assert np.hypot(*(pose[:2] - truth[:2])) < 0.1  # found
-    assert too_long == judge(pose, None) <= mcl.config.lost_fraction
-    assert mcl._lost_scans == 2

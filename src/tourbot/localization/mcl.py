@@ -784,10 +784,6 @@ class MonteCarloLocalization:
             self._fresh[:] = False
             self._fresh_won = 0
             pose, cov, weight = best_cluster_estimate(self.samples, self.weights, labels)
-            # The scan's injection is decided at the new track (the replaced one's too-long
-            # fraction would draw guesses around a place that is no longer the estimate); the
-            # lost count is kept, so the next scans still put the new track to the test.
-            too_long = judge(pose, None)
             # a recovery guess is now the track: verify it on this scan already
             self._suspect = cfg.verify_period is not None
             self._recovered = True
