@@ -236,17 +236,23 @@ def test_the_modes() -> None:
         PeopleFilterParams.mode("magic")
 
 
-def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> None:
-    """A visitor 9 m away in front of a wall is one or two beams: no leg feature. The blob mode
-    leaves those beams out; a blob seen at one spot scan after scan (a pole) is mapped from its
-    fourth scan on."""
+def _pole_then_visitor(poles: int) -> list[Scan]:
+    """A wall 12 m ahead with a pole at 8 m (beams 10-11) in ``poles`` scans, then one scan with a
+    visitor at 9 m as well (beams 40-41), all from the same pose."""
     geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
     wall = 12.0 / np.cos(geom.angles)
     pole = wall.copy()
     pole[10:12] = 8.0
     visitor = pole.copy()
     visitor[40:42] = 9.0
-    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([pole] * 4 + [visitor])]
+    return [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([pole] * poles + [visitor])]
+
+
+def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> None:
+    """A visitor 9 m away in front of a wall is one or two beams: no leg feature. The blob mode
+    leaves those beams out; a blob seen at one spot scan after scan (a pole) is mapped from its
+    fourth scan on."""
+    scans = _pole_then_visitor(4)
     left = {}
     for mode in ("paper", "blobs"):
         filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
@@ -266,13 +272,8 @@ def test_the_confirmed_mode_gives_back_a_pole_other_scans_confirm_but_not_a_visi
     kept beams of the later scans end where those left-out beams ended, so the finished map gets
     their hits back. The visitor, seen in one scan where no other scan's kept beam ended, is not
     given back."""
-    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
-    wall = 12.0 / np.cos(geom.angles)
-    pole = wall.copy()
-    pole[10:12] = 8.0
-    visitor = pole.copy()
-    visitor[40:42] = 9.0
-    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([pole] * 8 + [visitor])]
+    scans = _pole_then_visitor(8)
+    geom = scans[0].geometry
     runs = {}
     for mode in ("blobs", "confirmed"):
         filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))

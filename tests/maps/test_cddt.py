@@ -9,24 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.maps.test_raycast import random_grid
 from tourbot.maps.cddt import CDDTCaster, build_lanes
 from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
 from tourbot.maps.raycast import DDACaster, cast_rays_reference
-
-
-def random_grid(
-    seed: int, rows: int = 40, cols: int = 50, boxes: int = 12, unknown: bool = True
-) -> OccupancyGrid:
-    rng = np.random.default_rng(seed)
-    prob = np.zeros((rows, cols), dtype=np.float32)
-    for _ in range(boxes):
-        r, c = rng.integers(0, rows), rng.integers(0, cols)
-        prob[r : r + rng.integers(1, 6), c : c + rng.integers(1, 6)] = 1.0
-    if unknown:
-        r = rng.integers(0, rows - 4)
-        prob[r : r + 3, :8] = UNKNOWN
-    origin = (rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-np.pi, np.pi))
-    return OccupancyGrid(prob, resolution=0.1, origin=origin)
 
 
 def spread_poses(grid: OccupancyGrid, rng: np.random.Generator, n: int, margin: float = 0.2) -> np.ndarray:
