@@ -229,7 +229,13 @@ def test_the_modes() -> None:
     assert far.consistency.far_range is not None
     assert replace(far.consistency, far_range=None) == confirmed.consistency
     assert confirmed.consistency.far_range is None
-    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far"}
+    kept = PeopleFilterParams.mode("kept")
+    assert kept.consistency == far.consistency
+    assert kept.confirmation is not None
+    assert far.confirmation is not None
+    assert far.confirmation.line_radius is None
+    assert replace(kept.confirmation, line_radius=None) == far.confirmation
+    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far", "kept"}
     assert set(FILTER_MODES) == modes
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
@@ -381,3 +387,43 @@ def test_a_beam_ending_where_the_floor_was_seen_free_is_left_out() -> None:
     assert left[-0.6][3, 25:37].all()
     assert not left[-0.6][3, 0:20].any()
     assert not left[-0.6][:3].any()
+
+
+def test_the_kept_mode_gives_back_a_post_face_the_map_holds_on_both_sides_but_not_a_visitor() -> None:
+    """A post's flat face 0.4 m wide (five beams), 8 m ahead in front of a wall at 12 m, is a far
+    blob: left out in the first scans, then mapped; then a visitor at 9 m in one scan. Fewer than
+    four other scans kept beams on the face, so ``far`` gives nothing back; ``kept`` gives back
+    the left-out beams whose end has the face the map holds on both sides (not those at the
+    face's edges), and not the visitor's, which has nothing around it."""
+    geom = LaserGeometry(121, -math.radians(30), math.radians(0.5), 30.0)
+    wall = 12.0 / np.cos(geom.angles)
+    post = wall.copy()
+    face = np.abs(8.0 * np.tan(geom.angles)) <= 0.2
+    post[face] = 8.0 / np.cos(geom.angles[face])
+    visitor = post.copy()
+    visitor[100:102] = 9.0
+    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([post] * 3 + [visitor])]
+    runs = {}
+    for mode in ("far", "kept"):
+        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+        for scan in scans:
+            filtered.add_scan(scan, pose=np.zeros(3))
+        filtered.finish()
+        runs[mode] = (filtered, filtered.grid())
+    far, kept = runs["far"], runs["kept"]
+    left = np.asarray(far[0].left_out)
+    assert np.array_equal(left, np.asarray(kept[0].left_out))
+    assert left[0, face].all()  # the face, left out as a blob
+    assert not left[2:, face].any()  # ... then mapped
+    assert left[3, 100:102].all()  # the visitor
+    assert far[0].restored_beams == 0
+    assert 0 < kept[0].restored_beams < left[:, face].sum()
+    inner = np.flatnonzero(face)[1:-1]
+    ends = (8.0 / np.cos(geom.angles[inner]))[:, None] * np.stack(
+        [np.cos(geom.angles[inner]), np.sin(geom.angles[inner])], axis=1
+    )
+    cells = far[1].world_to_cell(ends)
+    assert (kept[1].prob[cells[:, 0], cells[:, 1]] > far[1].prob[cells[:, 0], cells[:, 1]]).all()
+    spots = 9.0 * np.stack([np.cos(geom.angles[100:102]), np.sin(geom.angles[100:102])], axis=1)
+    cells = kept[1].world_to_cell(spots)
+    assert not kept[1].occupied()[cells[:, 0], cells[:, 1]].any()

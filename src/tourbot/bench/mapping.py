@@ -235,7 +235,7 @@ def register(bench: typer.Typer) -> None:
             str,
             typer.Option(
                 help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
-                "shapes, consistent, thorough, confirmed, far); "
+                "shapes, consistent, thorough, confirmed, far, kept); "
                 "the first is drawn and used for scan matching."
             ),
         ] = "far,confirmed,consistent,blobs,paper",

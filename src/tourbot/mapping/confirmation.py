@@ -18,6 +18,17 @@ This acts on the finished map only: the scans were aligned and the per-scan filt
 the beams left out (Eq. 12 weights are unchanged), so mapping at known poses and the alignment
 in SLAM stay as they were. The consistency check (:mod:`tourbot.mapping.consistency`) runs after
 it, on the map with the hits given back, and judges the confirmed beams' ends like any other.
+
+A wall or an exhibit's edge that the filter took for a person is often mapped from afar by one
+beam per cell, so fewer than ``scans`` other scans confirm it; yet the map already holds the
+structure it belongs to on both sides of it (``line_radius``, None: off). A left-out beam's end
+is given back too when the finished map (before any hit is given back) holds occupied cells
+within ``line_radius`` cells (Chebyshev) of its end's cell, not the cell itself, in two
+directions at least ``line_angle`` degrees apart as seen from the end's cell: the end fills a
+gap in, or continues, a line of structure (:func:`continues_structure`). A visitor standing in
+the open has no occupied cell around it, and one standing in front of a straight wall has the
+wall on one side only (directions less than 90 degrees apart at a radius of 2 cells, unless the
+wall runs axis-aligned exactly 2 cells away).
 """
 
 from __future__ import annotations
@@ -27,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["ConfirmationParams", "confirmed_beams", "confirming_scans"]
+__all__ = ["ConfirmationParams", "confirmed_beams", "confirming_scans", "continues_structure"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -36,10 +47,14 @@ IntArray = NDArray[np.int64]
 @dataclass(frozen=True)
 class ConfirmationParams:
     """A left-out beam's hit is given back when kept beams of at least ``scans`` other scans
-    ended within ``radius`` cells (Chebyshev, cells of ``resolution`` metres) of its end."""
+    ended within ``radius`` cells (Chebyshev, cells of ``resolution`` metres) of its end; with
+    ``line_radius`` also when the map holds occupied cells within that many cells of its end in
+    two directions at least ``line_angle`` degrees apart (None: off)."""
 
     radius: int = 1
     scans: int = 4
+    line_radius: int | None = None
+    line_angle: float = 90.0
 
 
 def confirming_scans(
@@ -90,3 +105,28 @@ def confirmed_beams(
     p = params or ConfirmationParams()
     n = confirming_scans(left_ends, left_scans, kept_ends, kept_scans, resolution, p.radius)
     return np.asarray(n >= p.scans)
+
+
+def continues_structure(
+    occupied: NDArray[np.bool_], cells: IntArray, radius: int = 2, angle: float = 90.0
+) -> NDArray[np.bool_]:
+    """Which ends, at grid ``cells`` ``(L, 2)`` (row, col, possibly outside) of the ``occupied``
+    grid ``(H, W)``, have occupied cells within ``radius`` cells (Chebyshev, the end's own cell
+    left aside) in two directions at least ``angle`` degrees apart, seen from the end's cell.
+    Cells outside the grid count as not occupied."""
+    c = np.asarray(cells, dtype=np.int64).reshape(-1, 2)
+    n = len(c)
+    if n == 0 or radius < 1:
+        return np.zeros(n, dtype=bool)
+    k = np.arange(-radius, radius + 1)
+    offsets = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
+    offsets = offsets[np.any(offsets != 0, axis=1)]
+    unit = offsets / np.linalg.norm(offsets, axis=1)[:, None]
+    apart = (unit @ unit.T) <= np.cos(np.radians(angle)) + 1e-9  # pairs of directions far enough apart
+    rows, cols = occupied.shape
+    at = c[:, None, :] + offsets[None, :, :]
+    inside = (at[..., 0] >= 0) & (at[..., 0] < rows) & (at[..., 1] >= 0) & (at[..., 1] < cols)
+    held = np.zeros(inside.shape, dtype=bool)
+    held[inside] = occupied[at[inside][:, 0], at[inside][:, 1]]
+    partner = (held.astype(np.int64) @ apart.astype(np.int64)) > 0  # an occupied cell far enough apart
+    return np.asarray(np.any(held & partner, axis=1))

@@ -49,7 +49,7 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
-from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams
+from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams, continues_structure
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
@@ -61,6 +61,7 @@ __all__ = [
     "CONFIRMED_CHECK",
     "FAR_CHECK",
     "FILTER_MODES",
+    "KEPT_CONFIRMATION",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
     "beam_endpoints",
@@ -86,7 +87,11 @@ FAR_CHECK = replace(
     far_behind_free=0.2,
     far_group_scans=2,
 )
-FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far")
+# the give-back of the ``kept`` mode: ``far``'s, and left-out beams whose end lies in a line of
+# structure the map holds (occupied cells within 2 cells on two sides at least 90 degrees apart;
+# values chosen on crowd seeds 70-75)
+KEPT_CONFIRMATION = ConfirmationParams(line_radius=2, line_angle=90.0)
+FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far", "kept")
 
 
 @dataclass(frozen=True)
@@ -181,7 +186,9 @@ class PeopleFilterParams:
         and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
         scans confirm given back to the finished map, then a looser check: a ring at least 40 %
         seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
-        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``)."""
+        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``),
+        ``kept`` (``far``, and the left-out beams whose end lies in a line of structure the map
+        holds given back too, ``KEPT_CONFIRMATION``)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
         shapes = name in ("shapes", "thorough")
@@ -190,6 +197,12 @@ class PeopleFilterParams:
             "thorough": ConsistencyParams(),
             "confirmed": CONFIRMED_CHECK,
             "far": FAR_CHECK,
+            "kept": FAR_CHECK,
+        }
+        confirmation = {
+            "confirmed": ConfirmationParams(),
+            "far": ConfirmationParams(),
+            "kept": KEPT_CONFIRMATION,
         }
         return cls(
             free_sectors=name != "paper",
@@ -197,7 +210,7 @@ class PeopleFilterParams:
             leg_segments=shapes,
             seen_free=-0.6 if shapes else None,
             consistency=checks.get(name),
-            confirmation=ConfirmationParams() if name in ("confirmed", "far") else None,
+            confirmation=confirmation.get(name),
         )
 
 
@@ -406,6 +419,12 @@ class PeopleFilteredMapper:
             back = confirmed_beams(
                 left, left_scans, ends, kept_scans, self.mapper.params.resolution, p.confirmation
             )
+            c = p.confirmation
+            if c.line_radius is not None:  # ends in a line of structure the map holds
+                held = self.mapper.grid()
+                back |= continues_structure(
+                    held.occupied(), held.world_to_cell(left), c.line_radius, c.line_angle
+                )
             self.restored_beams = int(back.sum())
             grid = self.mapper.grid(extra_hits=left[back])
             left_origins = np.concatenate([np.zeros((0, 2)), *self._left_origins])
