@@ -26,9 +26,10 @@ is given back too when the finished map (before any hit is given back) holds occ
 within ``line_radius`` cells (Chebyshev) of its end's cell, not the cell itself, in two
 directions at least ``line_angle`` degrees apart as seen from the end's cell: the end fills a
 gap in, or continues, a line of structure (:func:`continues_structure`). A visitor standing in
-the open has no occupied cell around it, and one standing in front of a straight wall has the
-wall on one side only (directions less than 90 degrees apart at a radius of 2 cells, unless the
-wall runs axis-aligned exactly 2 cells away).
+the open has no occupied cell around it, and a beam ending 2 cells or more in front of a
+straight wall has the wall on one side only (directions less than 90 degrees apart, unless the
+wall runs axis-aligned exactly 2 cells away); an end 1 cell from a wall touches it and is given
+back.
 """
 
 from __future__ import annotations
