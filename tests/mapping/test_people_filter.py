@@ -229,7 +229,13 @@ def test_the_modes() -> None:
     assert far.consistency.far_range is not None
     assert replace(far.consistency, far_range=None) == confirmed.consistency
     assert confirmed.consistency.far_range is None
-    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far"}
+    cleared = PeopleFilterParams.mode("cleared")
+    assert cleared.confirmation == far.confirmation
+    assert cleared.consistency is not None
+    assert cleared.consistency.mutual_range is not None
+    assert replace(cleared.consistency, mutual_range=None) == far.consistency
+    assert far.consistency.mutual_range is None
+    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far", "cleared"}
     assert set(FILTER_MODES) == modes
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):

@@ -38,7 +38,8 @@ def register(app: typer.Typer) -> None:
                 "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
                 "that other scans' kept beams confirm given back to the finished map, then a looser check), "
                 "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
-                "looser check; the default)."
+                "looser check; the default), cleared (far, and such specks seen by one scan from beyond "
+                "4 m next to each other cleared together)."
             ),
         ] = "far",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,

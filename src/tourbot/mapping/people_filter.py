@@ -58,6 +58,7 @@ from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
 __all__ = [
+    "CLEARED_CHECK",
     "CONFIRMED_CHECK",
     "FAR_CHECK",
     "FILTER_MODES",
@@ -86,7 +87,12 @@ FAR_CHECK = replace(
     far_behind_free=0.2,
     far_group_scans=2,
 )
-FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far")
+# the check of the ``cleared`` mode: ``far``'s, and specks that one scan hit from beyond 4 m only
+# (the leg detector's reach) judged with the far test's values also when the occupied cells in
+# their ring are such specks too (visitors standing together; chosen on crowd seeds 70-75)
+CLEARED_CHECK = replace(FAR_CHECK, mutual_range=4.0)
+FILTER_MODES: tuple[str, ...] = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed")
+FILTER_MODES += ("far", "cleared")
 
 
 @dataclass(frozen=True)
@@ -181,7 +187,9 @@ class PeopleFilterParams:
         and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
         scans confirm given back to the finished map, then a looser check: a ring at least 40 %
         seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
-        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``)."""
+        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``),
+        ``cleared`` (``far``, and specks one scan hit from beyond 4 m next to each other judged
+        with that test too, ``CLEARED_CHECK``)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
         shapes = name in ("shapes", "thorough")
@@ -190,6 +198,7 @@ class PeopleFilterParams:
             "thorough": ConsistencyParams(),
             "confirmed": CONFIRMED_CHECK,
             "far": FAR_CHECK,
+            "cleared": CLEARED_CHECK,
         }
         return cls(
             free_sectors=name != "paper",
@@ -197,7 +206,7 @@ class PeopleFilterParams:
             leg_segments=shapes,
             seen_free=-0.6 if shapes else None,
             consistency=checks.get(name),
-            confirmation=ConfirmationParams() if name in ("confirmed", "far") else None,
+            confirmation=ConfirmationParams() if name in ("confirmed", "far", "cleared") else None,
         )
 
 
