@@ -91,8 +91,17 @@ FAR_CHECK = replace(
 # (the leg detector's reach) judged with the far test's values also when the occupied cells in
 # their ring are such specks too (visitors standing together; chosen on crowd seeds 70-75)
 CLEARED_CHECK = replace(FAR_CHECK, mutual_range=4.0)
-FILTER_MODES: tuple[str, ...] = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed")
-FILTER_MODES += ("far", "cleared")
+FILTER_MODES = (
+    "paper",
+    "sectors",
+    "blobs",
+    "shapes",
+    "consistent",
+    "thorough",
+    "confirmed",
+    "far",
+    "cleared",
+)
 
 
 @dataclass(frozen=True)
