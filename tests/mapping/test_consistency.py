@@ -251,3 +251,54 @@ def test_a_group_of_specks_each_seen_from_afar_by_two_scans_needs_less_free_behi
     assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, three)[1] == 2
     near = np.concatenate([o1, o1, e2[None, 0] - [3.0, 0.0], o2]), ends  # one member seen from 3 m
     assert clear_specks(OccupancyGrid(prob, RES), *near, FAR, scans)[1] == 0
+
+
+MUTUAL = replace(FAR, mutual_range=4.0)
+
+
+def _two_visitors() -> np.ndarray:
+    """Two specks 2 cells apart (each in the other's ring) on seen-free floor, with little of the
+    floor behind them seen: two visitors standing together, seen from 5 m."""
+    prob = _floor()
+    prob[30, 30] = OCC
+    prob[32, 30] = OCC
+    prob[26:37, 33:38] = UNKNOWN
+    return prob
+
+
+def _beams(*rows_backs: tuple[int, float]) -> tuple[np.ndarray, np.ndarray]:
+    """One beam along +x to column 30 of each row, from the given distance."""
+    beams = [_beam_to(row, 30, back=back) for row, back in rows_backs]
+    return np.concatenate([o for o, _ in beams]), np.concatenate([e for _, e in beams])
+
+
+def test_loose_specks_next_to_each_other_are_cleared_together() -> None:
+    prob = _two_visitors()
+    origins, ends = _beams((30, 5.0), (32, 5.0))
+    scans = np.array([0, 0])
+    ev = speck_evidence(OccupancyGrid(prob, RES), origins, ends, MUTUAL, scans)
+    assert list(ev.ring_occupied > 0) == [True, True]  # the lone tests fail
+    assert 0.2 <= ev.group_behind_free[0] < 0.5  # and so does the test of the group
+    assert list(ev.nearest) == pytest.approx([5.0, 5.0])  # nearer than the far test's 6 m
+    assert sorted(map(tuple, ev.neighbours.tolist())) == [(0, 1), (1, 0)]
+    assert clear_specks(OccupancyGrid(prob, RES), origins, ends, FAR, scans)[1] == 0
+    out, n = clear_specks(OccupancyGrid(prob, RES), origins, ends, MUTUAL, scans)
+    assert n == 2
+    assert not out.occupied().any()
+
+
+def test_a_loose_speck_next_to_a_near_speck_a_face_or_a_speck_seen_twice_stays() -> None:
+    grid = OccupancyGrid(_two_visitors(), RES)
+    # the other speck seen from 3 m (within the leg detector's reach): both stay
+    assert clear_specks(grid, *_beams((30, 5.0), (32, 3.0)), MUTUAL, np.array([0, 0]))[1] == 0
+    # the other speck hit by two scans
+    twice = _beams((30, 5.0), (32, 5.0), (32, 5.0))
+    assert clear_specks(grid, *twice, MUTUAL, np.array([0, 0, 1]))[1] == 0
+    # a face of three cells next to the speck: larger than a loose speck, the speck stays
+    prob = _two_visitors()
+    prob[32:35, 30] = OCC
+    face = _beams((30, 5.0), (32, 5.0), (33, 5.0), (34, 5.0))
+    assert clear_specks(OccupancyGrid(prob, RES), *face, MUTUAL, np.zeros(4, np.int64))[1] == 0
+    # without scan indices the test cannot count the scans
+    with pytest.raises(ValueError, match="scan of each beam"):
+        clear_specks(grid, *_beams((30, 5.0), (32, 5.0)), replace(ConsistencyParams(), mutual_range=4.0))

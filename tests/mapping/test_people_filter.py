@@ -235,8 +235,17 @@ def test_the_modes() -> None:
     assert far.confirmation is not None
     assert far.confirmation.line_radius is None
     assert replace(kept.confirmation, line_radius=None) == far.confirmation
-    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far", "kept"}
-    assert set(FILTER_MODES) == modes
+    cleared = PeopleFilterParams.mode("cleared")
+    assert cleared.confirmation == far.confirmation
+    assert cleared.consistency is not None
+    assert cleared.consistency.mutual_range is not None
+    assert replace(cleared.consistency, mutual_range=None) == far.consistency
+    assert far.consistency.mutual_range is None
+    joint = PeopleFilterParams.mode("joint")
+    assert joint.confirmation == kept.confirmation
+    assert joint.consistency == cleared.consistency
+    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far"}
+    assert set(FILTER_MODES) == modes | {"kept", "cleared", "joint"}
     assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("magic")

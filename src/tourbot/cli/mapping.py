@@ -39,7 +39,8 @@ def register(app: typer.Typer) -> None:
                 "that other scans' kept beams confirm given back to the finished map, then a looser check), "
                 "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
                 "looser check; the default), kept (far, and the left-out beams whose end lies in a line "
-                "of structure the map holds given back too)."
+                "of structure the map holds given back too), cleared (far, and such specks seen by one "
+                "scan from beyond 4 m next to each other cleared together), joint (far with both)."
             ),
         ] = "far",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,

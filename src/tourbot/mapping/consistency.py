@@ -42,6 +42,16 @@ Structure seen once from afar is what the laser sees live anyway;
 a wall seen from afar continues into neighbouring occupied cells (the ring), and what lies behind
 it is its body or unknown.
 
+Visitors standing together beyond the leg detector's reach (``mutual_range``, None: off): each is
+a speck a beam or two of one scan hit, and each lies in the ring of another, so that none passes
+with no occupied cell in its ring, while their specks chained together (with the static specks
+around) make groups too large to judge. A component of at most ``far_cells`` cells whose beams all
+ended farther than ``mutual_range`` metres from the laser, from at most ``far_scans`` scans, with
+a ring at least ``far_ring_free`` seen free and at least ``far_behind_free`` of the cells behind
+it seen free, is a *loose* speck; a loose speck is cleared when every occupied cell in its ring
+belongs to a loose speck too, or to a component another test clears. A dotted wall or an exhibit
+next to the speck is larger or has nothing seen behind it, and keeps it.
+
 A component that passes any test is cleared (its cells take the mean probability of the free
 cells around them). The pass is plain numpy over the small components and the beams ending in them.
 """
@@ -81,6 +91,7 @@ class ConsistencyParams:
     far_ring_free: float = 0.75
     far_behind_free: float = 0.2
     far_group_scans: int = 2
+    mutual_range: float | None = None  # metres; None: no test of loose specks next to each other
 
 
 @dataclass(frozen=True)
@@ -102,6 +113,7 @@ class SpeckEvidence:
     group_behind_cells: IntArray  # (G,) how many cells behind the group were looked at
     nearest: FloatArray  # (K,) shortest range (m) at which a beam ended in it (inf: none did)
     scans: IntArray  # (K,) distinct scans with a beam ending in it (0 without scan indices)
+    neighbours: IntArray  # (M, 2) components k and j (0-based) with a cell of j in k's ring (k small)
 
     def contradicted(self, params: ConsistencyParams) -> NDArray[np.bool_]:
         """Which components the map contradicts ``(K,)``: alone, or as a member of a group."""
@@ -146,7 +158,26 @@ class SpeckEvidence:
                 & (self.group_behind_free >= p.far_behind_free)
             )
             far |= member & far_group[self.group]
-        return np.asarray(alone | together[self.group] | far)
+        cleared = alone | together[self.group] | far
+        if p.mutual_range is not None:
+            cleared |= self._mutual(p, cleared)
+        return np.asarray(cleared)
+
+    def _mutual(self, p: ConsistencyParams, cleared: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """The loose specks whose ring holds only cells of loose specks or of ``cleared`` ones."""
+        loose = (
+            (self.cells <= min(p.far_cells, p.max_cells))
+            & (self.nearest > (p.mutual_range or 0.0))
+            & (self.scans <= p.far_scans)
+            & (self.ring_free >= p.far_ring_free)
+            & (self.behind_cells > 0)
+            & (self.behind_free >= p.far_behind_free)
+        )
+        ok = loose | cleared
+        spoilt = np.zeros(len(self.cells), dtype=bool)
+        k, j = self.neighbours[:, 0], self.neighbours[:, 1]
+        np.logical_or.at(spoilt, k, ~ok[j])
+        return np.asarray(loose & ~spoilt)
 
 
 def _categories(grid: OccupancyGrid) -> NDArray[np.int8]:
@@ -280,7 +311,26 @@ def speck_evidence(
     return SpeckEvidence(
         labels, sizes[1:].astype(np.int64), ring_free, ring_occ, behind_free, behind_n,
         group, g_cells, g_rf, g_ro, g_bf, g_bn, nearest, n_scans,
+        _neighbours(labels, small, p.ring),
     )  # fmt: skip
+
+
+def _neighbours(labels: NDArray[np.int32], small: NDArray[np.bool_], ring: int) -> IntArray:
+    """Pairs ``(M, 2)`` of components (0-based): ``k`` small (``small`` ``(count + 1,)``) and ``j``
+    another one with a cell within ``ring`` cells (Chebyshev) of ``k``'s cells."""
+    members = np.argwhere(small[labels])
+    own = labels[members[:, 0], members[:, 1]].astype(np.int64)
+    k = np.arange(-ring, ring + 1)
+    offsets = np.stack(np.meshgrid(k, k, indexing="ij"), axis=-1).reshape(-1, 2)
+    around = (members[:, None, :] + offsets[None, :, :]).reshape(-1, 2)
+    own = np.repeat(own, len(offsets))
+    rows, cols = labels.shape
+    inside = (around[:, 0] >= 0) & (around[:, 0] < rows) & (around[:, 1] >= 0) & (around[:, 1] < cols)
+    other = np.zeros(len(around), np.int64)
+    other[inside] = labels[around[inside, 0], around[inside, 1]]
+    pair = (other > 0) & (other != own)
+    pairs = np.unique(np.stack([own[pair], other[pair]], axis=1), axis=0)
+    return np.asarray(pairs.reshape(-1, 2) - 1, dtype=np.int64)
 
 
 def _ranges(
@@ -330,7 +380,7 @@ def clear_specks(
     cells were cleared (see :func:`speck_evidence` for ``origins``, ``ends`` and ``scans``, which
     the test of specks seen only from afar needs)."""
     p = params or ConsistencyParams()
-    if p.far_range is not None and scans is None:
+    if (p.far_range is not None or p.mutual_range is not None) and scans is None:
         raise ValueError("the test of specks seen only from afar needs the scan of each beam")
     ev = speck_evidence(grid, origins, ends, p, scans)
     gone = np.zeros(len(ev.cells) + 1, dtype=bool)

@@ -58,6 +58,7 @@ from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
 __all__ = [
+    "CLEARED_CHECK",
     "CONFIRMED_CHECK",
     "FAR_CHECK",
     "FILTER_MODES",
@@ -91,7 +92,23 @@ FAR_CHECK = replace(
 # structure the map holds (occupied cells within 2 cells on two sides at least 90 degrees apart;
 # values chosen on crowd seeds 70-75)
 KEPT_CONFIRMATION = ConfirmationParams(line_radius=2, line_angle=90.0)
-FILTER_MODES = ("paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far", "kept")
+# the check of the ``cleared`` mode: ``far``'s, and specks that one scan hit from beyond 4 m only
+# (the leg detector's reach) judged with the far test's values also when the occupied cells in
+# their ring are such specks too (visitors standing together; chosen on crowd seeds 70-75)
+CLEARED_CHECK = replace(FAR_CHECK, mutual_range=4.0)
+FILTER_MODES = (
+    "paper",
+    "sectors",
+    "blobs",
+    "shapes",
+    "consistent",
+    "thorough",
+    "confirmed",
+    "far",
+    "kept",
+    "cleared",
+    "joint",
+)
 
 
 @dataclass(frozen=True)
@@ -188,7 +205,9 @@ class PeopleFilterParams:
         seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
         that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``),
         ``kept`` (``far``, and the left-out beams whose end lies in a line of structure the map
-        holds given back too, ``KEPT_CONFIRMATION``)."""
+        holds given back too, ``KEPT_CONFIRMATION``), ``cleared`` (``far``, and specks one scan
+        hit from beyond 4 m next to each other judged with that test too, ``CLEARED_CHECK``),
+        ``joint`` (``far`` with both: ``kept``'s give-back and ``cleared``'s check)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
         shapes = name in ("shapes", "thorough")
@@ -198,11 +217,15 @@ class PeopleFilterParams:
             "confirmed": CONFIRMED_CHECK,
             "far": FAR_CHECK,
             "kept": FAR_CHECK,
+            "cleared": CLEARED_CHECK,
+            "joint": CLEARED_CHECK,
         }
         confirmation = {
             "confirmed": ConfirmationParams(),
             "far": ConfirmationParams(),
             "kept": KEPT_CONFIRMATION,
+            "cleared": ConfirmationParams(),
+            "joint": KEPT_CONFIRMATION,
         }
         return cls(
             free_sectors=name != "paper",
