@@ -52,3 +52,16 @@ def test_usage_errors_are_a_single_line_naming_the_help_to_read(
     assert lines[0].startswith("error: ")
     assert lines[0].endswith(f"(see '{command} --help')")
     assert "Value error," not in lines[0]
+
+
+def test_ctrl_c_during_a_command_exits_130_not_0(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import tourbot.io
+
+    def interrupted(*_args: object, **_kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(tourbot.io, "load_log", interrupted)
+    assert _run(["log", "info", "any.log"]) == 130
+    assert "interrupted" in capsys.readouterr().err

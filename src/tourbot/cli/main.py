@@ -57,7 +57,12 @@ def main(argv: list[str] | None = None) -> None:
     """Run the command line; a :class:`TourbotError` is shown as one clear line, exit code 2."""
     app = build_app()
     try:
-        app(args=argv, standalone_mode=False)
+        # Without standalone mode typer turns Ctrl-C (and ``typer.Exit``) into a returned exit code
+        code = app(args=argv, standalone_mode=False)
+        if code == 130:
+            raise KeyboardInterrupt
+        if isinstance(code, int) and not isinstance(code, bool) and code != 0:
+            sys.exit(code)
     except TourbotError as exc:
         # the message is plain text (it may hold brackets); one line however wide the terminal
         _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)
