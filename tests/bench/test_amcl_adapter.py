@@ -57,3 +57,28 @@ def test_amcl_global_start_in_an_asymmetric_room() -> None:
         if finals[-1] < 0.45:  # localized in the paper's sense
             return
     pytest.fail(f"AMCL never localized globally in 3 tries: final errors {finals}")
+
+
+def test_amcl_runs_cannot_be_repeated_even_with_drand48_seeded() -> None:
+    """Why the benchmark's seeds fix only the crowd and the kidnaps for AMCL: the binding has no
+    seed, and seeding the C library's ``drand48`` (which Nav2's particle filter also uses) right
+    before the same run does not repeat it, because the binding also draws from
+    ``std::random_device``. Should a later binding become repeatable, this fails: seed it then."""
+    import ctypes
+
+    libc = ctypes.CDLL(None)
+    if not hasattr(libc, "srand48"):
+        pytest.skip("no srand48 in this C library")
+    grid = _room(stub=True)
+    poses = np.array([(3.0 + 0.1 * i, 3.0 + 0.05 * i, 0.3) for i in range(10)])
+    ranges = DDACaster(grid, GEOMETRY.max_range).cast(poses, GEOMETRY.angles).astype(np.float64)
+
+    def run() -> np.ndarray:
+        amcl = AMCLLocalizer(grid, AMCLParams(max_particles=1000))
+        libc.srand48(ctypes.c_long(7))
+        amcl.reset_tracking(poses[0])
+        return np.array([amcl.update(poses[i], Scan(0.5 * i, ranges[i], GEOMETRY)).pose for i in range(10)])
+
+    first, second = run(), run()
+    assert np.isfinite(first).all()
+    assert not np.array_equal(first, second)

@@ -32,6 +32,13 @@ def test_log_info(fhw_log_path: Path, capsys: pytest.CaptureFixture[str]) -> Non
         assert expected in out
 
 
+def test_log_info_names_the_whole_file_on_one_line(
+    fhw_log_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert _run(["log", "info", str(fhw_log_path)]) == 0
+    assert capsys.readouterr().out.splitlines()[0].strip() == str(fhw_log_path)
+
+
 def test_log_info_of_a_bag(shared_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     bag = shared_data / "leg_tracker" / "positive_1.bag"
     assert _run(["log", "info", str(bag)]) == 0

@@ -71,3 +71,49 @@ def test_slam_unknown_people_mode_is_one_clear_line(
     err = capsys.readouterr().err
     assert "--people-mode" in err
     assert "Traceback" not in err
+
+
+def test_slam_refuses_a_bad_map_name_before_mapping(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    log = drive(building(), n=5)
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+
+    def never(*_args: object, **_kwargs: object) -> None:
+        raise AssertionError("mapped although the output name is wrong")
+
+    monkeypatch.setattr(IncrementalMapper, "add_scan", never)
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(path), "-o", str(tmp_path / "map.pgm")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "map.pgm" in err
+    assert "must end in .yaml" in err
+
+
+def test_slam_without_odometry_names_the_log_before_mapping(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = shared_data / "leg_tracker" / "positive_1.bag"
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(bag), "-o", str(tmp_path / "m.yaml")])
+    assert exc.value.code == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1
+    assert "positive_1.bag: 400 of 400 scans have no odometry pose" in lines[0]
+    assert not (tmp_path / "m.yaml").exists()
+
+
+def test_slam_writes_a_raw_map(tmp_path: Path) -> None:
+    log = drive(building(), n=10)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "map.yaml"
+    main(["slam", str(path), "-o", str(out), "--map-mode", "raw"])
+    assert (tmp_path / "map.pgm").exists()
+    grid = read_map(out)
+    assert grid.occupied().sum() > 50

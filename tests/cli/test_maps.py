@@ -82,3 +82,42 @@ def test_log_tum_creates_the_output_folder(tmp_path: Path, fhw_log_path: Path) -
     out = tmp_path / "new" / "deeper" / "ref.txt"
     assert _run(["log", "tum", str(fhw_log_path), "-o", str(out)]) == 0
     assert len(out.read_text().splitlines()) == 489  # header + one pose per scan
+
+
+def test_map_modes_from_the_command_line(
+    fhw_log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    base = ["map", "from-poses", str(fhw_log_path), "--no-quality"]
+    assert _run([*base, "-o", str(tmp_path / "t.yaml")]) == 0
+    assert _run([*base, "-o", str(tmp_path / "r.yaml"), "--map-mode", "raw"]) == 0
+    capsys.readouterr()
+    trinary, raw = read_map(tmp_path / "t.yaml"), read_map(tmp_path / "r.yaml")
+    np.testing.assert_array_equal(trinary.occupied(), raw.occupied())
+    np.testing.assert_array_equal(trinary.free(), raw.free())
+    # what trinary called unknown, raw partly keeps as known occupancy between the thresholds
+    between = ~(raw.occupied() | raw.free() | raw.unknown())
+    assert between.sum() > 0
+    assert _run(["map", "info", str(tmp_path / "r.yaml")]) == 0
+    assert f"between the thresholds {int(between.sum())}" in capsys.readouterr().out
+    assert _run([*base, "-o", str(tmp_path / "x.yaml"), "--map-mode", "gray"]) == 2
+    err = capsys.readouterr().err
+    assert "--map-mode" in err
+    assert "trinary, scale, raw" in err
+    assert not (tmp_path / "x.yaml").exists()
+
+
+def test_show_names_the_picture_it_wrote(
+    fhw_log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = tmp_path / "part.log"
+    from tourbot.io import load_log, write_carmen
+
+    full = load_log(fhw_log_path)
+    full.scans = full.scans[:20]
+    full.odometry = []
+    write_carmen(full, log)
+    assert _run(["show", str(log), "-o", str(tmp_path / "picture")]) == 0
+    assert f"wrote {tmp_path / 'picture.png'}" in capsys.readouterr().out
+    assert (tmp_path / "picture.png").is_file()
+    assert _run(["show", str(log), "-o", str(tmp_path)]) == 2
+    assert "is a folder" in capsys.readouterr().err

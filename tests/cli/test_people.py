@@ -50,3 +50,29 @@ def test_train_legs_writes_a_model(shared_data: Path, tmp_path: Path) -> None:
     main(["train-legs", str(shared_data / "leg_tracker" / "positive_1_extracted.bag"), "-o", str(out)])
     model = LegModel.load(out)
     assert "positive_1_extracted.bag" in model.trained_on
+
+
+def test_track_interrupted_keeps_the_previous_csv(
+    shared_data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tourbot.people.sjpdaf import PeopleTracker
+
+    out = tmp_path / "tracks.csv"
+    out.write_text("scan,time,track,x,y,vx,vy\n0,0.0,1,1.0,2.0,0.0,0.0\n")
+    before = out.read_text()
+    calls = []
+    update = PeopleTracker.update
+
+    def interrupted(self: PeopleTracker, *args: object, **kwargs: object) -> object:
+        calls.append(1)
+        if len(calls) > 50:
+            raise KeyboardInterrupt
+        return update(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(PeopleTracker, "update", interrupted)
+    bag = shared_data / "leg_tracker" / "positive_1_extracted.bag"
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(bag), "--pose", "none", "-o", str(out)])
+    assert exc.value.code == 130
+    assert out.read_text() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["tracks.csv"]

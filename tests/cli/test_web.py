@@ -83,3 +83,22 @@ def test_serve_start_keeps_the_database(tmp_path: Path, monkeypatch: pytest.Monk
     assert "my-thing" in slugs
     assert "theatre-masks" not in slugs  # a removal is not undone by re-importing the site file
     assert db.exhibit("my-thing").text == "mine"
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["--slot-minutes", "-1"], "field --slot-minutes: must be positive"),
+        (["--port", "70000"], "field --port: must be a TCP port"),
+        (["--crowd", "crowded"], "unknown crowd 'crowded'"),
+    ],
+)
+def test_serve_bad_options_are_refused_before_the_database_is_touched(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], args: list[str], expected: str
+) -> None:
+    db = tmp_path / "site.db"
+    assert _run(["serve", "--database", f"sqlite:///{db}", *args]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1
+    assert expected in lines[0]
+    assert not db.exists()

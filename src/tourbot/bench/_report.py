@@ -16,6 +16,8 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
+from tourbot.io.output import write_text_whole
+
 __all__ = ["BenchReport", "default_output"]
 
 
@@ -48,7 +50,6 @@ class BenchReport:
         for note in self.notes:
             console.print(f"- {note}")
         out = output or default_output(self.name)
-        out.parent.mkdir(parents=True, exist_ok=True)
         payload = {
             "benchmark": self.name,
             "command": "tourbot " + shlex.join(sys.argv[1:]) if sys.argv else "",
@@ -58,7 +59,7 @@ class BenchReport:
             "rows": self.rows,
             "notes": self.notes,
         }
-        out.write_text(json.dumps(payload, indent=2, default=str) + "\n")
+        write_text_whole(out, json.dumps(payload, indent=2, default=str) + "\n")
         console.print(f"wrote {out}")
         return out
 

@@ -149,7 +149,7 @@ def _sim_speed(site: Site, people: int, steps: int, seed: int = 0) -> tuple[floa
 def register(bench: typer.Typer) -> None:
     @bench.command("sim")
     def sim(
-        seeds: int = typer.Option(10, help="Seeds per crowd for the tours."),
+        seeds: int = typer.Option(10, min=1, help="Seeds per crowd for the tours."),
         tour: str = typer.Option("highlights", help="Tour of the FHW site to run."),
         crowds: str = typer.Option("sparse,peak", help="Comma-separated crowds for the tours."),
         max_time: float = typer.Option(900.0, help="Simulated seconds before a tour counts as failed."),

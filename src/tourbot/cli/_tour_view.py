@@ -13,6 +13,7 @@ from rich.live import Live
 from rich.table import Table
 
 from tourbot.errors import TourbotError
+from tourbot.io.output import write_text_whole
 from tourbot.runtime.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
 from tourbot.runtime.snapshot import NavMode, StateSnapshot
 from tourbot.site.default import site_path
@@ -128,7 +129,7 @@ def run_tour(
             if e not in metrics.visited and final.navigation.mode == NavMode.FINISHED
         ],
     }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=str) + "\n")
+    write_text_whole(out / "summary.json", json.dumps(summary, indent=2, default=str) + "\n")
     if robot.recorder is not None:
         robot.recorder.path = out / "recording.jsonl.gz"
         robot.recorder.close()

@@ -28,7 +28,9 @@ def register(app: typer.Typer) -> None:
         console = Console()
         with console.status(f"reading {log}"):
             robot_log = load_log(log, lenient=lenient)
-        table = Table(title=str(log), show_header=False)
+        # the file above the table, not as its title: a title wraps to the table's narrow width
+        console.print(str(log), style="bold", highlight=False, soft_wrap=True)
+        table = Table(show_header=False)
         table.add_column("what", style="bold")
         table.add_column("value")
         scans = robot_log.scans

@@ -15,7 +15,7 @@ import tourbot.bench
 import tourbot.cli
 from tourbot.errors import TourbotError
 
-__all__ = ["build_app", "main"]
+__all__ = ["build_app", "main", "usage_error_line"]
 
 _err = Console(stderr=True)
 
@@ -57,7 +57,12 @@ def main(argv: list[str] | None = None) -> None:
     """Run the command line; a :class:`TourbotError` is shown as one clear line, exit code 2."""
     app = build_app()
     try:
-        app(args=argv, standalone_mode=False)
+        # Without standalone mode typer turns Ctrl-C (and ``typer.Exit``) into a returned exit code
+        code = app(args=argv, standalone_mode=False)
+        if code == 130:
+            raise KeyboardInterrupt
+        if isinstance(code, int) and not isinstance(code, bool) and code != 0:
+            sys.exit(code)
     except TourbotError as exc:
         # the message is plain text (it may hold brackets); one line however wide the terminal
         _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True, soft_wrap=True)
@@ -75,18 +80,33 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit(1)
     except Exception as exc:
         # Usage errors (unknown option, bad value): typer >= 0.24 vendors click as ``typer._click``,
-        # whose exceptions are not click's; both have ``show()`` and print one usage line, exit 2.
+        # whose exceptions are not click's; both give one line here, like every other error, exit 2.
         import click
         from typer.exceptions import TyperException
 
         if isinstance(exc, click.exceptions.ClickException | TyperException):
-            show = getattr(exc, "show", None)
-            if callable(show):
-                show()
-            else:
-                _err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
-            sys.exit(exc.exit_code)
+            line = escape(usage_error_line(exc))
+            _err.print(f"[bold red]error:[/] {line}", highlight=False, soft_wrap=True)
+            sys.exit(int(getattr(exc, "exit_code", 2)))
         raise
+
+
+def usage_error_line(exc: Exception) -> str:
+    """One line for a command-line usage error: click's message and where to find help.
+
+    Click prints three lines (usage, a hint, the message); the message is the part a user needs.
+    """
+    format_message = getattr(exc, "format_message", None)
+    message = format_message() if callable(format_message) else str(exc)
+    # typer validates through pydantic, whose messages carry a "Value error, " prefix
+    message = " ".join(str(message).replace("Value error, ", "").split())
+    words: list[str] = []
+    ctx = getattr(exc, "ctx", None)
+    while ctx is not None and getattr(ctx, "parent", None) is not None:  # the root is the program
+        words.insert(0, str(ctx.info_name))
+        ctx = ctx.parent
+    command = " ".join(["tourbot", *words])
+    return f"{message} (see '{command} --help')"
 
 
 if __name__ == "__main__":

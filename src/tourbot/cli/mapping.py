@@ -7,6 +7,8 @@ from typing import Annotated
 
 import typer
 
+from tourbot.cli.maps import MapModeOpt, check_map_mode
+
 __all__ = ["register"]
 
 
@@ -46,6 +48,7 @@ def register(app: typer.Typer) -> None:
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
+        map_mode: MapModeOpt = "trinary",
     ) -> None:
         """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
 
@@ -55,7 +58,8 @@ def register(app: typer.Typer) -> None:
         from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
         from tourbot.io import load_log
-        from tourbot.io.mapserver import write_map
+        from tourbot.io.mapserver import check_map_output, write_map
+        from tourbot.io.output import check_output
         from tourbot.io.tum import write_tum
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
         from tourbot.mapping.people_filter import FILTER_MODES, PeopleFilteredMapper, PeopleFilterParams
@@ -64,11 +68,21 @@ def register(app: typer.Typer) -> None:
             raise MappingError(f"--resolution must be positive, got {resolution}")
         if people_mode not in FILTER_MODES:
             raise MappingError(f"--people-mode must be one of {', '.join(FILTER_MODES)}, got {people_mode!r}")
+        check_map_mode(map_mode)
+        check_map_output(output)  # before the mapping, which can take minutes
+        if trajectory is not None:
+            check_output(trajectory, "--trajectory")
         robot_log = load_log(log, lenient=lenient)
         for warning in robot_log.warnings:
             typer.echo(f"warning: {warning}", err=True)
         if not robot_log.scans:
             raise MappingError(f"{log}: the log has no laser scans")
+        missing = sum(s.odom is None for s in robot_log.scans)
+        if missing:
+            raise MappingError(
+                f"{log}: {missing} of {len(robot_log.scans)} scans have no odometry pose; mapping needs "
+                "the odometry of every scan"
+            )
         params = MapperParams(resolution=resolution)
         filtered = (
             PeopleFilteredMapper.create(params, seed=seed, params=PeopleFilterParams.mode(people_mode))
@@ -87,7 +101,8 @@ def register(app: typer.Typer) -> None:
                 progress.advance(task)
         if filtered is not None:
             filtered.finish()
-        write_map(filtered.grid() if filtered is not None else mapper.grid(), output)
+        grid = filtered.grid() if filtered is not None else mapper.grid()
+        write_map(grid, output, mode=map_mode)  # type: ignore[arg-type]
         typer.echo(f"map: {output}")
         if filtered is not None:
             typer.echo(f"beams left out as people: {filtered.removed_beams}")

@@ -9,6 +9,24 @@ import typer
 
 from tourbot.cli.logs import LenientOpt, LogArg
 
+MapModeOpt = Annotated[
+    str,
+    typer.Option(
+        "--map-mode",
+        help="How the map image keeps occupancy (map_server's mode): trinary (occupied/free/unknown, "
+        "the default), raw (every cell's probability to 1 %, PGM) or scale (the same, PNG with alpha).",
+    ),
+]
+
+
+def check_map_mode(mode: str) -> None:
+    """Refuse an unknown ``--map-mode`` before any work."""
+    from tourbot.errors import InputError
+    from tourbot.io.mapserver import MAP_MODES
+
+    if mode not in MAP_MODES:
+        raise InputError(f"must be one of {', '.join(MAP_MODES)}, got {mode!r}", field="--map-mode")
+
 
 def register(app: typer.Typer) -> None:
     map_app = typer.Typer(help="Maps: build reference maps, look into map_server maps.", no_args_is_help=True)
@@ -16,7 +34,9 @@ def register(app: typer.Typer) -> None:
     @map_app.command("from-poses")
     def from_poses(
         log: LogArg,
-        output: Annotated[Path, typer.Option("-o", "--output", help="Map to write: DIR/NAME.yaml (+ .pgm).")],
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Map to write: DIR/NAME.yaml (+ NAME.pgm, or .png).")
+        ],
         resolution: Annotated[float, typer.Option(help="Cell size in metres.")] = 0.05,
         hit: Annotated[
             str,
@@ -26,6 +46,7 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option(help="Measure the map: ray casts from the reference poses vs the ranges.")
         ] = True,
         lenient: LenientOpt = False,
+        map_mode: MapModeOpt = "trinary",
     ) -> None:
         """The reference map of a corrected log (log-odds occupancy, free space traced along beams)."""
         import time
@@ -34,11 +55,15 @@ def register(app: typer.Typer) -> None:
 
         from tourbot.errors import TourbotError
         from tourbot.io import load_log
-        from tourbot.io.mapserver import write_map
+        from tourbot.io.mapserver import check_map_output, write_map
         from tourbot.maps.reference import ReferenceMapParams, build_reference_map, map_quality
 
         if hit not in ("crossing", "endpoint"):
             raise TourbotError(f"--hit must be 'crossing' or 'endpoint', got {hit!r}")
+        if not resolution > 0:
+            raise TourbotError(f"--resolution must be positive (metres), got {resolution}")
+        check_map_mode(map_mode)
+        check_map_output(output)
         console = Console()
         with console.status(f"reading {log}"):
             robot_log = load_log(log, lenient=lenient)
@@ -51,7 +76,7 @@ def register(app: typer.Typer) -> None:
         with console.status(f"tracing {sum(s.geometry.num_beams for s in robot_log.scans)} beams"):
             grid = build_reference_map(robot_log, resolution, params)
         took = time.perf_counter() - start
-        pgm = write_map(grid, output)
+        pgm = write_map(grid, output, mode=map_mode)  # type: ignore[arg-type]
         rows, cols = grid.shape
         console.print(
             f"wrote {output} and {pgm.name}: {cols} x {rows} cells of {resolution * 100:g} cm "
@@ -69,15 +94,18 @@ def register(app: typer.Typer) -> None:
 
     @map_app.command("info")
     def info(map_yaml: Annotated[Path, typer.Argument(help="A map_server map (YAML).")]) -> None:
-        """Size, resolution, origin and cell counts of a map."""
+        """Size, resolution, origin and cell counts of a map (with raw or scale maps, also the cells
+        known to lie between the free and occupied thresholds)."""
         from tourbot.io.mapserver import read_map
 
         grid = read_map(map_yaml)
         rows, cols = grid.shape
+        occupied, free, unknown = (int(m.sum()) for m in (grid.occupied(), grid.free(), grid.unknown()))
+        between = grid.prob.size - occupied - free - unknown
         typer.echo(
             f"{map_yaml}: {cols} x {rows} cells of {grid.resolution:g} m ({grid.width:.2f} m x "
-            f"{grid.height:.2f} m), origin {grid.origin}; occupied {int(grid.occupied().sum())}, "
-            f"free {int(grid.free().sum())}, unknown {int(grid.unknown().sum())}"
+            f"{grid.height:.2f} m), origin {grid.origin}; occupied {occupied}, free {free}, "
+            f"unknown {unknown}" + (f", between the thresholds {between}" if between else "")
         )
 
     app.add_typer(map_app, name="map")
@@ -85,7 +113,10 @@ def register(app: typer.Typer) -> None:
     @app.command("show")
     def show(
         log: LogArg,
-        output: Annotated[Path, typer.Option("-o", "--output", help="Picture to write (.png, .pdf, .svg).")],
+        output: Annotated[
+            Path,
+            typer.Option("-o", "--output", help="Picture to write (.png, .pdf, .svg; .png if none given)."),
+        ],
         map_yaml: Annotated[
             Path | None,
             typer.Option("--map", help="Map to draw (map_server YAML); default: the log's reference map."),
@@ -106,7 +137,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.maps.reference import build_reference_map
         from tourbot.plotting import Trajectory, show_log
 
-        _check_picture_format(output)
+        output = _check_picture_format(output)
         robot_log = load_log(log, lenient=lenient)
         trajectories = []
         for path in trajectory or []:
@@ -130,12 +161,18 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"wrote {out}")
 
 
-def _check_picture_format(output: Path) -> None:
-    """Refuse, before any work, a picture name whose extension matplotlib cannot write."""
+def _check_picture_format(output: Path) -> Path:
+    """The picture to write: ``.png`` added when the name has no extension (as matplotlib would,
+    so that the file named on screen is the one written); refused, before any work, when matplotlib
+    cannot write its extension or it is a folder."""
     from matplotlib.backend_bases import FigureCanvasBase
 
     from tourbot.errors import InputError
+    from tourbot.io.output import check_output
 
+    check_output(output)
+    if not output.suffix:
+        output = output.with_name(output.name + ".png")
     suffix = output.suffix.lower().lstrip(".")
     formats = FigureCanvasBase.get_supported_filetypes()
     if suffix and suffix not in formats:
@@ -144,3 +181,4 @@ def _check_picture_format(output: Path) -> None:
             path=output,
             field="--output",
         )
+    return output

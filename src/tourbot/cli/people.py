@@ -51,10 +51,14 @@ def register(app: typer.Typer) -> None:
 
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
+        from tourbot.io.output import check_output, output_file
         from tourbot.io.rosbag import read_bag
         from tourbot.people.ego_motion import ScanMatchedPoses
         from tourbot.people.sjpdaf import PeopleTracker
 
+        check_output(output)
+        if plot is not None:
+            check_output(plot, "--plot")
         if log_kind(log) == "rosbag" and log.exists():
             robot_log = read_bag(log, scan_topic=scan_topic)
         else:
@@ -66,11 +70,11 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"robot pose from {pose.value}")
         ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
         tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
-        output.parent.mkdir(parents=True, exist_ok=True)
         rows = 0
         ids: set[int] = set()
         paths: dict[int, list[tuple[float, float]]] = {}
-        with output.open("w", newline="") as fh, Progress() as progress:
+        # written whole or not at all: an error or Ctrl-C mid-log keeps any previous CSV
+        with output_file(output) as tmp, tmp.open("w", newline="") as fh, Progress() as progress:
             writer = csv.writer(fh)
             writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
             task = progress.add_task(f"tracking {log.name}", total=len(robot_log.scans))

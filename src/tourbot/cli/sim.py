@@ -35,6 +35,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.cli._tour_view import start_pose_for
         from tourbot.errors import InputError
         from tourbot.io.carmen import write_carmen
+        from tourbot.io.output import write_text_whole
         from tourbot.io.tum import write_tum
         from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
         from tourbot.sim.simulator import SimConfig
@@ -68,7 +69,7 @@ def register(app: typer.Typer) -> None:
             "doors": [[d.open_fraction for d in doors] for doors, _ in sim.objects_history],
             "furniture": [[(f.x, f.y, f.theta) for f in items] for _, items in sim.objects_history],
         }
-        Path(stem + ".people.json").write_text(json.dumps(people))
+        write_text_whole(stem + ".people.json", json.dumps(people))
         console.print(
             f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
         )

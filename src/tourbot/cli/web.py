@@ -54,7 +54,16 @@ def register(app: typer.Typer) -> None:
         ] = True,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
+        from tourbot.errors import InputError
+        from tourbot.runtime.simulated import crowd_config
         from tourbot.web.serve import ServeSettings, build_site_app, run
+
+        # checked before the database is opened (and the site imported into it)
+        if not slot_minutes > 0:
+            raise InputError(f"must be positive (minutes), got {slot_minutes}", field="--slot-minutes")
+        if not 0 <= port <= 65535:
+            raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        crowd_config(crowd)
 
         settings = ServeSettings(
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,

@@ -45,6 +45,7 @@ import numpy as np
 from tourbot.geometry import relative, wrap_angle
 from tourbot.io._interp import interpolate_pose
 from tourbot.io.errors import LogFormatError
+from tourbot.io.output import output_file
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
 
 __all__ = [
@@ -756,8 +757,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         )
     odom_policy = _policy([s.odom for s in log.scans], "odometry", path)
     ref_policy = _policy([s.reference for s in log.scans], "reference", path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with _open_for_writing(path) as out:
+    with output_file(path) as tmp, _open_for_writing(tmp) as out:
         out.write(f"# CARMEN log written by tourbot from {log.source}\n")
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")

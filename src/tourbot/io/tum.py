@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.io.errors import TrajectoryFormatError
+from tourbot.io.output import write_text_whole
 
 __all__ = ["read_tum", "write_tum"]
 
@@ -29,8 +30,7 @@ def write_tum(path: str | Path, times: ArrayLike, poses: ArrayLike) -> None:
     for ti, (x, y, th) in zip(t.tolist(), p.tolist(), strict=True):
         qz, qw = math.sin(th / 2.0), math.cos(th / 2.0)
         lines.append(f"{ti!r} {x!r} {y!r} 0.0 0.0 0.0 {qz!r} {qw!r}")
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    Path(path).write_text("\n".join(lines) + "\n")
+    write_text_whole(path, "\n".join(lines) + "\n")
 
 
 def read_tum(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -49,6 +49,8 @@ def animate(
     import imageio.v2 as imageio
     import matplotlib
 
+    from tourbot.io.output import output_file
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -90,7 +92,8 @@ def animate(
     truth_xy: list[tuple[float, float]] = []
     est_xy: list[tuple[float, float]] = []
     i_frame = 0
-    with imageio.get_writer(out, mode="I", duration=1.0 / fps, loop=0) as writer:
+    # written whole or not at all: Ctrl-C while the frames are drawn keeps any previous GIF
+    with output_file(out) as tmp, imageio.get_writer(tmp, mode="I", duration=1.0 / fps, loop=0) as writer:
         for s in snapshots:
             if s.truth is not None:
                 truth_xy.append(s.truth.pose[:2])

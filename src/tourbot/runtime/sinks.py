@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from tourbot.io.output import output_file
 from tourbot.runtime.snapshot import NavMode, StateSnapshot
 
 __all__ = ["MetricsSink", "Recorder", "TourMetrics"]
@@ -34,8 +35,7 @@ class Recorder:
     def close(self) -> None:
         if self.path is None:
             return
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        with gzip.open(self.path, "wt", compresslevel=5) as f:
+        with output_file(self.path) as tmp, gzip.open(tmp, "wt", compresslevel=5) as f:
             for s in self.snapshots:
                 f.write(s.to_json() + "\n")
 

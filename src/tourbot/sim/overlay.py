@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from tourbot.errors import InputError, TourbotError
 from tourbot.geometry import compose, wrap_angle
+from tourbot.io.output import write_text_whole
 from tourbot.localization.kidnap import Kidnap, KidnapConfig, apply_kidnaps, plan_kidnaps
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import circle_ranges
@@ -257,7 +258,7 @@ def write_truth(truth: CrowdTruth, path: str | Path) -> None:
         "corrupted": [np.packbits(row).tobytes().hex() for row in truth.corrupted],
         "kidnaps": [{"scan": k.scan, "time": k.time, "delta": list(k.delta)} for k in truth.kidnaps],
     }
-    Path(path).write_text(json.dumps(data, indent=1), encoding="utf-8")
+    write_text_whole(path, json.dumps(data, indent=1))
 
 
 def read_truth(path: str | Path) -> CrowdTruth:
