@@ -102,3 +102,12 @@ def test_serve_bad_options_are_refused_before_the_database_is_touched(
     assert len(lines) == 1
     assert expected in lines[0]
     assert not db.exists()
+
+
+def test_a_new_database_file_is_announced_once(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A mistyped ``--database`` creates an empty database: the user is told where, the first time only."""
+    db = ["--database", f"sqlite:///{tmp_path / 'typo.db'}"]
+    assert _run(["site", "list", *db]) == 0
+    assert f"created a new database {tmp_path / 'typo.db'}" in capsys.readouterr().err
+    assert _run(["site", "list", *db]) == 0
+    assert "created a new database" not in capsys.readouterr().err

@@ -18,12 +18,20 @@ SiteOpt = Annotated[str, typer.Option("--site", help="a shipped site name (fhw) 
 
 
 def _db(database: str | None, site: str) -> Database:
+    """The site database; a SQLite file that did not exist is created, and the user told so (a
+    mistyped ``--database`` would otherwise put their work in a new, empty database unnoticed)."""
     from pathlib import Path
 
-    from tourbot.web.db import default_url, open_database
+    from tourbot.web.db import default_url, open_database, sqlite_file
 
     name = Path(site).stem if site.endswith((".yaml", ".yml")) else Path(site).name
-    return open_database(database or default_url(name), site=name)
+    url = database or default_url(name)
+    file = sqlite_file(url)
+    new = file is not None and not file.exists()
+    db = open_database(url, site=name)
+    if new:
+        typer.echo(f"created a new database {file}", err=True)
+    return db
 
 
 def register(app: typer.Typer) -> None:

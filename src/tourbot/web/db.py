@@ -52,6 +52,7 @@ __all__ = [
     "default_url",
     "migrate",
     "open_database",
+    "sqlite_file",
 ]
 
 MIGRATIONS = Path(__file__).with_name("migrations")
@@ -503,18 +504,26 @@ def open_database(url: str | None = None, *, site: str = "site") -> Database:
     return db
 
 
-def _create_sqlite_folder(url: str) -> None:
-    """Create the folder of a SQLite database file, as for any output path (other URLs untouched)."""
+def sqlite_file(url: str) -> Path | None:
+    """The file of a SQLite database URL (None for other databases, in-memory ones and bad URLs)."""
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
     try:
         parsed = make_url(url)
     except ArgumentError:
-        return  # Database() reports the malformed URL
+        return None  # Database() reports the malformed URL
     if parsed.get_backend_name() == "sqlite" and parsed.database not in (None, "", ":memory:"):
+        return Path(parsed.database)
+    return None
+
+
+def _create_sqlite_folder(url: str) -> None:
+    """Create the folder of a SQLite database file, as for any output path (other URLs untouched)."""
+    path = sqlite_file(url)
+    if path is not None:
         try:
-            Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+            path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise DatabaseError(
                 f"cannot create the folder of the database {url!r}: {exc.strerror or exc}"
