@@ -766,6 +766,10 @@ class MonteCarloLocalization:
             track = int(np.argmax(np.bincount(labels, weights=self._established_weights())))
             self._fresh &= labels != track
         guess: NDArray[np.bool_] | None = None
+        if math.isnan(too_long) and not self._global_phase:
+            # A scan that is no evidence (too few returns to judge) neither confirms nor
+            # contradicts anything: no guess wins it, and the held guess stays held.
+            return pose, cov, weight, too_long
         if self._global_phase and self._fresh.any():
             guess = self._heaviest_guess(labels, pose, score)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
