@@ -606,3 +606,9 @@ def test_a_scan_that_is_no_evidence_neither_confirms_nor_contradicts(room: Occup
     assert np.hypot(*(pose[:2] - truth[:2])) < 0.1
     assert not mcl._fresh.any()
     assert mcl.weights[far].sum() == 0.0
+    # A failed verification judged every return of its scan: it still contradicts the track.
+    mcl, _, near, _, _, score = _guess_scene(room, lost_track=True)
+    mcl._suspect = True
+    mcl._estimate(blind, score)
+    assert mcl._fresh_won == 1
+    assert mcl._held[near].all()
