@@ -571,3 +571,44 @@ def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: Oc
     assert won[near].all()
     assert mcl._best_guess(labels, mcl.samples[0], score, glassy, True, 0.3) is None
     assert mcl._best_guess(labels, mcl.samples[0], score, judge, True, math.nan) is not None
+
+
+def test_a_scan_that_is_no_evidence_neither_confirms_nor_contradicts(room: OccupancyGrid) -> None:
+    # Too few returns to judge (NaN) says nothing about the track nor about the guesses: none
+    # wins such a scan, even against a track contradicted on the scans before (a guess drawn
+    # for a replaced track would otherwise displace the one just found: FHW, docs/benchmarks.md
+    # "Run 7b"), and the lost count is neither raised nor reset.
+    mcl, _, near, far, judge, score = _guess_scene(room, lost_track=True)
+    truth = waypoints_path(10)[4]
+
+    def blind(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
+        return math.nan
+
+    mcl._lost_scans = 1
+    weights = mcl.weights.copy()
+    mcl._estimate(blind, score)
+    assert mcl._fresh_won == 0
+    assert not mcl._held.any()
+    assert mcl._lost_scans == 1
+    np.testing.assert_array_equal(mcl.weights, weights)
+    # A guess held since a scan with evidence stays held through one without, and becomes the
+    # track when it wins the next scan with evidence.
+    mcl._estimate(judge, score)
+    assert mcl._fresh_won == 1
+    assert mcl._held[near].all()
+    lost = mcl._lost_scans
+    pose, *_ = mcl._estimate(blind, score)
+    assert mcl._fresh_won == 1
+    assert mcl._held[near].all()
+    assert mcl._lost_scans == lost
+    assert np.hypot(*(pose[:2] - mcl.samples[0, :2])) < 0.1  # still the old track
+    pose, *_ = mcl._estimate(judge, score)
+    assert np.hypot(*(pose[:2] - truth[:2])) < 0.1
+    assert not mcl._fresh.any()
+    assert mcl.weights[far].sum() == 0.0
+    # A failed verification judged every return of its scan: it still contradicts the track.
+    mcl, _, near, _, _, score = _guess_scene(room, lost_track=True)
+    mcl._suspect = True
+    mcl._estimate(blind, score)
+    assert mcl._fresh_won == 1
+    assert mcl._held[near].all()

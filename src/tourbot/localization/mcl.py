@@ -49,7 +49,13 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    model and not by their weights, which carry the likelihood field: in a crowd the field may
    rate a look-alike place turned around above the true one, whose readings the beam model sees
    pass through walls (FHW, docs/benchmarks.md "Run 7"). Guesses that lie in the track's own
-   cluster on a scan that does not contradict it join the track. The novelty filter averages
+   cluster on a scan that does not contradict it join the track. A scan that is no evidence
+   (fewer than ``lost_min_beams`` returns to judge, or none integrated) neither confirms nor
+   contradicts anything: no guess wins it, the held guess stays held, and the count of
+   contradicted scans is neither raised nor reset (else a guess drawn while the track it has
+   just replaced was contradicted could displace the found one on such a scan, FHW,
+   docs/benchmarks.md "Run 7b"); a failed verification (below) still contradicts the track
+   on such a scan. The novelty filter averages
    Eq. 6 over the established samples only (a two-peaked belief would let a crowd's short beams
    through), the estimate is the heaviest cluster of the established samples, resampling keeps
    each group's share, and new guesses replace older fresh ones. So a crowd that makes a
@@ -743,7 +749,10 @@ class MonteCarloLocalization:
         Then its cluster becomes the belief (the other samples lose their weight) and every
         sample is established; until then the estimate is the heaviest cluster of the
         established samples. Guesses in the track's own cluster on a scan that does not
-        contradict the track join it. During global localization the rule of
+        contradict the track join it. On a scan that is no evidence (``judge`` NaN, and no
+        failed verification) no guess is judged: none wins, the held guess stays held,
+        ``_lost_scans`` is kept. During
+        global localization the rule of
         :meth:`_heaviest_guess` applies. A crowd makes a look-alike place fit some scans better
         than the true one, but it cannot make the true pose see through walls.
         """
@@ -766,6 +775,11 @@ class MonteCarloLocalization:
             track = int(np.argmax(np.bincount(labels, weights=self._established_weights())))
             self._fresh &= labels != track
         guess: NDArray[np.bool_] | None = None
+        if math.isnan(too_long) and not (self._global_phase or self._suspect):
+            # A scan that is no evidence (too few returns to judge) neither confirms nor
+            # contradicts anything: no guess wins it, and the held guess stays held. (A failed
+            # verification judged every return under the crowd beam model: it still stands.)
+            return pose, cov, weight, too_long
         if self._global_phase and self._fresh.any():
             guess = self._heaviest_guess(labels, pose, score)
             self._fresh_won = self._fresh_won + 1 if guess is not None else 0
