@@ -1,5 +1,6 @@
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 
 import numpy as np
@@ -117,3 +118,13 @@ def test_slam_writes_a_raw_map(tmp_path: Path) -> None:
     assert (tmp_path / "map.pgm").exists()
     grid = read_map(out)
     assert grid.occupied().sum() > 50
+
+
+def test_slam_people_filter_defaults_to_the_joint_mode(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The default mode is the one docs/benchmarks.md (people filtering, run 11) recommends."""
+    monkeypatch.setenv("COLUMNS", "400")
+    with contextlib.suppress(SystemExit):  # click ends --help with exit status 0
+        main(["slam", "--help"])
+    assert "[default: joint]" in capsys.readouterr().out

@@ -176,7 +176,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     back until seen repeatedly), while the maps differ."""
     start = hall_log.reference_poses[0]
     runs = {}
-    for mode in ("sectors", "blobs", "shapes", "confirmed", "far"):
+    for mode in ("sectors", "blobs", "shapes", "confirmed", "far", "joint"):
         filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.mode(mode))
         for scan in hall_log.scans[:40]:
             filtered.add_scan(scan)
@@ -187,6 +187,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     assert np.array_equal(poses["shapes"], poses["sectors"])
     assert np.array_equal(poses["confirmed"], poses["sectors"])
     assert np.array_equal(poses["far"], poses["sectors"])
+    assert np.array_equal(poses["joint"], poses["sectors"])  # the default mode
     runs["confirmed"].grid()
     runs["far"].grid()  # the far test gets the scan of each beam
     assert runs["far"].cleared_cells >= runs["confirmed"].cleared_cells

@@ -235,10 +235,10 @@ def register(bench: typer.Typer) -> None:
             str,
             typer.Option(
                 help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
-                "shapes, consistent, thorough, confirmed, far, kept); "
+                "shapes, consistent, thorough, confirmed, far, kept, cleared, joint); "
                 "the first is drawn and used for scan matching."
             ),
-        ] = "far,confirmed,consistent,blobs,paper",
+        ] = "joint,far,confirmed,consistent,blobs,paper",
     ) -> None:
         """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
         from tourbot.bench._report import BenchReport

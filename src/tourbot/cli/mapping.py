@@ -40,11 +40,12 @@ def register(app: typer.Typer) -> None:
                 "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
                 "that other scans' kept beams confirm given back to the finished map, then a looser check), "
                 "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
-                "looser check; the default), kept (far, and the left-out beams whose end lies in a line "
+                "looser check), kept (far, and the left-out beams whose end lies in a line "
                 "of structure the map holds given back too), cleared (far, and such specks seen by one "
-                "scan from beyond 4 m next to each other cleared together), joint (far with both)."
+                "scan from beyond 4 m next to each other cleared together), joint (far with both; the "
+                "default)."
             ),
-        ] = "far",
+        ] = "joint",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
