@@ -128,3 +128,60 @@ def test_slam_people_filter_defaults_to_the_joint_mode(
     with contextlib.suppress(SystemExit):  # click ends --help with exit status 0
         main(["slam", "--help"])
     assert "[default: joint]" in capsys.readouterr().out
+
+
+def test_slam_people_filter_uses_the_given_leg_model(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from dataclasses import replace
+
+    from tourbot.people.leg_classifier import LegModel, default_model
+    from tourbot.people.sjpdaf import PeopleTracker
+
+    shipped = default_model()
+    assert shipped is not None
+    mine = replace(shipped, weights=(*shipped.weights[:-1], shipped.weights[-1] - 5.0), trained_on="mine")
+    mine.save(tmp_path / "mine.json")
+    seen: list[LegModel | None] = []
+    update = PeopleTracker.update
+
+    def recording(self: PeopleTracker, *args: object, **kwargs: object) -> object:
+        seen.append(self.config.legs.model)
+        return update(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(PeopleTracker, "update", recording)
+    log = drive(building(), n=5)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    main(
+        [
+            "slam",
+            str(path),
+            "-o",
+            str(tmp_path / "map.yaml"),
+            "--people-filter",
+            "--leg-model",
+            str(tmp_path / "mine.json"),
+        ]
+    )
+    assert seen == [mine] * 5
+    seen.clear()
+    main(["slam", str(path), "-o", str(tmp_path / "map.yaml"), "--people-filter"])
+    assert seen == [shipped] * 5
+
+
+@pytest.mark.parametrize("people_filter", [True, False])
+def test_slam_bad_leg_model_is_one_clear_line_before_mapping(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], people_filter: bool
+) -> None:
+    model = tmp_path / "model.json"
+    model.write_text('{"features": ["width"]}')
+    out = tmp_path / "map.yaml"
+    args = ["slam", str(tmp_path / "nope.log"), "-o", str(out), "--leg-model", str(model)]
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--people-filter"] if people_filter else args)
+    assert exc.value.code == 2
+    err = " ".join(capsys.readouterr().err.split())
+    expected = "(field features)" if people_filter else "--leg-model is used only with --people-filter"
+    assert expected in err
+    assert "nope.log" not in err  # refused before the log is read
+    assert not out.exists()

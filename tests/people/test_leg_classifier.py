@@ -13,6 +13,8 @@ from tourbot.people.leg_classifier import (
     FEATURE_NAMES,
     MODEL_FEATURES,
     LegModel,
+    LegModelError,
+    default_model,
     fit_logistic,
     segment_features,
     segment_features_reference,
@@ -63,8 +65,79 @@ def test_logistic_fit_separates_and_round_trips(tmp_path: Path) -> None:
 def test_a_model_for_other_features_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "m.json"
     path.write_text('{"features": ["width"], "mean": [0], "scale": [1], "weights": [0, 0, 0]}')
-    with pytest.raises(ValueError, match="other features"):
+    with pytest.raises(LegModelError, match="other features") as exc:
         LegModel.load(path)
+    assert exc.value.path == str(path)
+    assert exc.value.field == "features"
+
+
+def _shipped_doc() -> dict[str, object]:
+    model = default_model()
+    assert model is not None
+    return {
+        "features": list(MODEL_FEATURES),
+        "mean": list(model.mean),
+        "scale": list(model.scale),
+        "weights": list(model.weights),
+    }
+
+
+@pytest.mark.parametrize(
+    ("change", "field", "message"),
+    [
+        ({"weights": [0.0, 1.0]}, "weights", "expected 23 numbers, found 2"),
+        ({"mean": None}, "mean", "list of 11 numbers"),
+        ({"scale": ["a"] * 11}, "scale", "list of 11 numbers"),
+        ({"scale": [0.0] * 11}, "scale", "positive"),
+        ({"features": None}, "features", "other features"),
+    ],
+)
+def test_a_bad_model_file_names_the_file_and_field(
+    tmp_path: Path, change: dict[str, object], field: str, message: str
+) -> None:
+    import json
+
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(_shipped_doc() | change))
+    with pytest.raises(LegModelError, match=message) as exc:
+        LegModel.load(path)
+    assert exc.value.path == str(path)
+    assert exc.value.field == field
+
+
+def test_a_model_file_that_is_not_json_names_the_line(tmp_path: Path) -> None:
+    path = tmp_path / "m.json"
+    path.write_text('{\n "features": [\n oops')
+    with pytest.raises(LegModelError, match="not JSON") as exc:
+        LegModel.load(path)
+    assert exc.value.line == 3
+    with pytest.raises(LegModelError, match="no such leg model file"):
+        LegModel.load(tmp_path / "missing.json")
+
+
+def test_save_writes_whole_and_leaves_no_partial_file(tmp_path: Path) -> None:
+    model = default_model()
+    assert model is not None
+    out = tmp_path / "sub" / "m.json"
+    model.save(out)
+    assert [p.name for p in out.parent.iterdir()] == ["m.json"]
+    assert LegModel.load(out) == model
+
+
+def test_a_stricter_model_from_a_file_changes_the_detections(tmp_path: Path) -> None:
+    """A model loaded from a file, not the shipped one, decides P(leg) when given to LegConfig."""
+    shipped = default_model()
+    assert shipped is not None
+    # the same shape model with a far lower intercept: no segment with a shape is a leg any more
+    strict = replace(
+        shipped, weights=(*shipped.weights[:-1], shipped.weights[-1] - 40.0), trained_on="strict"
+    )
+    strict.save(tmp_path / "strict.json")
+    loaded = LegModel.load(tmp_path / "strict.json")
+    assert loaded == strict
+    scan = scan_with_circles(0.0, (0.0, 0.0, 0.0), legs_of(2.0, 0.5, 1.0, 0.3))
+    assert len(detect_legs(scan)) == 2
+    assert len(detect_legs(scan, replace(LegConfig(), model=loaded))) == 0
 
 
 def test_the_shipped_model_keeps_simulated_legs() -> None:

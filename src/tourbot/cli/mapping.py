@@ -8,6 +8,7 @@ from typing import Annotated
 import typer
 
 from tourbot.cli.maps import MapModeOpt, check_map_mode
+from tourbot.cli.people import LegModelOpt, tracker_config
 
 __all__ = ["register"]
 
@@ -50,6 +51,7 @@ def register(app: typer.Typer) -> None:
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
         map_mode: MapModeOpt = "trinary",
+        leg_model: LegModelOpt = None,
     ) -> None:
         """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
 
@@ -64,12 +66,16 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.tum import write_tum
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
         from tourbot.mapping.people_filter import FILTER_MODES, PeopleFilteredMapper, PeopleFilterParams
+        from tourbot.people.sjpdaf import PeopleTracker
 
         if not resolution > 0:
             raise MappingError(f"--resolution must be positive, got {resolution}")
         if people_mode not in FILTER_MODES:
             raise MappingError(f"--people-mode must be one of {', '.join(FILTER_MODES)}, got {people_mode!r}")
+        if leg_model is not None and not people_filter:
+            raise MappingError("--leg-model is used only with --people-filter")
         check_map_mode(map_mode)
+        config = tracker_config(leg_model) if people_filter else None  # a bad model: before mapping
         check_map_output(output)  # before the mapping, which can take minutes
         if trajectory is not None:
             check_output(trajectory, "--trajectory")
@@ -86,8 +92,12 @@ def register(app: typer.Typer) -> None:
             )
         params = MapperParams(resolution=resolution)
         filtered = (
-            PeopleFilteredMapper.create(params, seed=seed, params=PeopleFilterParams.mode(people_mode))
-            if people_filter
+            PeopleFilteredMapper.create(
+                params,
+                tracker=PeopleTracker(config, rng=np.random.default_rng(seed)),
+                params=PeopleFilterParams.mode(people_mode),
+            )
+            if config is not None
             else None
         )
         mapper = filtered.mapper if filtered is not None else IncrementalMapper(params)

@@ -4,11 +4,41 @@ from __future__ import annotations
 
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-__all__ = ["PoseSource", "register"]
+if TYPE_CHECKING:
+    from tourbot.people.sjpdaf import SJPDAFConfig
+
+__all__ = ["TRAINED_MODEL", "LegModelOpt", "PoseSource", "register", "tracker_config"]
+
+TRAINED_MODEL = Path("leg-model.json")  # where train-legs writes without -o: the current folder
+
+LegModelOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--leg-model",
+        help="Leg model JSON written by 'tourbot train-legs' (default: the model shipped with tourbot).",
+    ),
+]
+
+
+def tracker_config(leg_model: Path | None) -> SJPDAFConfig:
+    """The people tracker's configuration with the leg model of ``--leg-model`` (None: the shipped
+    one); a missing or bad file is a :class:`~tourbot.people.leg_classifier.LegModelError`."""
+    from dataclasses import replace
+
+    from tourbot.people.leg_classifier import LegModel, LegModelError
+    from tourbot.people.legs import LegConfig
+    from tourbot.people.sjpdaf import SJPDAFConfig
+
+    if leg_model is None:
+        return SJPDAFConfig()
+    if not leg_model.is_file():
+        what = "is a folder, not a leg model file" if leg_model.is_dir() else "no such leg model file"
+        raise LegModelError(what, path=leg_model, field="--leg-model")
+    return SJPDAFConfig(legs=replace(LegConfig(), model=LegModel.load(leg_model)))
 
 
 class PoseSource(StrEnum):
@@ -42,6 +72,7 @@ def register(app: typer.Typer) -> None:
         tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
         plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
+        leg_model: LegModelOpt = None,
     ) -> None:
         """Track people (SJPDAF, Burgard et al. Sec. 4); CSV: scan, time, id, x, y, vx, vy."""
         import csv
@@ -59,6 +90,7 @@ def register(app: typer.Typer) -> None:
         check_output(output)
         if plot is not None:
             check_output(plot, "--plot")
+        config = tracker_config(leg_model)  # a bad model file is refused before reading the log
         if log_kind(log) == "rosbag" and log.exists():
             robot_log = read_bag(log, scan_topic=scan_topic)
         else:
@@ -69,7 +101,7 @@ def register(app: typer.Typer) -> None:
             pose = PoseSource.odom if has_odom else PoseSource.scan_matching
             typer.echo(f"robot pose from {pose.value}")
         ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
-        tracker = PeopleTracker(grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
+        tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
         rows = 0
         ids: set[int] = set()
         paths: dict[int, list[tuple[float, float]]] = {}
@@ -106,25 +138,31 @@ def _register_train(app: typer.Typer) -> None:
     def train_legs(
         bags: Annotated[list[Path], typer.Argument(help="Annotated leg_tracker bags (*_extracted.bag).")],
         output: Annotated[
-            Path | None,
-            typer.Option("-o", "--output", help="Model JSON to write (default: the shipped model file)."),
-        ] = None,
+            Path,
+            typer.Option(
+                "-o",
+                "--output",
+                help=f"Model JSON to write (default: {TRAINED_MODEL} in the current folder); use it with "
+                "'tourbot track --leg-model' and 'tourbot slam --leg-model'. The model shipped with "
+                "tourbot is replaced only when named here.",
+            ),
+        ] = TRAINED_MODEL,
         match: Annotated[
             float, typer.Option(help="Metres within which a candidate is an annotated leg.")
         ] = 0.25,
     ) -> None:
         """Fit the leg model (P(leg) from a segment's shape) to annotated bags and write it as JSON."""
         from tourbot.io.errors import BagError
-        from tourbot.people.leg_classifier import DEFAULT_MODEL
+        from tourbot.io.output import check_output
         from tourbot.people.leg_training import train_leg_model
 
+        check_output(output)  # before the training
         for bag in bags:
             if not bag.exists():
                 raise BagError("no such bag", path=bag)
         model = train_leg_model(bags, match=match)
-        out = output or DEFAULT_MODEL
-        model.save(out)
-        typer.echo(f"leg model ({model.trained_on}) -> {out}")
+        model.save(output)  # written whole or not at all
+        typer.echo(f"leg model ({model.trained_on}) -> {output}; use it with --leg-model {output}")
 
 
 def _plot_tracks(paths: dict[int, list[tuple[float, float]]], out: Path, title: str) -> None:

@@ -12,8 +12,10 @@ the segment bulges towards the laser, and how densely the beams sample it.
 The features are a numba kernel (:func:`segment_features`) with a plain-numpy reference
 (:func:`segment_features_reference`). The model is a logistic regression on the standardised
 features and their squares, fitted by Newton's method with a small ridge penalty
-(:func:`fit_logistic`); its parameters live in a small JSON file built by
-``tourbot people train-legs`` from annotated ``leg_tracker`` bags.
+(:func:`fit_logistic`); its parameters live in a small JSON file built by ``tourbot train-legs``
+from annotated ``leg_tracker`` bags. The package ships one (:data:`DEFAULT_MODEL`); a model
+trained on one's own laser is loaded with :meth:`LegModel.load` and given to the detector through
+:class:`tourbot.people.legs.LegConfig` (``--leg-model`` of ``tourbot track`` and ``tourbot slam``).
 """
 
 from __future__ import annotations
@@ -28,11 +30,15 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.errors import InputError
+from tourbot.io.output import write_text_whole
+
 __all__ = [
     "DEFAULT_MODEL",
     "FEATURE_NAMES",
     "MODEL_FEATURES",
     "LegModel",
+    "LegModelError",
     "candidate_features",
     "default_model",
     "fit_logistic",
@@ -306,6 +312,10 @@ def candidate_features(
     return np.concatenate([shape, near[:, None]], axis=1)
 
 
+class LegModelError(InputError):
+    """A leg model file that cannot be read: the message names the file and the field."""
+
+
 @functools.cache
 def default_model() -> LegModel | None:
     """The shipped model (``leg_model.json`` beside this module), or None when there is none."""
@@ -338,7 +348,7 @@ class LegModel:
         return 1.0 / (1.0 + np.exp(-np.clip(logit, -50.0, 50.0)))
 
     def save(self, path: Path) -> None:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        """Write the model as JSON, whole or not at all (:func:`tourbot.io.output.write_text_whole`)."""
         doc = {
             "features": list(MODEL_FEATURES),
             "mean": list(self.mean),
@@ -346,16 +356,48 @@ class LegModel:
             "weights": list(self.weights),
             "trained_on": self.trained_on,
         }
-        path.write_text(json.dumps(doc, indent=1) + "\n")
+        write_text_whole(path, json.dumps(doc, indent=1) + "\n")
 
     @staticmethod
     def load(path: Path) -> LegModel:
-        doc = json.loads(path.read_text())
-        if tuple(doc.get("features", ())) != MODEL_FEATURES:
-            raise ValueError(f"{path}: leg model built for other features: {doc.get('features')}")
-        return LegModel(
-            tuple(doc["mean"]), tuple(doc["scale"]), tuple(doc["weights"]), str(doc.get("trained_on", ""))
-        )
+        """The model saved in ``path``; :class:`LegModelError` (file, line or field) when the file
+        is missing, is not JSON, was built for other features or has numbers of the wrong count."""
+        try:
+            text = Path(path).read_text(encoding="utf-8")
+        except FileNotFoundError:
+            raise LegModelError("no such leg model file", path=path) from None
+        except (OSError, UnicodeDecodeError) as exc:
+            raise LegModelError(f"cannot read the leg model: {exc}", path=path) from None
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise LegModelError(f"not JSON: {exc.msg}", path=path, line=exc.lineno) from None
+        if not isinstance(doc, dict):
+            raise LegModelError("not a leg model (a JSON object is expected)", path=path)
+        features = doc.get("features")
+        if not isinstance(features, list) or tuple(features) != MODEL_FEATURES:
+            raise LegModelError(
+                f"leg model built for other features: {features} (expected {list(MODEL_FEATURES)})",
+                path=path,
+                field="features",
+            )
+        n = len(MODEL_FEATURES)
+        sizes = {"mean": n, "scale": n, "weights": 2 * n + 1}  # weights of [z, z^2, 1]
+        values: dict[str, tuple[float, ...]] = {}
+        for name, size in sizes.items():
+            raw = doc.get(name)
+            if not isinstance(raw, list) or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in raw
+            ):
+                raise LegModelError(f"expected a list of {size} numbers", path=path, field=name)
+            if len(raw) != size:
+                raise LegModelError(f"expected {size} numbers, found {len(raw)}", path=path, field=name)
+            if not all(math.isfinite(v) for v in raw):
+                raise LegModelError("numbers must be finite", path=path, field=name)
+            values[name] = tuple(float(v) for v in raw)
+        if any(v <= 0.0 for v in values["scale"]):
+            raise LegModelError("scales must be positive", path=path, field="scale")
+        return LegModel(values["mean"], values["scale"], values["weights"], str(doc.get("trained_on", "")))
 
 
 def fit_logistic(
