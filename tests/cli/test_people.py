@@ -110,7 +110,9 @@ def test_train_legs_without_output_writes_in_the_current_folder(
     assert "--leg-model leg-model.json" in out
 
 
-def test_train_legs_refuses_a_folder_before_training(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_train_legs_refuses_a_folder_before_training(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["train-legs", str(tmp_path / "missing.bag"), "-o", str(tmp_path)])
     assert exc.value.code == 2
