@@ -111,3 +111,23 @@ def test_a_new_database_file_is_announced_once(tmp_path: Path, capsys: pytest.Ca
     assert f"created a new database {tmp_path / 'typo.db'}" in capsys.readouterr().err
     assert _run(["site", "list", *db]) == 0
     assert "created a new database" not in capsys.readouterr().err
+
+
+def test_a_short_staff_password_is_refused_before_a_database_is_made(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "site.db"
+    assert _run(["site", "staff", "bob", "--password", "short", "--database", f"sqlite:///{path}"]) == 2
+    assert "at least 8 characters" in capsys.readouterr().err
+    assert not path.exists()
+    assert _run(["site", "staff", "bob", "--password", "long enough", "--database", f"sqlite:///{path}"]) == 0
+    assert path.exists()
+
+
+def test_staff_help_does_not_call_the_prompted_password_required(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "200")
+    _run(["site", "staff", "--help"])
+    line = next(x for x in capsys.readouterr().out.splitlines() if "--password" in x)
+    assert "required" not in line

@@ -181,14 +181,21 @@ def register(app: typer.Typer) -> None:
     def staff(
         username: Annotated[str, typer.Argument(help="login name")],
         password: Annotated[
-            str,
+            str | None,
             typer.Option(
-                prompt=True, hide_input=True, confirmation_prompt=True, help="asked for if not given"
+                prompt=True,
+                hide_input=True,
+                confirmation_prompt=True,
+                show_default=False,
+                help="asked for (twice, hidden) if not given",
             ),
-        ],
+        ] = None,
         site: SiteOpt = "fhw",
         database: DatabaseOpt = None,
     ) -> None:
         """Create a staff login (or change its password)."""
-        _db(database, site).set_staff(username, password)
+        from tourbot.web.db import check_staff_password
+
+        check_staff_password(password or "")  # before a database is opened (or created)
+        _db(database, site).set_staff(username, password or "")
         typer.echo(f"staff user {username} saved")

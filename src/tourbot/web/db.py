@@ -49,6 +49,7 @@ __all__ = [
     "TourStop",
     "Visit",
     "VisitorSession",
+    "check_staff_password",
     "default_url",
     "migrate",
     "open_database",
@@ -178,6 +179,15 @@ def migrate(engine: Engine, revision: str = "head") -> None:
     with engine.begin() as connection:
         config.attributes["connection"] = connection
         command.upgrade(config, revision)
+
+
+MIN_STAFF_PASSWORD = 8
+
+
+def check_staff_password(password: str) -> None:
+    """Refuse a staff password shorter than ``MIN_STAFF_PASSWORD`` characters."""
+    if len(password) < MIN_STAFF_PASSWORD:
+        raise DatabaseError(f"a staff password needs at least {MIN_STAFF_PASSWORD} characters")
 
 
 def _hash_password(password: str, salt: bytes | None = None) -> str:
@@ -465,8 +475,7 @@ class Database:
 
     # --- staff ---------------------------------------------------------------------------
     def set_staff(self, username: str, password: str) -> None:
-        if len(password) < 8:
-            raise DatabaseError("a staff password needs at least 8 characters")
+        check_staff_password(password)
         with self.session() as s:
             found = s.scalars(select(StaffUser).where(StaffUser.username == username)).first()
             if found is None:
