@@ -353,6 +353,9 @@ class MonteCarloLocalization:
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
+        # From reset_global until the track first passes the too-long test: a track that was
+        # never right (global localization settled on a look-alike) is searched for globally.
+        self._unconfirmed = False
         self.last_estimate: LocalizationEstimate | None = None
 
     # ------------------------------------------------------------------ initialisation
@@ -384,6 +387,7 @@ class MonteCarloLocalization:
         self._set_belief(_uniform_free_poses(g, cells, self.config.global_samples, self.rng))
         self._global_cells = (g, cells)
         self._global_phase = True
+        self._unconfirmed = True
 
     def _set_belief(self, samples: FloatArray) -> None:
         self.samples = np.ascontiguousarray(samples, dtype=np.float64)
@@ -401,6 +405,7 @@ class MonteCarloLocalization:
         self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         self._global_cells = None
         self._global_phase = False
+        self._unconfirmed = False
 
     # ------------------------------------------------------------------ the filter
 
@@ -766,6 +771,7 @@ class MonteCarloLocalization:
             self._lost_scans += 1
         else:
             self._lost_scans = 0
+            self._unconfirmed = False
         # The track stays contradicted through scans that are no evidence (NaN), and while the
         # last verification found a clearly better place (``_suspect``).
         contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
@@ -950,8 +956,14 @@ class MonteCarloLocalization:
             slots = np.concatenate([np.flatnonzero(fresh & ~held), np.flatnonzero(~fresh)])[:n_inject]
             drawn_poses = reset_poses
             if drawn_poses is None:
-                far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
-                drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate, far)
+                # A track that global localization found and that has never passed the too-long
+                # test may be a look-alike anywhere: it is searched for over the whole free space
+                # at once, with the cast table's screening too (docs/benchmarks.md "Run 7d").
+                wide = self._unconfirmed
+                far = wide or self._lost_scans == 0 or self._lost_scans >= cfg.global_after
+                drawn_poses = self._scan_drawn_poses(
+                    n_inject, ranges, geometry, field_, valid, estimate, far, table=wide
+                )
             slots = slots[: drawn_poses.shape[0]]
             new[slots] = drawn_poses[: slots.size]
             fresh[slots] = True
@@ -973,6 +985,7 @@ class MonteCarloLocalization:
         keep_fresh: bool = False,
         rng: np.random.Generator | None = None,
         verifying: bool = False,
+        table: bool = False,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -1011,7 +1024,7 @@ class MonteCarloLocalization:
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
-        if far and verifying:
+        if far and (verifying or table):
             pool.append(self._table_poses(ranges, geometry, valid))
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
