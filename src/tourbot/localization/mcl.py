@@ -35,7 +35,10 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    *contradicts* the track and ``max_injection`` of the samples are reset. The reset poses are
    drawn from candidates around the estimate (a drift in a crowd, a kidnap by a metre) and,
    once the track has been contradicted on ``global_after`` scans in a row, also over the whole
-   free space, annealed on the scan's likelihood under a beam model with ray-cast expected
+   free space (at once, and with the cast table's screening, :mod:`tourbot.localization.
+   cast_table`, while the track is one that global localization settled on and that has never
+   passed the too-long test: such a track was never right, and a look-alike may lie anywhere;
+   FHW, docs/benchmarks.md "Run 7d"), annealed on the scan's likelihood under a beam model with ray-cast expected
    ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
    field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
    Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
@@ -218,7 +221,8 @@ class MCLConfig:
         resetting's ``injection_local_candidates`` 10000): only places more than
         ``verify_distance`` away count, and the table covers the whole free space.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
-        whole free space. ``injection_local_candidates`` poses around the estimate
+        whole free space (from the first one, with the cast table's poses, for a track from
+        global localization that has not yet passed the too-long test). ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
         ``injection_candidates`` uniform ones (screened by the likelihood field of the
         ``injection_long_fraction`` longest returns, no ray casting) are annealed on the crowd
@@ -998,7 +1002,8 @@ class MonteCarloLocalization:
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
         field of the longest returns (cheap, no ray casting; ``verify_candidates`` of them for a
         verification, ``verifying``, which also adds the ``table_survivors`` best poses of the cast
-        table, :meth:`_table_poses`), and with ``keep_fresh`` the fresh
+        table, :meth:`_table_poses`; so does ``table``, for a track from global localization not
+        yet confirmed by the too-long test), and with ``keep_fresh`` the fresh
         samples (earlier scans' guesses, moved by the odometry since: a search that missed the
         true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
