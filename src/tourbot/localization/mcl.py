@@ -38,9 +38,10 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    free space (at once, and with the cast table's screening, :mod:`tourbot.localization.
    cast_table`, while the track is one that global localization settled on and that has never
    passed the too-long test: such a track was never right, and a look-alike may lie anywhere;
-   FHW, docs/benchmarks.md "Run 7d"), annealed on the scan's likelihood under a beam model with ray-cast expected
-   ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
-   field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
+   FHW, docs/benchmarks.md "Run 7d"), annealed on the scan's likelihood under a beam model with
+   ray-cast expected ranges whose "short" component is the crowd (``recovery_model``): unlike
+   the likelihood field, which scores a beam by its endpoint, it sees a look-alike place's beams
+   cross walls.
    Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
    scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
    crowd beam model against the track, and the best one that the too-long test does not
@@ -222,7 +223,8 @@ class MCLConfig:
         ``verify_distance`` away count, and the table covers the whole free space.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
         whole free space (from the first one, with the cast table's poses, for a track from
-        global localization that has not yet passed the too-long test). ``injection_local_candidates`` poses around the estimate
+        global localization that has not yet passed the too-long test).
+        ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
         ``injection_candidates`` uniform ones (screened by the likelihood field of the
         ``injection_long_fraction`` longest returns, no ray casting) are annealed on the crowd
