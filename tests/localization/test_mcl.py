@@ -663,8 +663,11 @@ def test_a_track_from_global_localization_is_searched_for_everywhere_until_confi
     mcl.update(drive.odom[4], drive.scans[4])
     assert mcl._lost_scans == 1
     assert near_truth(mcl) == 0
-    # The track at the true pose passes the test: confirmed.
+    # The track at the true pose passes the test; global_after passes in a row confirm it (a
+    # look-alike may pass once: FHW seed 4).
     mcl = _settled_on(room, truth[4], "global")
-    est = mcl.update(drive.odom[4], drive.scans[4])
-    assert est.info["too_long"] <= mcl.config.lost_fraction
+    for k in range(4, 4 + mcl.config.global_after):
+        assert mcl._unconfirmed
+        est = mcl.update(drive.odom[k], drive.scans[k])
+        assert est.info["too_long"] <= mcl.config.lost_fraction
     assert not mcl._unconfirmed
