@@ -38,11 +38,10 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    free space (at once, and with the cast table's screening, :mod:`tourbot.localization.
    cast_table`, while the track is one that global localization settled on and that has not yet
    passed the too-long test on ``global_after`` judged scans in a row: such a track was never
-   right, and a look-alike may lie anywhere;
-   FHW, docs/benchmarks.md "Run 7d"), annealed on the scan's likelihood under a beam model with
-   ray-cast expected ranges whose "short" component is the crowd (``recovery_model``): unlike
-   the likelihood field, which scores a beam by its endpoint, it sees a look-alike place's beams
-   cross walls.
+   right, and a look-alike may lie anywhere; FHW, docs/benchmarks.md "Run 7d"), annealed on
+   the scan's likelihood under a beam model with ray-cast expected ranges whose "short"
+   component is the crowd (``recovery_model``): unlike the likelihood field, which scores a
+   beam by its endpoint, it sees a look-alike place's beams cross walls.
    Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
    scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
    crowd beam model against the track, and the best one that the too-long test does not
@@ -971,9 +970,10 @@ class MonteCarloLocalization:
             slots = np.concatenate([np.flatnonzero(fresh & ~held), np.flatnonzero(~fresh)])[:n_inject]
             drawn_poses = reset_poses
             if drawn_poses is None:
-                # A track that global localization found and that has never passed the too-long
-                # test may be a look-alike anywhere: it is searched for over the whole free space
-                # at once, with the cast table's screening too (docs/benchmarks.md "Run 7d").
+                # A track that global localization found and that has not yet passed the too-long
+                # test on global_after scans in a row may be a look-alike anywhere: it is searched
+                # for over the whole free space at once, with the cast table's screening too
+                # (docs/benchmarks.md "Run 7d").
                 wide = self._unconfirmed
                 far = wide or self._lost_scans == 0 or self._lost_scans >= cfg.global_after
                 drawn_poses = self._scan_drawn_poses(
