@@ -35,9 +35,13 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    *contradicts* the track and ``max_injection`` of the samples are reset. The reset poses are
    drawn from candidates around the estimate (a drift in a crowd, a kidnap by a metre) and,
    once the track has been contradicted on ``global_after`` scans in a row, also over the whole
-   free space, annealed on the scan's likelihood under a beam model with ray-cast expected
-   ranges whose "short" component is the crowd (``recovery_model``): unlike the likelihood
-   field, which scores a beam by its endpoint, it sees a look-alike place's beams cross walls.
+   free space (at once, and with the cast table's screening, :mod:`tourbot.localization.
+   cast_table`, while the track is one that global localization settled on and that has not yet
+   passed the too-long test on ``global_after`` judged scans in a row: such a track was never
+   right, and a look-alike may lie anywhere; FHW, docs/benchmarks.md "Run 7d"), annealed on
+   the scan's likelihood under a beam model with ray-cast expected ranges whose "short"
+   component is the crowd (``recovery_model``): unlike the likelihood field, which scores a
+   beam by its endpoint, it sees a look-alike place's beams cross walls.
    Injected samples are *fresh* (guesses) until one guess has won ``fresh_wins`` consecutive
    scans: each scan, the guesses (clusters of fresh samples) are judged at their means by the
    crowd beam model against the track, and the best one that the too-long test does not
@@ -218,7 +222,10 @@ class MCLConfig:
         resetting's ``injection_local_candidates`` 10000): only places more than
         ``verify_distance`` away count, and the table covers the whole free space.
         ``global_after`` 3: consecutive contradicted scans before the reset candidates include the
-        whole free space. ``injection_local_candidates`` poses around the estimate
+        whole free space (from the first one, with the cast table's poses, for a track from
+        global localization that has not yet passed the too-long test on ``global_after`` judged
+        scans in a row).
+        ``injection_local_candidates`` poses around the estimate
         (``injection_local_std`` 1 m, any heading) and the ``injection_survivors`` best of
         ``injection_candidates`` uniform ones (screened by the likelihood field of the
         ``injection_long_fraction`` longest returns, no ray casting) are annealed on the crowd
@@ -353,6 +360,11 @@ class MonteCarloLocalization:
         # Set by reset_global: the first scan is integrated by the annealed global start.
         self._global_cells: tuple[OccupancyGrid, IntArray] | None = None
         self._global_phase = False  # from reset_global until one cluster holds the belief
+        # From reset_global until the track has passed the too-long test on global_after judged
+        # scans in a row: a track that was never right (global localization settled on a
+        # look-alike) is searched for over the whole free space at once.
+        self._unconfirmed = False
+        self._passed = 0  # consecutive judged scans whose track passed the too-long test
         self.last_estimate: LocalizationEstimate | None = None
 
     # ------------------------------------------------------------------ initialisation
@@ -384,6 +396,7 @@ class MonteCarloLocalization:
         self._set_belief(_uniform_free_poses(g, cells, self.config.global_samples, self.rng))
         self._global_cells = (g, cells)
         self._global_phase = True
+        self._unconfirmed = True
 
     def _set_belief(self, samples: FloatArray) -> None:
         self.samples = np.ascontiguousarray(samples, dtype=np.float64)
@@ -401,6 +414,8 @@ class MonteCarloLocalization:
         self._verify_until = -math.inf  # until then every scan is verified (after a recovery)
         self._global_cells = None
         self._global_phase = False
+        self._unconfirmed = False
+        self._passed = 0
 
     # ------------------------------------------------------------------ the filter
 
@@ -764,8 +779,13 @@ class MonteCarloLocalization:
             pass  # not judged, or the crowd hides the building: no evidence either way
         elif too_long > cfg.lost_fraction:
             self._lost_scans += 1
+            self._passed = 0
         else:
             self._lost_scans = 0
+            self._passed += 1
+            # A wrong track passes now and then (0.28 at a look-alike 17 m off, FHW seed 4):
+            # only global_after passes in a row confirm a track from global localization.
+            self._unconfirmed = self._unconfirmed and self._passed < cfg.global_after
         # The track stays contradicted through scans that are no evidence (NaN), and while the
         # last verification found a clearly better place (``_suspect``).
         contradicted = self._global_phase or self._lost_scans > 0 or self._suspect
@@ -950,8 +970,15 @@ class MonteCarloLocalization:
             slots = np.concatenate([np.flatnonzero(fresh & ~held), np.flatnonzero(~fresh)])[:n_inject]
             drawn_poses = reset_poses
             if drawn_poses is None:
-                far = self._lost_scans == 0 or self._lost_scans >= cfg.global_after
-                drawn_poses = self._scan_drawn_poses(n_inject, ranges, geometry, field_, valid, estimate, far)
+                # A track that global localization found and that has not yet passed the too-long
+                # test on global_after scans in a row may be a look-alike anywhere: it is searched
+                # for over the whole free space at once, with the cast table's screening too
+                # (docs/benchmarks.md "Run 7d").
+                wide = self._unconfirmed
+                far = wide or self._lost_scans == 0 or self._lost_scans >= cfg.global_after
+                drawn_poses = self._scan_drawn_poses(
+                    n_inject, ranges, geometry, field_, valid, estimate, far, table=wide
+                )
             slots = slots[: drawn_poses.shape[0]]
             new[slots] = drawn_poses[: slots.size]
             fresh[slots] = True
@@ -973,6 +1000,7 @@ class MonteCarloLocalization:
         keep_fresh: bool = False,
         rng: np.random.Generator | None = None,
         verifying: bool = False,
+        table: bool = False,
     ) -> FloatArray:
         """Sensor resetting: ``n`` poses drawn from candidates by the crowd beam model of the
         current scan (:meth:`_crowd_log_likelihood`).
@@ -985,7 +1013,8 @@ class MonteCarloLocalization:
         ``injection_candidates`` poses uniform over the free space, screened by the likelihood
         field of the longest returns (cheap, no ray casting; ``verify_candidates`` of them for a
         verification, ``verifying``, which also adds the ``table_survivors`` best poses of the cast
-        table, :meth:`_table_poses`), and with ``keep_fresh`` the fresh
+        table, :meth:`_table_poses`; so does ``table``, for a track from global localization not
+        yet confirmed by the too-long test), and with ``keep_fresh`` the fresh
         samples (earlier scans' guesses, moved by the odometry since: a search that missed the
         true place once need not miss it again). The pool is then annealed on the
         beam model (every ``global_beam_step``-th return first, all of them after) down to
@@ -1011,7 +1040,7 @@ class MonteCarloLocalization:
             if longest.any():
                 far_poses = self._anneal(far_poses, keep, ranges, geometry, field_, longest, 1, rng=rng)[0]
             pool.append(far_poses[: cfg.injection_survivors])
-        if far and verifying:
+        if far and (verifying or table):
             pool.append(self._table_poses(ranges, geometry, valid))
         if keep_fresh and self._fresh.any():
             pool.append(self.samples[self._fresh])  # the guesses of earlier scans, moved since
