@@ -138,13 +138,20 @@ def test_a_wall_reads_one_and_unexplored_space_its_level() -> None:
         assert field[mid, -3] == pytest.approx(params.unknown_level, abs=1e-6)  # never seen
 
 
-def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
+def _three_beams_the_middle_one_free_only() -> tuple[IncrementalMapper, IncrementalMapper]:
+    """One scan of three beams ending 2 m ahead, written whole and with its middle beam free-only
+    (a person's beam)."""
     geom = LaserGeometry(3, -0.1, 0.1, 30.0)
     scan = Scan(0.0, np.array([2.0, 2.0, 2.0]), geom, odom=(0.0, 0.0, 0.0))
     both = IncrementalMapper(start=np.zeros(3))
     both.integrate(scan, np.zeros(3))
     person = IncrementalMapper(start=np.zeros(3))
     person.integrate(scan, np.zeros(3), free_only=np.array([False, True, False]))
+    return both, person
+
+
+def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
+    both, person = _three_beams_the_middle_one_free_only()
     ahead = np.array([[1.0, 0.0], [2.0, 0.0]])  # in front of the middle beam's end, and its end
     plain, cut = both.evidence(ahead), person.evidence(ahead)
     assert cut[0] == plain[0] < 0  # the space in front of the person is free as before
@@ -155,12 +162,7 @@ def test_free_only_beams_clear_space_but_leave_no_obstacle() -> None:
 def test_extra_hits_go_into_the_returned_grid_only() -> None:
     """A free-only beam's end given back as an extra hit makes the grid what writing the beam whole
     gives there; the map itself keeps its counts."""
-    geom = LaserGeometry(3, -0.1, 0.1, 30.0)
-    scan = Scan(0.0, np.array([2.0, 2.0, 2.0]), geom, odom=(0.0, 0.0, 0.0))
-    both = IncrementalMapper(start=np.zeros(3))
-    both.integrate(scan, np.zeros(3))
-    person = IncrementalMapper(start=np.zeros(3))
-    person.integrate(scan, np.zeros(3), free_only=np.array([False, True, False]))
+    both, person = _three_beams_the_middle_one_free_only()
     end = np.array([[2.0, 0.0]])
     cell = tuple(person.grid().world_to_cell(end)[0])
     back = person.grid(extra_hits=end)
