@@ -43,6 +43,7 @@ demo: setup $(KERNELS_STAMP)
 lint: setup
 	$(BIN)/ruff check src tests
 	$(BIN)/ruff format --check src tests
+	$(BIN)/lint-imports
 
 typecheck: setup
 	$(BIN)/mypy

@@ -6,11 +6,10 @@ from dataclasses import replace
 
 import pytest
 
-from tourbot.cli._tour_view import start_pose_for
-from tourbot.runtime import NavMode
-from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
-from tourbot.runtime.snapshot import StateSnapshot
+from tourbot.app.demo import start_pose_for
+from tourbot.app.simulated import SimulationSettings, simulated_runtime
 from tourbot.site.default import default_site
+from tourbot.snapshot import NavMode, StateSnapshot
 
 
 @pytest.mark.slow

@@ -3,9 +3,9 @@ from __future__ import annotations
 import numpy as np
 
 from tests.people.scenes import legs_of, scan_with_circles
+from tourbot.interfaces import Estimator, PoseBelief
 from tourbot.people.estimator import PeopleEstimator
-from tourbot.runtime.interfaces import Estimator, PoseBelief
-from tourbot.runtime.snapshot import PoseEstimate
+from tourbot.snapshot import PoseEstimate
 
 
 def test_estimator_publishes_confirmed_people_in_the_world_frame() -> None:

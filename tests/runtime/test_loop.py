@@ -8,23 +8,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
-from tourbot.runtime import (
+from tourbot.interfaces import (
+    DrivableSource,
+    Estimator,
     EstimatorOutput,
-    GroundTruth,
-    NavigationStatus,
-    NavMode,
-    PersonState,
+    Localizer,
     PoseBelief,
-    PoseEstimate,
-    Runtime,
-    RuntimeConfig,
-    RuntimeControlError,
     ScanShare,
-    StateSnapshot,
+    Sink,
 )
-from tourbot.runtime.interfaces import DrivableSource, Estimator, Localizer, Sink
+from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
+from tourbot.runtime import Runtime, RuntimeConfig, RuntimeControlError
 from tourbot.runtime.sources import LogSource
+from tourbot.snapshot import GroundTruth, NavigationStatus, NavMode, PersonState, PoseEstimate, StateSnapshot
 
 GEOM = LaserGeometry(num_beams=3, angle_min=-1.0, angle_increment=1.0, max_range=10.0)
 

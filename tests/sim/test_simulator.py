@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from tourbot.records import Odometry, Scan
+from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import CrowdConfig
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
-from tourbot.sim.robot import DiffDrive, DiffDriveConfig, integrate_arc
+from tourbot.sim.robot import DiffDrive, integrate_arc
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site import Site
 

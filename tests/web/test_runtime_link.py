@@ -3,7 +3,7 @@ from __future__ import annotations
 from typing import Any, cast
 
 from tourbot.runtime.loop import Runtime
-from tourbot.runtime.snapshot import (
+from tourbot.snapshot import (
     GroundTruth,
     NavigationStatus,
     NavMode,

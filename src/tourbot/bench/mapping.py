@@ -518,8 +518,8 @@ def simulated_crowd_log(
     """A guided ``tour`` of ``seconds`` in the shipped FHW site among ``crowd``, as ``tourbot
     simulate`` runs it (10 Hz, 360 beams); the log (true poses as reference) and, per scan, which
     beams returned from a visitor ``(S, B)``."""
-    from tourbot.cli._tour_view import start_pose_for
-    from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+    from tourbot.app.demo import start_pose_for
+    from tourbot.app.simulated import SimulationSettings, simulated_runtime
     from tourbot.sim.simulator import SimConfig
     from tourbot.site.default import default_site
 

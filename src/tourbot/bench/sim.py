@@ -9,7 +9,7 @@ and the localization error along the way (mean, 99th percentile, share of time w
 Kidnaps (``--kidnap-seeds``): per crowd and seed, the robot is carried ``--kidnap-distance`` metres
 to a free pose (any heading) once while it stands before its tour and once while it tours, and the
 time until its estimate is within 0.3 m and 10 deg of the truth for 3 s is measured
-(:func:`tourbot.runtime.simulated.time_to_recover`), up to ``--kidnap-window`` seconds.
+(:func:`tourbot.app.simulated.time_to_recover`), up to ``--kidnap-window`` seconds.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ import typer
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
+    from tourbot.app.simulated import SimulationSettings
     from tourbot.bench._report import BenchReport
     from tourbot.maps.grid import OccupancyGrid
-    from tourbot.runtime.simulated import SimulationSettings
     from tourbot.site.model import Site
 
 __all__ = ["register"]
@@ -106,7 +106,7 @@ def _kidnap(
 ) -> KidnapRun:
     """Stand (``tour`` None) or tour until ``at`` + U(0, ``spread``) seconds (the kidnap falls
     anywhere between two of the localizer's verifications), carry the robot off, time its recovery."""
-    from tourbot.runtime.simulated import simulated_runtime, time_to_recover
+    from tourbot.app.simulated import simulated_runtime, time_to_recover
 
     rng = np.random.default_rng([settings.seed, int(tour is None)])
     at += rng.uniform(0.0, spread)
@@ -131,7 +131,7 @@ def _sim_speed(site: Site, people: int, steps: int, seed: int = 0) -> tuple[floa
     Timed after a warm-up while the robot drives slow arcs. The CPU-time factor is what one
     dedicated core gives; on a shared machine the wall-clock factor is lower by the load.
     """
-    from tourbot.runtime.simulated import crowd_config
+    from tourbot.app.simulated import crowd_config
     from tourbot.sim.simulator import SimConfig, Simulator
 
     start = site.exhibits[0].viewing_pose
@@ -176,11 +176,11 @@ def register(bench: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import Progress
 
+        from tourbot.app.demo import start_pose_for
+        from tourbot.app.simulated import SimulationSettings, simulated_runtime
         from tourbot.bench._report import BenchReport
-        from tourbot.cli._tour_view import start_pose_for
-        from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
-        from tourbot.runtime.snapshot import NavMode
         from tourbot.site.default import default_site
+        from tourbot.snapshot import NavMode
 
         console = Console()
         site = default_site()

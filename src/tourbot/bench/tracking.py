@@ -280,13 +280,13 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int =
     from dataclasses import replace
 
     from tourbot.geometry import invert, transform_points
-    from tourbot.people.ego_motion import ScanMatchedPoses
+    from tourbot.mapping.ego_motion import ScanMatchedPoses
     from tourbot.people.leg_training import annotated_scans
     from tourbot.people.legs import LegConfig
     from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 
     cfg = SJPDAFConfig(legs=replace(LegConfig(), model=model))
-    tracker = PeopleTracker(cfg, rng=np.random.default_rng(seed), ego_motion=ScanMatchedPoses())
+    tracker = PeopleTracker(cfg, rng=np.random.default_rng(seed), pose_source=ScanMatchedPoses())
     good_tracks = n_tracks = covered = n_legs = scans = 0
     for scan, truth in annotated_scans(bag):
         scans += 1
@@ -308,10 +308,10 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int =
 
 def negative_false_alarms(bag: Path, seed: int = 0) -> list[dict[str, float | str]]:
     """Confirmed tracks per scan on each laser of a people-free bag. The bag has no odometry or
-    tf while the robot drives: poses come from scan-to-map matching (:mod:`tourbot.people.
+    tf while the robot drives: poses come from scan-to-map matching (:mod:`tourbot.mapping.
     ego_motion`). ``seed`` seeds the tracker's particle filters."""
     from tourbot.io.rosbag import bag_topics, read_bag
-    from tourbot.people.ego_motion import ScanMatchedPoses
+    from tourbot.mapping.ego_motion import ScanMatchedPoses
     from tourbot.people.sjpdaf import PeopleTracker
 
     rows: list[dict[str, float | str]] = []
@@ -321,7 +321,7 @@ def negative_false_alarms(bag: Path, seed: int = 0) -> list[dict[str, float | st
         log = read_bag(bag, scan_topic=topic)
         odometry = all(s.odom is not None for s in log.scans)
         ego = None if odometry else ScanMatchedPoses()
-        tracker = PeopleTracker(rng=np.random.default_rng(seed), ego_motion=ego)
+        tracker = PeopleTracker(rng=np.random.default_rng(seed), pose_source=ego)
         confirmed = legs = 0
         ids: set[int] = set()
         cpu = time.process_time()

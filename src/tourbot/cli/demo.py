@@ -68,7 +68,7 @@ def register(app: typer.Typer) -> None:
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
         if record:
-            from tourbot.cli._tour_view import run_tour
+            from tourbot.app.demo import run_tour
 
             run_tour(
                 site=site,
@@ -114,7 +114,7 @@ def _serve(
 
     from rich.console import Console
 
-    from tourbot.runtime.simulated import crowd_config
+    from tourbot.app.simulated import crowd_config
     from tourbot.web.serve import ServeSettings, build_site_app, run
 
     console = Console()

@@ -84,7 +84,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.mapserver import read_map
         from tourbot.io.output import check_output, output_file
         from tourbot.io.rosbag import read_bag
-        from tourbot.people.ego_motion import ScanMatchedPoses
+        from tourbot.mapping.ego_motion import ScanMatchedPoses
         from tourbot.people.sjpdaf import PeopleTracker
 
         check_output(output)
@@ -101,7 +101,7 @@ def register(app: typer.Typer) -> None:
             pose = PoseSource.odom if has_odom else PoseSource.scan_matching
             typer.echo(f"robot pose from {pose.value}")
         ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
-        tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), ego_motion=ego)
+        tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), pose_source=ego)
         rows = 0
         ids: set[int] = set()
         paths: dict[int, list[tuple[float, float]]] = {}

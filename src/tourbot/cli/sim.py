@@ -32,12 +32,12 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
         from rich.progress import Progress
 
-        from tourbot.cli._tour_view import start_pose_for
+        from tourbot.app.demo import start_pose_for
+        from tourbot.app.simulated import SimulationSettings, simulated_runtime
         from tourbot.errors import InputError
         from tourbot.io.carmen import write_carmen
         from tourbot.io.output import write_text_whole
         from tourbot.io.tum import write_tum
-        from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
         from tourbot.sim.simulator import SimConfig
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site

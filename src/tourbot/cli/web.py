@@ -62,8 +62,8 @@ def register(app: typer.Typer) -> None:
         ] = True,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
+        from tourbot.app.simulated import crowd_config
         from tourbot.errors import InputError
-        from tourbot.runtime.simulated import crowd_config
         from tourbot.web.serve import ServeSettings, build_site_app, run
 
         # checked before the database is opened (and the site imported into it)

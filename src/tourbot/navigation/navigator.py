@@ -27,9 +27,9 @@ from tourbot.navigation.avoidance import DWAConfig, DynamicWindow
 from tourbot.navigation.planner import CostMap, NoPathError, PlannerConfig
 from tourbot.navigation.tour import TourExecutor
 from tourbot.records import Scan
-from tourbot.runtime.snapshot import NavigationStatus, NavMode, StateSnapshot
-from tourbot.sim.robot import DiffDriveConfig
+from tourbot.robot import DiffDriveConfig
 from tourbot.site.model import Site
+from tourbot.snapshot import NavigationStatus, NavMode, StateSnapshot
 
 __all__ = ["NavigationConfig", "SiteNavigator"]
 

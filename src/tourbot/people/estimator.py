@@ -1,6 +1,6 @@
 """The people tracker as a runtime estimator: scans and the robot's pose belief in, tracks out.
 
-It satisfies :class:`tourbot.runtime.interfaces.Estimator`: the runtime hands it every scan with
+It satisfies :class:`tourbot.interfaces.Estimator`: the runtime hands it every scan with
 the localizer's belief, and reads its tracks (confirmed ones, in the world frame) into the state
 snapshot, from where the web view draws them as avatars and the navigator avoids them.
 """
@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig, Track
 from tourbot.records import Odometry, Scan
-from tourbot.runtime.interfaces import EstimatorOutput, PoseBelief, ScanShare
-from tourbot.runtime.snapshot import PersonState
+from tourbot.snapshot import PersonState
 
 __all__ = ["PeopleEstimator"]
 

@@ -7,8 +7,9 @@ resampled. Around it: features from the scan (:mod:`tourbot.people.legs`), stati
 removed by the difference of occupancy grids and the map (:mod:`tourbot.people.static_filter`), an
 occlusion map that keeps hidden people's tracks alive (:mod:`tourbot.people.occlusion`), tracks
 that start, are confirmed and end by rule. Tracks are in the world frame, through the robot's pose
-estimate given with every scan, or, for a recording without odometry, through poses from scan
-matching (:mod:`tourbot.people.ego_motion`, whose map built on the fly is then the static world).
+estimate given with every scan, or, for a recording without odometry, through a
+:class:`ScanPoseSource` handed to the tracker (scan matching, :mod:`tourbot.mapping.ego_motion`,
+whose map built on the fly is then the static world).
 Leg detections that stay fixed in the laser frame while the robot moves are its own body
 (:class:`~tourbot.people.static_filter.RobotBodyMask`).
 
@@ -18,6 +19,7 @@ Leg detections that stay fixed in the laser frame while the robot moves are its 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,16 +27,37 @@ from numpy.typing import NDArray
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
-from tourbot.people.ego_motion import ScanMatchedPoses
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
 from tourbot.people.static_filter import RobotBodyMask, StaticConfig, StaticFilter
 from tourbot.records import Scan
 
-__all__ = ["PeopleTracker", "SJPDAFConfig", "Track"]
+__all__ = ["PeopleTracker", "SJPDAFConfig", "ScanPoseSource", "Track"]
 
 FloatArray = NDArray[np.float64]
+
+
+class ScanPoseSource(Protocol):
+    """Where the robot's poses come from when the recording has none (no odometry, no tf).
+
+    Per scan the tracker calls, in this order: :meth:`match` (the pose of the scan), :meth:`on_map`
+    for the legs of that scan (points on the static world built so far stand still), then
+    :meth:`integrate` (the scan joins that world, but for the beams ending on ``people``).
+    :class:`tourbot.mapping.ego_motion.ScanMatchedPoses` is one (scan-to-map matching).
+    """
+
+    def match(self, scan: Scan) -> FloatArray:
+        """The pose ``(3,)`` of ``scan`` in the world frame."""
+        ...
+
+    def on_map(self, world_points: FloatArray) -> NDArray[np.bool_]:
+        """Whether each point ``(M, 2)`` lies on the static world built from the earlier scans."""
+        ...
+
+    def integrate(self, scan: Scan, pose: FloatArray, people: FloatArray | None = None) -> None:
+        """Add ``scan`` taken at ``pose`` to the static world, but for beams ending on ``people``."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -72,7 +95,7 @@ class SJPDAFConfig:
     person lost for good), or leave ``max_range`` of the robot, or after ``max_unseen`` seconds
     without a detection, occluded or not (the occlusion map keeps a hidden person's track alive
     for a while, Fig. 7, but a track coasting longer drifts off the person and is a false alarm).
-    With scan-matched poses (``ego_motion``) and ``map_without_people``, beams ending on a
+    With a ``pose_source`` (scan-matched poses) and ``map_without_people``, beams ending on a
     confirmed person are left out of the map built on the fly.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends (a person seen as
     two separate legs may start two). ``confirm_hits`` (2), ``max_unseen`` (1.5 s) and
@@ -169,13 +192,13 @@ class PeopleTracker:
         *,
         grid_map: OccupancyGrid | None = None,
         rng: np.random.Generator | None = None,
-        ego_motion: ScanMatchedPoses | None = None,
+        pose_source: ScanPoseSource | None = None,
     ) -> None:
         self.config = config or SJPDAFConfig()
         self.rng = rng or np.random.default_rng(0)
         self.static = StaticFilter(self.config.static, grid_map)
         self.body = RobotBodyMask(self.config.static)
-        self.ego_motion = ego_motion
+        self.pose_source = pose_source
         self.last_pose = np.zeros(3)
         self._samples = np.zeros((0, self.config.num_samples, 4))
         self._states: list[_TrackState] = []
@@ -192,15 +215,15 @@ class PeopleTracker:
     ) -> list[Track]:
         """Integrate one scan taken at ``robot_pose`` (world frame); return all current tracks.
 
-        With ``ego_motion`` (a recording without odometry) the pose comes from scan matching
-        instead and ``robot_pose`` must be None; the pose used is ``last_pose``.
+        With a ``pose_source`` (a recording without odometry) the pose comes from it instead and
+        ``robot_pose`` must be None; the pose used is ``last_pose``.
         """
-        if self.ego_motion is not None:
+        if self.pose_source is not None:
             if robot_pose is not None:
-                raise ValueError("a tracker with ego_motion takes its poses from scan matching")
-            pose = self.ego_motion.match(scan)
+                raise ValueError("a tracker with a pose_source takes its poses from it")
+            pose = self.pose_source.match(scan)
         elif robot_pose is None:
-            raise ValueError("robot_pose is needed without ego_motion")
+            raise ValueError("robot_pose is needed without a pose_source")
         else:
             pose = np.asarray(robot_pose, dtype=np.float64)
         self.last_pose = pose
@@ -211,7 +234,7 @@ class PeopleTracker:
         assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
         self._manage(assoc, features, moving, detect, pose, dt)  # start, confirm, end tracks
-        if self.ego_motion is not None:
+        if self.pose_source is not None:
             # The scan joins the map built on the fly, but for the beams that end on a confirmed
             # person (Burgard et al. Sec. 5): a person walking where they walked before would
             # otherwise stand on "static" cells of their own making.
@@ -219,7 +242,7 @@ class PeopleTracker:
             if self.config.map_without_people:
                 confirmed = np.array([st.confirmed for st in self._states], dtype=bool)
                 people = self._samples[confirmed, :, 0:2].mean(axis=1) if confirmed.any() else None
-            self.ego_motion.integrate(scan, pose, people)
+            self.pose_source.integrate(scan, pose, people)
         return self.tracks()
 
     def tracks(self) -> list[Track]:
@@ -270,8 +293,8 @@ class PeopleTracker:
             legs.probability,
         )
         leg_moving = self.static.moving_probability(world_legs.points, scan, pose)
-        if self.ego_motion is not None:  # legs on the map built so far stand still
-            leg_moving[self.ego_motion.on_map(world_legs.points)] = 0.0
+        if self.pose_source is not None:  # legs on the map built so far stand still
+            leg_moving[self.pose_source.on_map(world_legs.points)] = 0.0
         # A person moves when one of its legs does (the stance leg stands still while walking).
         m = persons.members
         moving = np.zeros(len(persons))

@@ -1,49 +1,10 @@
-"""The runtime: one event loop from a source to estimators, a state snapshot, the navigator and sinks."""
+"""The runtime: one event loop from a source to estimators, a state snapshot, the navigator and sinks.
 
-from tourbot.runtime.interfaces import (
-    DrivableSource,
-    Estimator,
-    EstimatorOutput,
-    Localizer,
-    Navigator,
-    PoseBelief,
-    ScanShare,
-    Sink,
-    Source,
-)
+The plug-in points it connects are the Protocols of :mod:`tourbot.interfaces`; what it produces is
+the :class:`tourbot.snapshot.StateSnapshot` (both in the bottom layer, so that every part can speak
+them without importing the runtime).
+"""
+
 from tourbot.runtime.loop import Runtime, RuntimeConfig, RuntimeControlError
-from tourbot.runtime.snapshot import (
-    DoorState,
-    FurnitureState,
-    GroundTruth,
-    NavigationStatus,
-    NavMode,
-    PersonState,
-    PoseEstimate,
-    SampleSummary,
-    StateSnapshot,
-)
 
-__all__ = [
-    "DoorState",
-    "DrivableSource",
-    "Estimator",
-    "EstimatorOutput",
-    "FurnitureState",
-    "GroundTruth",
-    "Localizer",
-    "NavMode",
-    "NavigationStatus",
-    "Navigator",
-    "PersonState",
-    "PoseBelief",
-    "PoseEstimate",
-    "Runtime",
-    "RuntimeConfig",
-    "RuntimeControlError",
-    "SampleSummary",
-    "ScanShare",
-    "Sink",
-    "Source",
-    "StateSnapshot",
-]
+__all__ = ["Runtime", "RuntimeConfig", "RuntimeControlError"]

@@ -1,6 +1,6 @@
 """An animation (GIF) of a recorded run: the map, the robot, its samples, the people, the paths.
 
-Frames are drawn from :class:`~tourbot.runtime.snapshot.StateSnapshot` recordings only, so any
+Frames are drawn from :class:`~tourbot.snapshot.StateSnapshot` recordings only, so any
 run (simulated or replayed) can be animated. GIF through imageio (needs no video encoder).
 """
 
@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.runtime.snapshot import StateSnapshot
+from tourbot.snapshot import StateSnapshot
 
 __all__ = ["animate", "view_bounds"]
 

@@ -8,9 +8,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tourbot.interfaces import PoseBelief
 from tourbot.records import Odometry, Scan
-from tourbot.runtime.interfaces import PoseBelief
-from tourbot.runtime.snapshot import PoseEstimate, SampleSummary
+from tourbot.snapshot import PoseEstimate, SampleSummary
 
 if TYPE_CHECKING:
     from tourbot.localization.mcl import MonteCarloLocalization

@@ -2,7 +2,7 @@
 
 Read :meth:`Runtime.step` first: poll the source, feed odometry and scans to the localizer and the
 estimators (alternating scans as in Table 1 of Schulz and Burgard 2001 for those that ask), build
-the :class:`~tourbot.runtime.snapshot.StateSnapshot`, let the navigator choose a velocity from that
+the :class:`~tourbot.snapshot.StateSnapshot`, let the navigator choose a velocity from that
 snapshot (never from ground truth), and hand the snapshot to every sink.
 
 A web server drives it from its own loop or thread: :meth:`snapshot` returns the last immutable
@@ -18,8 +18,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 from tourbot.errors import TourbotError
-from tourbot.records import Odometry, Scan
-from tourbot.runtime.interfaces import (
+from tourbot.interfaces import (
     DrivableSource,
     Estimator,
     Localizer,
@@ -29,7 +28,8 @@ from tourbot.runtime.interfaces import (
     Sink,
     Source,
 )
-from tourbot.runtime.snapshot import NavigationStatus, StateSnapshot
+from tourbot.records import Odometry, Scan
+from tourbot.snapshot import NavigationStatus, StateSnapshot
 
 __all__ = ["Runtime", "RuntimeConfig", "RuntimeControlError"]
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from tourbot.io.output import output_file
-from tourbot.runtime.snapshot import NavMode, StateSnapshot
+from tourbot.snapshot import NavMode, StateSnapshot
 
 __all__ = ["MetricsSink", "Recorder", "TourMetrics"]
 

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.runtime.snapshot import DoorState, FurnitureState
 from tourbot.site.model import Door, Furniture, Schedule, Site, rasterize_polygons
+from tourbot.snapshot import DoorState, FurnitureState
 
 __all__ = ["DynamicObjects"]
 

@@ -24,13 +24,14 @@ from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Odometry, Record, RobotLog, Scan
-from tourbot.runtime.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
+from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import Crowd, CrowdConfig
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
-from tourbot.sim.robot import DiffDrive, DiffDriveConfig
+from tourbot.sim.robot import DiffDrive
 from tourbot.site.model import Site
+from tourbot.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 
 __all__ = ["Collisions", "SimConfig", "Simulator"]
 
@@ -67,7 +68,7 @@ class Collisions:
 
 
 class Simulator:
-    """A drivable source (``tourbot.runtime.interfaces.DrivableSource``) over a site."""
+    """A drivable source (``tourbot.interfaces.DrivableSource``) over a site."""
 
     def __init__(
         self,

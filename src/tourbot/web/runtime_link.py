@@ -1,7 +1,7 @@
 """The robot's runtime (:mod:`tourbot.runtime`) seen through the web's :class:`RobotLink`.
 
 The simulator runtime and a real robot's runtime both give a plain
-:class:`~tourbot.runtime.snapshot.StateSnapshot`; this adapter turns it into the web's
+:class:`~tourbot.snapshot.StateSnapshot`; this adapter turns it into the web's
 :class:`RobotView` and passes goals, tours and stops on. It shows the *estimated* pose (what the
 robot acts on). People are the tracker's tracks when a tracking estimator runs; without one, a
 simulator's true people are shown (display only, never used for control) and the status says so.
@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from tourbot.errors import TourbotError
 from tourbot.runtime.loop import Runtime
-from tourbot.runtime.snapshot import NavMode, StateSnapshot
+from tourbot.snapshot import NavMode, StateSnapshot
 from tourbot.web.link import NavStatus, PersonView, RobotView
 
 __all__ = ["RuntimeLink"]

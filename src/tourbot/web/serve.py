@@ -66,7 +66,7 @@ class SimulatedRobotFactory:
     speedup: float = 1.0
 
     def __call__(self) -> RobotLink:
-        from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
+        from tourbot.app.simulated import SimulationSettings, simulated_runtime
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
         from tourbot.web.runtime_link import RuntimeLink

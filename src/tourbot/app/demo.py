@@ -12,12 +12,12 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
+from tourbot.app.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
 from tourbot.errors import TourbotError
 from tourbot.io.output import write_text_whole
-from tourbot.runtime.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
-from tourbot.runtime.snapshot import NavMode, StateSnapshot
 from tourbot.site.default import site_path
 from tourbot.site.model import Site, load_site
+from tourbot.snapshot import NavMode, StateSnapshot
 
 __all__ = ["TerminalView", "run_tour", "start_pose_for"]
 

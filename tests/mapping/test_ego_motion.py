@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from tourbot.geometry import invert, relative, transform_points
+from tourbot.mapping.ego_motion import ScanMatchedPoses
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DDACaster
-from tourbot.people.ego_motion import ScanMatchedPoses
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import LaserGeometry, Scan
 
@@ -60,7 +60,7 @@ def test_static_posts_give_no_confirmed_track_from_a_moving_robot(
 ) -> None:
     scans, truth = drive
     ego = ScanMatchedPoses()
-    tracker = PeopleTracker(rng=np.random.default_rng(0), ego_motion=ego)
+    tracker = PeopleTracker(rng=np.random.default_rng(0), pose_source=ego)
     confirmed = sum(sum(t.confirmed for t in tracker.update(scan)) for scan in scans)
     assert confirmed == 0
     # The poses came from scan matching; the first scan is the origin of the world frame.
@@ -83,7 +83,7 @@ def test_a_person_walking_past_is_still_tracked(drive: tuple[list[Scan], np.ndar
     from tests.people.scenes import legs_of
 
     caster = DDACaster(_room(), GEOMETRY.max_range)
-    tracker = PeopleTracker(rng=np.random.default_rng(0), ego_motion=ScanMatchedPoses())
+    tracker = PeopleTracker(rng=np.random.default_rng(0), pose_source=ScanMatchedPoses())
     seen = 0
     for k, scan in enumerate(scans):
         person = (4.0 + 0.08 * k, 5.5)  # walking at 0.8 m/s along +x

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.records import Odometry, Record, Scan
-from tourbot.runtime.snapshot import (
+from tourbot.snapshot import (
     DoorState,
     FurnitureState,
     GroundTruth,

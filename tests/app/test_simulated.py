@@ -8,11 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from tourbot.runtime import NavMode, RuntimeControlError
+from tourbot.app.simulated import SimulationSettings, crowd_config, simulated_runtime, time_to_recover
+from tourbot.runtime import RuntimeControlError
 from tourbot.runtime.animation import animate
-from tourbot.runtime.simulated import SimulationSettings, crowd_config, simulated_runtime, time_to_recover
 from tourbot.runtime.sinks import Recorder
 from tourbot.site import Site, SiteError, site_from_dict
+from tourbot.snapshot import NavMode
 
 HALL = json.loads((Path(__file__).parent / "hall.json").read_text())
 

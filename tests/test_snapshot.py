@@ -2,7 +2,7 @@ from __future__ import annotations
 
 import json
 
-from tourbot.runtime.snapshot import (
+from tourbot.snapshot import (
     DoorState,
     FurnitureState,
     GroundTruth,

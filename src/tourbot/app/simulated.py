@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from tourbot.interfaces import Sink
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
-from tourbot.runtime.interfaces import Sink
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 from tourbot.runtime.loop import Runtime, RuntimeConfig
 from tourbot.runtime.sinks import MetricsSink, Recorder

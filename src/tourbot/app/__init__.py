@@ -1,0 +1,1 @@
+"""The applications built from the parts: the ready-wired simulated robot and the demo tour."""

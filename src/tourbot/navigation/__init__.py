@@ -1,0 +1,1 @@
+"""Navigation: global planner, collision avoidance among people, tour executor, site navigator."""
