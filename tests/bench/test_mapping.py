@@ -51,7 +51,7 @@ def test_slam_starts_where_told_and_both_starts_track_the_path() -> None:
     from tests.mapping.conftest import building, drive
     from tourbot.bench.mapping import _slam
     from tourbot.geometry import compose
-    from tourbot.mapping.metrics import relative_pose_error
+    from tourbot.metrics import relative_pose_error
 
     log = drive(building(), n=60)
     shift = np.array([2.0, -1.0, np.radians(30.0)])

@@ -16,8 +16,8 @@ from tourbot.mapping.incremental import (
     _stamp_cells,
     _stamp_cells_reference,
 )
-from tourbot.mapping.metrics import relative_pose_error
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.metrics import relative_pose_error
 from tourbot.records import LaserGeometry, RobotLog, Scan
 
 

@@ -9,7 +9,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from tourbot.mapping.incremental import IncrementalMapper
-from tourbot.mapping.metrics import relative_pose_error
 from tourbot.mapping.people_filter import (
     FILTER_MODES,
     PeopleFilteredMapper,
@@ -20,6 +19,7 @@ from tourbot.mapping.people_filter import (
 )
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DDACaster
+from tourbot.metrics import relative_pose_error
 from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import LaserGeometry, RobotLog, Scan
 

@@ -31,12 +31,11 @@ import typer
 from numpy.typing import NDArray
 
 from tourbot.bench._report import BenchReport, default_output
+from tourbot.metrics import FAILURE_DISTANCE, converged_index, failure_rate, recovery
 
 __all__ = [
-    "FAILURE_DISTANCE",
     "TARGET_REALTIME",
     "LogRun",
-    "recovery_times",
     "register",
     "run_grid_bench",
     "run_log",
@@ -44,8 +43,6 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
-FAILURE_DISTANCE = 0.45  # m: "a failure if the estimated location deviated ... by more than 45cm"
-RECOVERED_FOR = 10.0  # s: "smaller than 45cm for more than 10 seconds"
 TARGET_REALTIME = 10.0  # the issue's target: >= 10x faster than real time on FHW
 
 
@@ -107,30 +104,6 @@ def run_log(
         if advance is not None:
             advance()
     return LogRun(out["t"], out["e"], out["h"], out["s"], out["c"], out["u"], out["n"], poses)
-
-
-def recovery_times(times: FloatArray, errors: FloatArray, kidnap_times: Sequence[float]) -> list[float]:
-    """Seconds from each kidnap to the start of the first stretch of more than ``RECOVERED_FOR``
-    seconds within ``FAILURE_DISTANCE`` (NaN when that never happens before the next kidnap or the
-    end of the log)."""
-    out = []
-    ends = [*kidnap_times[1:], math.inf]
-    for t0, t_end in zip(kidnap_times, ends, strict=True):
-        rec = math.nan
-        i = int(np.searchsorted(times, t0))
-        while i < times.size and times[i] < t_end:
-            if errors[i] < FAILURE_DISTANCE:
-                j = i
-                while j + 1 < times.size and times[j + 1] < t_end and errors[j + 1] < FAILURE_DISTANCE:
-                    j += 1
-                if times[j] - times[i] > RECOVERED_FOR:
-                    rec = float(times[i] - t0)
-                    break
-                i = j + 1
-            else:
-                i += 1
-        out.append(rec)
-    return out
 
 
 def run_grid_bench(
@@ -228,7 +201,7 @@ def run_grid_bench(
             scans=len(log),
             **{
                 "mean err cm": 100 * float(run.errors.mean()),
-                "failures %": 100 * float((run.errors > FAILURE_DISTANCE).mean()),
+                "failures %": 100 * failure_rate(run.errors),
                 "s / update": float(run.update_seconds.mean()),
                 "p95 s": float(np.percentile(run.update_seconds, 95)),
                 "x real time": rt,
@@ -256,16 +229,14 @@ def run_grid_bench(
         run = run_log(
             loc, log, start, start + global_scans, stepper(f"global from scan {start}", global_scans)
         )
-        ok = np.flatnonzero(run.errors < FAILURE_DISTANCE)
-        settled = [i for i in ok.tolist() if (run.errors[i:] < FAILURE_DISTANCE).all()]
-        first = settled[0] if settled else None
+        first = converged_index(run.errors)
         report.add(
             experiment=f"global from scan {start}",
             filter="novelty",
             scans=global_scans,
             **{
                 "mean err cm": 100 * float(run.errors[-1]),
-                "failures %": 100 * float((run.errors > FAILURE_DISTANCE).mean()),
+                "failures %": 100 * failure_rate(run.errors),
                 "s / update": float(run.update_seconds[1:].mean())
                 if run.update_seconds.size > 1
                 else math.nan,
@@ -283,7 +254,7 @@ def run_grid_bench(
     # Recovery from kidnapping (Table 1, "Recovery")
     for name in kidnap_filters:
         rec: list[float] = []
-        n_kid = 0
+        n_kid = censored = 0
         seconds: list[float] = []
         kid_times: list[float] = []
         for seed in kidnap_seeds:
@@ -295,7 +266,9 @@ def run_grid_bench(
             loc = new(name)
             loc.reset_tracking(ref0, np.diag([0.1, 0.1, math.radians(3.0)]) ** 2)
             run = run_log(loc, kid_log, advance=stepper(f"kidnap {name}, seed {seed}", len(log)))
-            rec += recovery_times(run.times, run.errors, [k.time for k in kidnaps])
+            for r in recovery(run.errors, run.times, [k.scan for k in kidnaps]):
+                censored += r is None
+                rec.append(math.nan if r is None or not r.recovered else r.seconds)
             n_kid += len(kidnaps)
             seconds += run.update_seconds.tolist()
         arr = np.array(rec)
@@ -312,10 +285,14 @@ def run_grid_bench(
                 "x real time": math.nan,
                 "x real time cpu": math.nan,
                 "target": "recovers",
-                "result": f"{done.size}/{n_kid} recovered, mean t_rec {done.mean():.0f} s"
-                if done.size
-                else f"0/{n_kid} recovered",
+                "result": (
+                    f"{done.size}/{n_kid - censored} recovered, mean t_rec {done.mean():.0f} s"
+                    if done.size
+                    else f"0/{n_kid - censored} recovered"
+                )
+                + (f" ({censored} censored)" if censored else ""),
                 "recovery seconds": arr.tolist(),
+                "kidnaps censored": censored,
                 "kidnap at log seconds": kid_times,
             },
         )

@@ -37,20 +37,18 @@ import typer
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.bench._report import BenchReport
+from tourbot.metrics import (
+    FAILURE_DISTANCE,
+    failure_rate,
+    mean_ci,
+    pose_errors,
+    recovery,
+    settle_index,
+)
 
-__all__ = [
-    "FAIL_DISTANCE",
-    "RunResult",
-    "mean_ci",
-    "recovery",
-    "register",
-    "settle_index",
-    "tracking_errors",
-]
+__all__ = ["RunResult", "register"]
 
 FloatArray = NDArray[np.float64]
-FAIL_DISTANCE = 0.45  # m, Fox et al. 1998, Sec. "Experimental results"
-STAY = 10.0  # s, "smaller than 45cm for more than 10 seconds"
 KIDNAP_SEED_OFFSET = 10_000
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
 LOGS = {"fhw": "fhw-corrected.log.gz", "intel": "intel-corrected.log.gz"}
@@ -59,71 +57,6 @@ _GRIDS: dict[int, Any] = {}
 
 class Localizer(Protocol):
     def update(self, odom_pose: ArrayLike, scan: Any) -> Any: ...
-
-
-# --------------------------------------------------------------------------------------------
-# Metrics (pure)
-# --------------------------------------------------------------------------------------------
-
-
-def tracking_errors(est: FloatArray, ref: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Position (m) and absolute heading (rad) errors per scan, ``(S,)`` each."""
-    pos = np.hypot(est[:, 0] - ref[:, 0], est[:, 1] - ref[:, 1])
-    head = np.abs(np.remainder(est[:, 2] - ref[:, 2] + np.pi, 2.0 * np.pi) - np.pi)
-    return pos, head
-
-
-def settle_index(err: FloatArray, times: FloatArray, start: int, end: int) -> int | None:
-    """First scan ``j`` in ``[start, end)`` from which the error stays < 45 cm for more than 10 s
-    (or until the end of the log, if that comes first and the error never rises again)."""
-    j = start
-    while j < end:
-        if err[j] >= FAIL_DISTANCE:
-            j += 1
-            continue
-        k = j
-        while k < end and err[k] < FAIL_DISTANCE:
-            k += 1
-        if times[k - 1] - times[j] > STAY or k == len(err):
-            return j
-        j = k
-    return None
-
-
-def recovery(
-    err: FloatArray, times: FloatArray, path: FloatArray, kidnap_scans: list[int]
-) -> list[tuple[bool, float, float] | None]:
-    """Per kidnap: (recovered, seconds, metres travelled) until the error settles below 45 cm
-    before the next kidnap (or the end of the log). ``path`` is the cumulative distance per scan.
-
-    A kidnap followed by the next one within 10 s is *censored* (``None``): no localizer could
-    show the 10 s below 45 cm that count as recovered before it is kidnapped again. So is a
-    kidnap within 10 s of the end of the log that has not settled by then."""
-    out: list[tuple[bool, float, float] | None] = []
-    for i, k0 in enumerate(kidnap_scans):
-        end = kidnap_scans[i + 1] if i + 1 < len(kidnap_scans) else len(err)
-        j = settle_index(err, times, k0, end)
-        if j is None and times[min(end, len(times) - 1)] - times[k0] <= STAY:
-            out.append(None)
-        elif j is None:
-            out.append((False, math.nan, math.nan))
-        else:
-            out.append((True, float(times[j] - times[k0]), float(path[j] - path[k0])))
-    return out
-
-
-def mean_ci(values: ArrayLike) -> tuple[float, float]:
-    """Mean and half-width of its 95 % confidence interval (Student t; 0 for one value)."""
-    v = np.asarray(values, dtype=np.float64)
-    v = v[np.isfinite(v)]
-    if v.size == 0:
-        return math.nan, math.nan
-    if v.size == 1:
-        return float(v[0]), 0.0
-    from scipy import stats
-
-    t = float(stats.t.ppf(0.975, v.size - 1))
-    return float(v.mean()), float(t * v.std(ddof=1) / math.sqrt(v.size))
 
 
 # --------------------------------------------------------------------------------------------
@@ -394,11 +327,11 @@ def register(bench: typer.Typer) -> None:
                     for d in data:
                         seed = d["seed"]
                         r_s = _run(make("tracking", first, seed), d["sparse"])
-                        e_s, _ = tracking_errors(r_s.est, ref[: len(r_s.est)])
-                        fails_s.append(100.0 * float(np.mean(e_s > FAIL_DISTANCE)))
+                        e_s, _ = pose_errors(r_s.est, ref[: len(r_s.est)])
+                        fails_s.append(100.0 * failure_rate(e_s))
                         r_p = _run(make("tracking", first, seed), d["peak"])
-                        e_p, h_p = tracking_errors(r_p.est, ref[: len(r_p.est)])
-                        fails_p.append(100.0 * float(np.mean(e_p > FAIL_DISTANCE)))
+                        e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
+                        fails_p.append(100.0 * failure_rate(e_p))
                         errs.append(100.0 * float(e_p.mean()))
                         heads.append(float(np.degrees(h_p.mean())))
                         secs.append(1000.0 * float(np.mean(r_p.seconds)))
@@ -407,22 +340,24 @@ def register(bench: typer.Typer) -> None:
                             figure_runs[method] = (r_p, d["peak"])
                         if d["kidnaps"]:
                             r_k = _run(make("tracking", first, seed), d["kidnapped"])
-                            e_k, _ = tracking_errors(r_k.est, ref[: len(r_k.est)])
-                            judged = recovery(e_k, base.times, path, d["kidnaps"])
+                            e_k, _ = pose_errors(r_k.est, ref[: len(r_k.est)])
+                            judged = recovery(e_k, base.times, d["kidnaps"], path)
                             outcomes[seed] = [
-                                {"scan": k, "outcome": None if o is None else list(o)}
+                                {
+                                    "scan": k,
+                                    "outcome": None if o is None else [o.recovered, o.seconds, o.metres],
+                                }
                                 for k, o in zip(d["kidnaps"], judged, strict=True)
                             ]
                             for outcome in judged:
                                 if outcome is None:
                                     censored += 1
                                     continue
-                                ok, t_rec, d_rec = outcome
-                                rec_ok.append(100.0 * ok)
-                                rec_t.append(t_rec)
-                                rec_d.append(d_rec)
+                                rec_ok.append(100.0 * outcome.recovered)
+                                rec_t.append(outcome.seconds)
+                                rec_d.append(outcome.metres)
                         r_g = _run(make("global", first, seed), d["peak"], g_scans)
-                        e_g, _ = tracking_errors(r_g.est, ref[: len(r_g.est)])
+                        e_g, _ = pose_errors(r_g.est, ref[: len(r_g.est)])
                         j = settle_index(e_g, base.times, 0, len(e_g))
                         glob_ok.append(100.0 * (j is not None))
                         glob_t.append(math.nan if j is None else float(base.times[j] - base.times[0]))
@@ -542,7 +477,7 @@ def _figure(runs: dict[str, tuple[RunResult, Any]], grid: Any, ref: FloatArray, 
         ax.plot(ref[: len(run.est), 0], ref[: len(run.est), 1], "k-", lw=0.8, label="reference")
         ax.plot(run.est[:, 0], run.est[:, 1], "b-", lw=0.8, label="estimate")
         err = np.hypot(*(run.est[:, :2] - ref[: len(run.est), :2]).T)
-        ax.set_title(f"{method}: {100 * np.mean(err > FAIL_DISTANCE):.1f} % failures", fontsize=9)
+        ax.set_title(f"{method}: {100 * np.mean(err > FAILURE_DISTANCE):.1f} % failures", fontsize=9)
         lo = ref[: len(run.est), :2].min(axis=0) - 6.0
         hi = ref[: len(run.est), :2].max(axis=0) + 6.0
         ax.set_xlim(lo[0], hi[0])

@@ -242,8 +242,8 @@ def register(bench: typer.Typer) -> None:
     ) -> None:
         """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
         from tourbot.bench._report import BenchReport
-        from tourbot.mapping.metrics import relative_pose_error
         from tourbot.maps.reference import build_reference_map
+        from tourbot.metrics import relative_pose_error
 
         console = Console()
         report = BenchReport(
@@ -582,8 +582,8 @@ def _people_sim_experiment(
 def _crowded_slam(log: RobotLog, seed: int, params: PeopleFilterParams | None = None) -> dict[str, float]:
     """Scan matching on the crowded log without and with the people tracker (Eq. 12 weights)."""
     from tourbot.mapping.incremental import IncrementalMapper
-    from tourbot.mapping.metrics import relative_pose_error
     from tourbot.mapping.people_filter import PeopleFilteredMapper
+    from tourbot.metrics import relative_pose_error
 
     start = log.reference_poses[0]
     plain = IncrementalMapper(start=start)

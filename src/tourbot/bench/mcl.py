@@ -5,7 +5,8 @@ crowded logs is ``tourbot bench localization``). For each beam filter, MCL track
 from the first reference pose with a fixed sample count and every beam; then, on copies of the log
 with kidnaps as in Fox et al. 1998 (0.005 per metre: heading 180 +/- 90 deg, position 0 +/- 1 m;
 ``tourbot.localization.kidnap``), the time to recover is measured as the paper does (error below
-45 cm for more than 10 s).
+45 cm for more than 10 s; :func:`tourbot.metrics.recovery`, whose censoring rule leaves out a
+kidnap that the next one or the end of the log follows too soon to judge).
 """
 
 from __future__ import annotations
@@ -27,25 +28,6 @@ TARGET_ERROR_CM = 6.0
 TARGET_RECOVERY_S = 30.0
 
 
-def _recovery_times(err: np.ndarray, times: np.ndarray, starts: list[int]) -> list[float | None]:
-    """Seconds from each kidnap until the error stays < 45 cm for more than 10 s (None: never)."""
-    out: list[float | None] = []
-    for i, k0 in enumerate(starts):
-        end = starts[i + 1] if i + 1 < len(starts) else len(err)
-        found = None
-        for j in range(k0, end):
-            if err[j] >= 0.45:
-                continue
-            jj = j
-            while jj < end and err[jj] < 0.45:
-                jj += 1
-            if times[jj - 1] - times[j] > 10.0 or jj == len(err):
-                found = float(times[j] - times[k0])
-                break
-        out.append(found)
-    return out
-
-
 def register(bench: typer.Typer) -> None:
     @bench.command("mcl")
     def mcl(
@@ -61,12 +43,12 @@ def register(bench: typer.Typer) -> None:
         from rich.progress import Progress
 
         from tourbot.data import find_data
-        from tourbot.geometry import wrap_angle
         from tourbot.io.carmen import read_carmen
         from tourbot.localization.beam_filters import BeamFilter
         from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
         from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
         from tourbot.maps.reference import build_reference_map
+        from tourbot.metrics import failure_rate, pose_errors, recovery
         from tourbot.records import RobotLog
 
         log = read_carmen(find_data("carmen/fhw-corrected.log.gz"))
@@ -80,7 +62,7 @@ def register(bench: typer.Typer) -> None:
         report = BenchReport(
             "mcl",
             ["run", "cpu ms/update", "wall ms/update", "x real time", "failures %", "mean err cm",
-             "heading deg", "kidnaps", "recovered", "mean recovery s"],
+             "heading deg", "kidnaps", "recovered", "censored", "mean recovery s"],
         )  # fmt: skip
         report.meta.update(
             {"log": "fhw-corrected", "scans": len(log.scans), "particles": particles, "beams": 180}
@@ -115,15 +97,15 @@ def register(bench: typer.Typer) -> None:
             task = progress.add_task("mcl on fhw", total=len(ref) * (len(kinds) + kidnap_seeds))
             for kind in kinds:
                 est, cpu, wall = run(kind, log, 0)
-                err = np.hypot(est[:, 0] - ref[:, 0], est[:, 1] - ref[:, 1])
-                head = np.degrees(np.abs(wrap_angle(est[:, 2] - ref[:, 2])))
+                err, head_rad = pose_errors(est, ref)
+                head = np.degrees(head_rad)
                 report.add(
                     run=f"track {kind.value}",
                     **{
                         "cpu ms/update": 1000 * cpu,
                         "wall ms/update": 1000 * wall,
                         "x real time": duration / (cpu * len(ref)),
-                        "failures %": 100 * float(np.mean(err > 0.45)),
+                        "failures %": 100 * failure_rate(err),
                         "mean err cm": 100 * float(err.mean()),
                         "heading deg": float(head.mean()),
                     },
@@ -131,10 +113,10 @@ def register(bench: typer.Typer) -> None:
             for seed in range(kidnap_seeds):
                 kid = plan_kidnaps(ref, times, np.random.default_rng(seed), KidnapConfig())
                 est, cpu, wall = run(BeamFilter.NOVELTY, apply_kidnaps(log, kid), seed)
-                err = np.hypot(est[:, 0] - ref[:, 0], est[:, 1] - ref[:, 1])
+                err, _ = pose_errors(est, ref)
                 starts = [k.scan for k in kid]
-                rec = _recovery_times(err, times, starts)
-                ok = [r for r in rec if r is not None]
+                judged = recovery(err, times, starts)
+                ok = [r.seconds for r in judged if r is not None and r.recovered]
                 report.add(
                     run=f"kidnap seed {seed} novelty",
                     **{
@@ -143,6 +125,7 @@ def register(bench: typer.Typer) -> None:
                         "x real time": duration / (cpu * len(ref)),
                         "kidnaps": len(starts),
                         "recovered": len(ok),
+                        "censored": sum(r is None for r in judged),
                         "mean recovery s": float(np.mean(ok)) if ok else float("nan"),
                     },
                 )

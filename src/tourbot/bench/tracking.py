@@ -152,25 +152,20 @@ def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None
 def score_frames(
     run: SimRun, hypotheses: list[list[tuple[int, float, float]]], cfg: SimConfig | None = None
 ) -> dict[str, float]:
-    """CLEAR-MOT and IDF1 (``motmetrics``) of per-scan hypotheses ``(id, x, y)`` against ``run``."""
-    import motmetrics as mm
+    """CLEAR-MOT and IDF1 (:func:`tourbot.metrics.clear_mot`) of per-scan hypotheses ``(id, x, y)``
+    against ``run``: the people counted at each scan, the hypotheses within ``eval_range`` of the
+    robot."""
+    from tourbot.metrics import Frame, clear_mot
 
     cfg = cfg or SimConfig()
-    acc = mm.MOTAccumulator(auto_id=True)
+    frames = []
     for truth, counted, pose, hyps in zip(run.truth, run.counted, run.poses, hypotheses, strict=True):
         gt_ids = np.flatnonzero(counted)
-        gt = truth[gt_ids]
         h = np.array([(x, y) for _, x, y in hyps], dtype=np.float64).reshape(-1, 2)
         h_ids = np.array([i for i, _, _ in hyps], dtype=np.int64)
         inside = np.linalg.norm(h - pose[None, 0:2], axis=1) <= cfg.eval_range
-        h, h_ids = h[inside], h_ids[inside]
-        dist = np.linalg.norm(gt[:, None, :] - h[None, :, :], axis=-1)
-        dist[dist > cfg.match_distance] = np.nan
-        acc.update(gt_ids.tolist(), h_ids.tolist(), dist)
-    mh = mm.metrics.create()
-    names = ["mota", "motp", "num_switches", "idf1", "precision", "recall"]
-    summary = mh.compute(acc, metrics=names, name="run")
-    return {n: float(summary[n].iloc[0]) for n in names}
+        frames.append(Frame(gt_ids, truth[gt_ids], h_ids[inside], h[inside]))
+    return clear_mot(frames, cfg.match_distance)
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -460,7 +455,7 @@ def _summary(
 ) -> None:
     """Means over the seeds with 95 % confidence intervals (Student t), the paired MOTA difference
     to the peer, and the 20-person target."""
-    from tourbot.bench.localization import mean_ci
+    from tourbot.metrics import mean_ci
 
     def col(rows: list[dict[str, float]], key: str) -> list[float]:
         return [r[key] for r in rows]

@@ -173,15 +173,14 @@ def register(app: typer.Typer) -> None:
             highlight=False,
         )
         if robot_log.has_reference:
-            from tourbot.geometry import wrap_angle
+            from tourbot.metrics import failure_rate, pose_errors
 
-            ref = robot_log.reference_poses
-            err = np.hypot(poses[:, 0] - ref[:, 0], poses[:, 1] - ref[:, 1])
-            head = np.degrees(np.abs(wrap_angle(poses[:, 2] - ref[:, 2])))
+            err, head_rad = pose_errors(poses, robot_log.reference_poses)
+            head = np.degrees(head_rad)
             console.print(
                 f"against the reference poses: mean error {100 * err.mean():.1f} cm, "
                 f"median {100 * np.median(err):.1f} cm, heading {head.mean():.2f} deg, "
-                f"{100 * np.mean(err > 0.45):.2f}% of scans > 45 cm off",
+                f"{100 * failure_rate(err):.2f}% of scans > 45 cm off",
                 highlight=False,
             )
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from tourbot.geometry import compose
-from tourbot.mapping.metrics import relative_pose_error
+from tourbot.metrics import relative_pose_error
 
 
 def test_identical_paths_have_no_error() -> None:
