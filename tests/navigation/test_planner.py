@@ -2,30 +2,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.navigation.planner import CostMap, NoPathError, PlannerConfig, cost_to_go, cost_to_go_reference
-
-
-@settings(max_examples=40, deadline=None)
-@given(
-    seed=st.integers(0, 10_000),
-    rows=st.integers(1, 12),
-    cols=st.integers(1, 12),
-    density=st.floats(0.0, 0.5),
-)
-def test_cost_to_go_matches_reference(seed: int, rows: int, cols: int, density: float) -> None:
-    rng = np.random.default_rng(seed)
-    cost = rng.uniform(1.0, 3.0, size=(rows, cols))
-    cost[rng.random((rows, cols)) < density] = np.inf
-    r, c = int(rng.integers(rows)), int(rng.integers(cols))
-    fast = cost_to_go(cost, r, c)
-    ref = cost_to_go_reference(cost, r, c)
-    assert np.array_equal(np.isinf(fast), np.isinf(ref))
-    finite = np.isfinite(ref)
-    np.testing.assert_allclose(fast[finite], ref[finite], rtol=1e-12)
+from tourbot.navigation.planner import CostMap, NoPathError, PlannerConfig
 
 
 def _room_with_wall(gap: bool = True) -> OccupancyGrid:

@@ -13,8 +13,6 @@ from tourbot.sim.crowd import (
     Crowd,
     CrowdConfig,
     CrowdError,
-    distance_field,
-    distance_field_reference,
     line_of_sight,
     line_of_sight_reference,
     move_people,
@@ -74,22 +72,6 @@ def test_line_of_sight_matches_reference(walkable: np.ndarray, ends: np.ndarray)
     np.testing.assert_array_equal(
         line_of_sight(walkable, 0.25, a, b), line_of_sight_reference(walkable, 0.25, a, b)
     )
-
-
-@settings(max_examples=40, deadline=None)
-@given(arrays(np.bool_, (8, 10), elements=st.booleans()), st.integers(0, 7), st.integers(0, 9))
-def test_distance_field_matches_reference(walkable: np.ndarray, r: int, c: int) -> None:
-    np.testing.assert_allclose(
-        distance_field(walkable, r, c, 50.0), distance_field_reference(walkable, r, c, 50.0)
-    )
-
-
-def test_distance_field_goes_around_a_wall() -> None:
-    walkable = np.ones((10, 10), dtype=bool)
-    walkable[:8, 5] = False  # a wall with an opening at the bottom rows 8-9
-    d = distance_field(walkable, 0, 0, 100.0)
-    assert np.isinf(d[0, 5])
-    assert d[0, 9] > 9.0 + 7.0  # down, through the opening, and back up
 
 
 def test_same_seed_same_crowd() -> None:

@@ -4,15 +4,15 @@ The static occupancy grid (and the site's invisible obstacles: glass cases, low 
 cannot see) is reduced to the planner's resolution, every cell closer to an obstacle than the
 robot's radius plus a margin is forbidden (the configuration space of a round robot), and free
 cells cost more near obstacles so paths keep to the middle of aisles. Dijkstra's algorithm from the
-goal gives every cell's cost-to-go (the navigation function of Latombe 1991, as used by the museum
-robots' planners: value iteration in Burgard et al. 1999); the path from any start follows its
-steepest descent, so replanning from a new pose is just a descent. Temporary obstacles (people
-blocking an aisle, a closed door) can be added for one replanning.
+goal (:func:`tourbot.maps.dijkstra.grid_dijkstra`) gives every cell's cost-to-go (the navigation
+function of Latombe 1991, as used by the museum robots' planners: value iteration in Burgard et al.
+1999); the path from any start follows its steepest descent, so replanning from a new pose is just
+a descent. Temporary obstacles (people blocking an aisle, a closed door) can be added for one
+replanning.
 """
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass
 
@@ -22,18 +22,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from tourbot.errors import TourbotError
+from tourbot.maps.dijkstra import grid_dijkstra
 from tourbot.maps.grid import OccupancyGrid
 
-__all__ = [
-    "CostMap",
-    "NoPathError",
-    "PlannerConfig",
-    "cost_to_go",
-    "cost_to_go_reference",
-]
+__all__ = ["CostMap", "NoPathError", "PlannerConfig"]
 
 FloatArray = NDArray[np.float64]
-_SQRT2 = math.sqrt(2.0)
 
 
 class NoPathError(TourbotError):
@@ -54,113 +48,6 @@ class PlannerConfig:
     comfort: float = 0.8
     clearance_weight: float = 4.0
     unknown_blocks: bool = True
-
-
-@numba.njit(cache=True)
-def cost_to_go(cost: NDArray[np.float64], goal_r: int, goal_c: int) -> NDArray[np.float64]:
-    """Dijkstra from ``(goal_r, goal_c)`` on an 8-connected grid (numba kernel).
-
-    Moving between neighbours costs the mean of the two cells' costs times the step length (1 or
-    sqrt 2 cells); cells with ``cost = inf`` are forbidden. Returns the cost-to-go, inf where
-    unreachable.
-    """
-    rows, cols = cost.shape
-    dist = np.full((rows, cols), np.inf)
-    done = np.zeros((rows, cols), dtype=np.bool_)
-    if not np.isfinite(cost[goal_r, goal_c]):
-        return dist
-    # binary heap of (distance, flat index) in two arrays
-    cap = rows * cols * 8 + 1
-    hk = np.empty(cap, dtype=np.float64)
-    hv = np.empty(cap, dtype=np.int64)
-    n = 0
-    dist[goal_r, goal_c] = 0.0
-    hk[0] = 0.0
-    hv[0] = goal_r * cols + goal_c
-    n = 1
-    drs = (-1, -1, -1, 0, 0, 1, 1, 1)
-    dcs = (-1, 0, 1, -1, 1, -1, 0, 1)
-    while n > 0:
-        d = hk[0]
-        v = hv[0]
-        n -= 1
-        if n > 0:  # move the last to the root and sift down
-            hk[0] = hk[n]
-            hv[0] = hv[n]
-            i = 0
-            while True:
-                left = 2 * i + 1
-                if left >= n:
-                    break
-                small = left
-                if left + 1 < n and hk[left + 1] < hk[left]:
-                    small = left + 1
-                if hk[small] < hk[i]:
-                    hk[i], hk[small] = hk[small], hk[i]
-                    hv[i], hv[small] = hv[small], hv[i]
-                    i = small
-                else:
-                    break
-        r = v // cols
-        c = v % cols
-        if done[r, c]:
-            continue
-        done[r, c] = True
-        for k in range(8):
-            nr = r + drs[k]
-            nc = c + dcs[k]
-            if nr < 0 or nr >= rows or nc < 0 or nc >= cols or done[nr, nc]:
-                continue
-            cn = cost[nr, nc]
-            if not np.isfinite(cn):
-                continue
-            step = 1.0 if (drs[k] == 0 or dcs[k] == 0) else 1.4142135623730951
-            nd = d + step * 0.5 * (cost[r, c] + cn)
-            if nd < dist[nr, nc]:
-                dist[nr, nc] = nd
-                # push and sift up
-                j = n
-                hk[j] = nd
-                hv[j] = nr * cols + nc
-                n += 1
-                while j > 0:
-                    p = (j - 1) // 2
-                    if hk[j] < hk[p]:
-                        hk[j], hk[p] = hk[p], hk[j]
-                        hv[j], hv[p] = hv[p], hv[j]
-                        j = p
-                    else:
-                        break
-    return dist
-
-
-def cost_to_go_reference(cost: FloatArray, goal_r: int, goal_c: int) -> FloatArray:
-    """Plain-Python Dijkstra with :mod:`heapq`: the reference for :func:`cost_to_go`."""
-    rows, cols = cost.shape
-    dist = np.full((rows, cols), np.inf)
-    if not np.isfinite(cost[goal_r, goal_c]):
-        return dist
-    dist[goal_r, goal_c] = 0.0
-    heap = [(0.0, goal_r, goal_c)]
-    done = np.zeros((rows, cols), dtype=bool)
-    while heap:
-        d, r, c = heapq.heappop(heap)
-        if done[r, c]:
-            continue
-        done[r, c] = True
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                nr, nc = r + dr, c + dc
-                if (dr, dc) == (0, 0) or not (0 <= nr < rows and 0 <= nc < cols) or done[nr, nc]:
-                    continue
-                if not np.isfinite(cost[nr, nc]):
-                    continue
-                step = 1.0 if dr == 0 or dc == 0 else _SQRT2
-                nd = d + step * 0.5 * (cost[r, c] + cost[nr, nc])
-                if nd < dist[nr, nc]:
-                    dist[nr, nc] = nd
-                    heapq.heappush(heap, (nd, nr, nc))
-    return dist
 
 
 @numba.njit(cache=True)
@@ -263,7 +150,7 @@ class CostMap:
         r, c = self._snap(self.cell(goal))
         key = (r, c)
         if key not in self._fields:
-            self._fields[key] = cost_to_go(self.cost, r, c)
+            self._fields[key] = grid_dijkstra(self.cost, r, c)
         return self._fields[key]
 
     def plan(self, start: ArrayLike, goal: ArrayLike) -> FloatArray:

@@ -13,8 +13,9 @@ as one body circle: :meth:`Crowd.legs` and :meth:`Crowd.circles`.
 
 Everything random is drawn from the ``numpy.random.Generator`` given to the constructor and to
 :meth:`Crowd.step`, so a crowd is deterministic for a seed. The hot loops (pairwise social forces,
-line-of-sight tests, the geodesic distance field used to walk around walls) are numba kernels,
-each with a plain-numpy/Python reference beside it for the property tests.
+line-of-sight tests) are numba kernels, each with a plain-numpy/Python reference beside it for the
+property tests; the geodesic distance field used to walk around walls is the one grid Dijkstra
+(:func:`tourbot.maps.dijkstra.grid_dijkstra`).
 
 Internally positions are kept in the grid frame (metres, the frame of cell ``(0, 0)``'s corner);
 the public API speaks world coordinates.
@@ -33,6 +34,7 @@ from scipy import ndimage
 
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, invert, transform_points, wrap_angle
+from tourbot.maps.dijkstra import grid_dijkstra, unit_costs
 from tourbot.maps.grid import OccupancyGrid
 
 __all__ = [
@@ -40,8 +42,6 @@ __all__ = [
     "Crowd",
     "CrowdConfig",
     "CrowdError",
-    "distance_field",
-    "distance_field_reference",
     "line_of_sight",
     "line_of_sight_reference",
     "move_people",
@@ -260,117 +260,6 @@ def line_of_sight_reference(
         )
         out[k] = bool(inside.all() and walkable[cells[:, 1], cells[:, 0]].all())
     return out
-
-
-_NEIGHBOURS = np.array([(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)], dtype=np.int64)
-
-
-@numba.njit(cache=True)
-def distance_field(walkable: NDArray[np.bool_], source_r: int, source_c: int, max_cost: float) -> FloatArray:
-    """Geodesic distance (in cells) from one cell over walkable cells, 8-connected (Dijkstra).
-
-    Diagonal steps cost sqrt(2); cells farther than ``max_cost`` or unreachable are ``inf``.
-    Visitors descend this field to walk around walls to the robot or an exhibit.
-    """
-    rows, cols = walkable.shape
-    dist = np.full((rows, cols), np.inf)
-    if source_r < 0 or source_r >= rows or source_c < 0 or source_c >= cols:
-        return dist
-    if not walkable[source_r, source_c]:
-        return dist
-    cap = 8 * rows * cols + 1
-    hk = np.empty(cap)
-    hv = np.empty(cap, dtype=np.int64)
-    size = 0
-    dist[source_r, source_c] = 0.0
-    hk[0] = 0.0
-    hv[0] = source_r * cols + source_c
-    size = 1
-    diag = math.sqrt(2.0)
-    while size > 0:
-        # Pop the minimum.
-        key = hk[0]
-        cell = hv[0]
-        size -= 1
-        if size > 0:
-            lk = hk[size]
-            lv = hv[size]
-            i = 0
-            while True:
-                child = 2 * i + 1
-                if child >= size:
-                    break
-                if child + 1 < size and hk[child + 1] < hk[child]:
-                    child += 1
-                if hk[child] < lk:
-                    hk[i] = hk[child]
-                    hv[i] = hv[child]
-                    i = child
-                else:
-                    break
-            hk[i] = lk
-            hv[i] = lv
-        r = cell // cols
-        c = cell % cols
-        if key > dist[r, c] or key > max_cost:
-            continue
-        for dr in range(-1, 2):
-            for dc in range(-1, 2):
-                if dr == 0 and dc == 0:
-                    continue
-                nr = r + dr
-                nc = c + dc
-                if nr < 0 or nr >= rows or nc < 0 or nc >= cols or not walkable[nr, nc]:
-                    continue
-                step = diag if dr != 0 and dc != 0 else 1.0
-                nd = key + step
-                if nd < dist[nr, nc]:
-                    dist[nr, nc] = nd
-                    # Push.
-                    i = size
-                    size += 1
-                    while i > 0:
-                        parent = (i - 1) // 2
-                        if hk[parent] > nd:
-                            hk[i] = hk[parent]
-                            hv[i] = hv[parent]
-                            i = parent
-                        else:
-                            break
-                    hk[i] = nd
-                    hv[i] = nr * cols + nc
-    for r in range(rows):
-        for c in range(cols):
-            if dist[r, c] > max_cost:
-                dist[r, c] = np.inf
-    return dist
-
-
-def distance_field_reference(
-    walkable: NDArray[np.bool_], source_r: int, source_c: int, max_cost: float
-) -> FloatArray:
-    """Plain-Python :func:`distance_field` (heapq Dijkstra) for the property tests."""
-    import heapq
-
-    rows, cols = walkable.shape
-    dist = np.full((rows, cols), np.inf)
-    if not (0 <= source_r < rows and 0 <= source_c < cols) or not walkable[source_r, source_c]:
-        return dist
-    dist[source_r, source_c] = 0.0
-    heap: list[tuple[float, int, int]] = [(0.0, source_r, source_c)]
-    while heap:
-        d, r, c = heapq.heappop(heap)
-        if d > dist[r, c] or d > max_cost:
-            continue
-        for dr, dc in _NEIGHBOURS:
-            nr, nc = r + int(dr), c + int(dc)
-            if 0 <= nr < rows and 0 <= nc < cols and walkable[nr, nc]:
-                nd = d + (math.sqrt(2.0) if dr and dc else 1.0)
-                if nd < dist[nr, nc]:
-                    dist[nr, nc] = nd
-                    heapq.heappush(heap, (nd, nr, nc))
-    dist[dist > max_cost] = np.inf
-    return dist
 
 
 @numba.njit(cache=True)
@@ -741,7 +630,7 @@ class _Space:
         r = math.floor(point[1] / self.coarse_res)
         c = math.floor(point[0] / self.coarse_res)
         r, c = self._nearest_walkable(r, c)
-        return distance_field(self.walkable, r, c, max_distance / self.coarse_res)
+        return grid_dijkstra(unit_costs(self.walkable), r, c, max_distance / self.coarse_res)
 
     def _nearest_walkable(self, r: int, c: int) -> tuple[int, int]:
         rows, cols = self.walkable.shape
