@@ -47,7 +47,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,11 +55,13 @@ from numpy.typing import ArrayLike, NDArray
 from tourbot.geometry import relative, wrap_angle
 from tourbot.localization import grid_kernels as gk
 from tourbot.localization.beam_filters import BeamFilter, BeamFilterConfig
+from tourbot.localization.errors import LocalizationError
 from tourbot.localization.estimate import LocalizationEstimate
-from tourbot.localization.mcl import LocalizationError
 from tourbot.localization.motion_model import OdometryMotionModel, decompose
+from tourbot.localization.range_table import ExpectedRangeTable
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.raycast import RayCaster
 from tourbot.records import LaserGeometry, Scan
 
 __all__ = [
@@ -68,7 +70,6 @@ __all__ = [
     "GridMarkovError",
     "GridMarkovLocalization",
     "PoseLattice",
-    "RangeCaster",
     "default_table_cache",
     "layer_kernels",
 ]
@@ -82,13 +83,7 @@ class GridMarkovError(LocalizationError):
     """A grid localizer used before it has a map, or given a map with no free space."""
 
 
-class RangeCaster(Protocol):
-    """What fills the expected-range table: :class:`tourbot.maps.raycast.RayCaster`."""
-
-    def cast(self, poses: ArrayLike, angles: ArrayLike) -> NDArray[np.float32]: ...
-
-
-def _default_caster(grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> RangeCaster:
+def _default_caster(grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> RayCaster:
     """The project's fastest exact caster."""
     from tourbot.maps.raycast import DistanceCaster
 
@@ -264,81 +259,21 @@ class PoseLattice:
         return np.where(f >= 0, k * self.n_free + f, -1)
 
 
-@dataclass(frozen=True)
-class ExpectedRangeTable:
-    """Expected ranges from every free cell centre at every table angle, as ``uint16`` range bins.
-
-    ``bins[f, j]`` is the range (in units of ``range_bin``) seen from the centre of free cell ``f``
-    along grid-frame angle ``j * angle_step``, cast by the project's ray caster; ranges beyond
-    ``max_range`` read ``max_range``.
-    """
-
-    bins: NDArray[np.uint16]
-    angle_step: float
-    range_bin: float
-    max_range: float
-
-    @property
-    def n_bins(self) -> int:
-        return round(self.max_range / self.range_bin) + 1
-
-    @property
-    def n_angles(self) -> int:
-        return int(self.bins.shape[1])
-
-    @classmethod
-    def build(
-        cls,
-        lattice: PoseLattice,
-        caster: RangeCaster,
-        max_range: float,
-        angle_step: float,
-        range_bin: float,
-        progress: Progress | None = None,
-        chunk: int = 2048,
-    ) -> ExpectedRangeTable:
-        n_angles = round(2.0 * math.pi / angle_step)
-        step = 2.0 * math.pi / n_angles
-        if max_range / range_bin + 1 >= np.iinfo(np.uint16).max:
-            raise GridMarkovError(f"max_range {max_range} m needs too many bins of {range_bin} m")
-        angles = np.arange(n_angles) * step
-        centres = lattice.grid_poses(np.arange(lattice.n_free))
-        centres[:, 2] = 0.0
-        world = lattice.grid.grid_to_world(centres)
-        out = np.empty((lattice.n_free, n_angles), dtype=np.uint16)
-        top = round(max_range / range_bin)
-        for start in range(0, lattice.n_free, chunk):
-            stop = min(start + chunk, lattice.n_free)
-            ranges = np.asarray(caster.cast(world[start:stop], angles), dtype=np.float64)
-            out[start:stop] = np.clip(np.round(ranges / range_bin), 0, top).astype(np.uint16)
-            if progress is not None:
-                progress(stop, lattice.n_free)
-        return cls(out, step, float(range_bin), float(max_range))
-
-    def save(self, path: Path) -> None:
-        """Write the table to ``path`` (``.npz``), atomically (a temporary file renamed)."""
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with tmp.open("wb") as fh:
-            np.savez(
-                fh,
-                bins=self.bins,
-                meta=np.array([self.angle_step, self.range_bin, self.max_range], dtype=np.float64),
-            )
-        tmp.replace(path)
-
-    @classmethod
-    def load(cls, path: Path) -> ExpectedRangeTable:
-        """Read a table written by :meth:`save`; :class:`GridMarkovError` if it is not one."""
-        try:
-            with np.load(path) as data:
-                bins = np.asarray(data["bins"])
-                meta = np.asarray(data["meta"], dtype=np.float64)
-        except (OSError, ValueError, KeyError) as exc:
-            raise GridMarkovError(f"{path}: not an expected-range table ({exc})") from exc
-        if bins.dtype != np.uint16 or bins.ndim != 2 or meta.shape != (3,):
-            raise GridMarkovError(f"{path}: not an expected-range table (bins {bins.dtype} {bins.shape})")
-        return cls(bins, float(meta[0]), float(meta[1]), float(meta[2]))
+def _cast_table(
+    lattice: PoseLattice,
+    caster: RayCaster,
+    max_range: float,
+    angle_step: float,
+    range_bin: float,
+    progress: Progress | None = None,
+) -> ExpectedRangeTable:
+    """The expected-range table of every free cell centre of ``lattice``, at grid-frame angles."""
+    n_angles = round(2.0 * math.pi / angle_step)
+    step = 2.0 * math.pi / n_angles
+    centres = lattice.grid_poses(np.arange(lattice.n_free))
+    centres[:, 2] = 0.0
+    world = lattice.grid.grid_to_world(centres)
+    return ExpectedRangeTable.cast(world, np.arange(n_angles) * step, caster, max_range, range_bin, progress)
 
 
 def default_table_cache() -> Path:
@@ -387,7 +322,7 @@ class GridMarkovLocalization:
         config: GridMarkovConfig | None = None,
         motion_model: OdometryMotionModel | None = None,
         sensor_model: BeamModel | None = None,
-        caster_factory: Callable[[OccupancyGrid, float], RangeCaster] | None = None,
+        caster_factory: Callable[[OccupancyGrid, float], RayCaster] | None = None,
         table: ExpectedRangeTable | None = None,
     ) -> None:
         self.config = config or GridMarkovConfig()
@@ -473,9 +408,7 @@ class GridMarkovLocalization:
                 caster = _default_caster(lat.grid, max_range, cfg.unknown_blocks)
             else:
                 caster = self._caster_factory(lat.grid, max_range)
-            table = ExpectedRangeTable.build(
-                lat, caster, max_range, cfg.table_angle_step, cfg.range_bin, progress
-            )
+            table = _cast_table(lat, caster, max_range, cfg.table_angle_step, cfg.range_bin, progress)
             self._table = table
             self.table_source = "built"
             if path is not None:

@@ -215,17 +215,6 @@ def _stds(
 
 
 @numba.njit(cache=True)
-def _wrap(a: float) -> float:
-    """:func:`tourbot.geometry.wrap_angle` of one angle: ``pi - ((pi - a) mod 2 pi)``. When
-    ``pi - a`` is already in ``[0, 2 pi)`` the modulo is the identity and is skipped (the same
-    bits, without the division)."""
-    u = math.pi - a
-    if 0.0 <= u < 2.0 * math.pi:
-        return math.pi - u
-    return math.pi - (u % (2.0 * math.pi))
-
-
-@numba.njit(cache=True)
 def _sample_kernel(
     poses: FloatArray,
     rot1: float,
@@ -242,7 +231,7 @@ def _sample_kernel(
         a = poses[i, 2] + r1
         out[i, 0] = poses[i, 0] + t * math.cos(a)
         out[i, 1] = poses[i, 1] + t * math.sin(a)
-        out[i, 2] = _wrap(a + r2)
+        out[i, 2] = a + r2  # wrapped by the caller
 
 
 def sample_reference(
@@ -278,4 +267,5 @@ def sample_with_noise(
     stds = np.array(model.stds(rot1, trans, rot2), dtype=np.float64)
     out = np.empty_like(p)
     _sample_kernel(p, rot1, trans, rot2, stds, z, out)
+    out[:, 2] = wrap_angle(out[:, 2])
     return out
