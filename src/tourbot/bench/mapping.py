@@ -234,11 +234,10 @@ def register(bench: typer.Typer) -> None:
         people_modes: Annotated[
             str,
             typer.Option(
-                help="People filter modes to measure on FHW, comma-separated (paper, sectors, blobs, "
-                "shapes, consistent, thorough, confirmed, far, kept, cleared, joint); "
+                help="People filter modes to measure on FHW, comma-separated (checked, paper); "
                 "the first is drawn and used for scan matching."
             ),
-        ] = "joint,far,confirmed,consistent,blobs,paper",
+        ] = "checked,paper",
     ) -> None:
         """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
         from tourbot.bench._report import BenchReport

@@ -27,14 +27,16 @@ scan and the map, Sec. 4, Fig. 6, against the whole map instead of the previous 
 a person's only if it does not end beyond the person (a wall behind a visitor stays), and a
 person's beam still clears the free space in front of the person.
 
-The rules beyond the paper that leave more beams out of the returned map (far blobs, leg
-segments, beams ending in space seen free) are for that map only: a scan is aligned with the
-tracks and person features alone (Eq. 12), and these are judged against a map written with
-the same rules (``evidence map``), so that what the map-only rules leave out does not make
-the alignment take more real structure for people (on the real Intel log, without a crowd, they
-did: 0.051 m relative error with the far blobs against 0.033 m without). The passes over the
-finished map (:mod:`tourbot.mapping.confirmation`, :mod:`tourbot.mapping.consistency`) act on
-the returned map alone.
+Two modes (:meth:`PeopleFilterParams.mode`): ``paper`` is Sec. 5 alone; ``checked``, the default
+everywhere (the dataclass, ``tourbot slam``, the benchmarks), adds the rules beyond the paper
+(free sectors, far blobs, and the checks of the finished map). The rule that leaves more beams out
+of the returned map (far blobs) is for that map only: a scan is aligned with the tracks and person
+features alone (Eq. 12), and these are judged against a map written without it (``evidence
+map``), so that what the map-only rule leaves out does not make the alignment take more real
+structure for people (on the real Intel log, without a crowd, it did: 0.051 m relative error with
+the far blobs against 0.033 m without). The passes over the finished map
+(:mod:`tourbot.mapping.confirmation`, :mod:`tourbot.mapping.consistency`) act on the returned map
+alone.
 """
 
 from __future__ import annotations
@@ -48,21 +50,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
-from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
+from tourbot.mapping.blobs import BlobParams, person_blobs
 from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams, continues_structure
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.people.legs import LegConfig, leg_beams
 from tourbot.people.sjpdaf import PeopleTracker
 from tourbot.records import Scan
 
 __all__ = [
-    "CLEARED_CHECK",
-    "CONFIRMED_CHECK",
-    "FAR_CHECK",
+    "DEFAULT_MODE",
     "FILTER_MODES",
-    "KEPT_CONFIRMATION",
+    "GIVE_BACK",
+    "MAP_CHECK",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
     "beam_endpoints",
@@ -72,43 +72,32 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-# the check of the ``confirmed`` mode: looser than ``consistent``'s, since the beams given back
-# keep static cells that the filter had cost (values chosen on crowd seeds 30-35)
-CONFIRMED_CHECK = ConsistencyParams(ring_free=0.4, group_member_cells=6)
-# the check of the ``far`` mode: ``confirmed``'s, and specks of at most 2 cells that beams of one
-# scan hit from beyond 6 m only cleared with a ring at least 75 % seen free and at least 20 %
-# behind them; groups of specks each hit from beyond 6 m only by at most 2 scans need 20 %
-# behind them instead of 50 % (values chosen on crowd seeds 50-55)
-FAR_CHECK = replace(
-    CONFIRMED_CHECK,
+# The checks of the finished map in the default mode (``checked``), beyond the paper. Specks
+# (:mod:`tourbot.mapping.consistency`): a ring at least 40 % seen free and groups of components up
+# to 6 cells, since the beams given back keep static cells that the filter had cost (chosen on
+# crowd seeds 30-35); specks of at most 2 cells that beams of one scan hit from beyond 6 m only
+# cleared with a ring at least 75 % seen free and at least 20 % behind them, groups of such specks
+# hit by at most 2 scans with 20 % behind them (seeds 50-55); specks that one scan hit from beyond
+# 4 m (the leg detector's reach) judged so also when their ring holds such specks too (visitors
+# standing together; seeds 70-75).
+MAP_CHECK = ConsistencyParams(
+    ring_free=0.4,
+    group_member_cells=6,
     far_range=6.0,
     far_scans=1,
     far_cells=2,
     far_ring_free=0.75,
     far_behind_free=0.2,
     far_group_scans=2,
+    mutual_range=4.0,
 )
-# the give-back of the ``kept`` mode: ``far``'s, and left-out beams whose end lies in a line of
+# The give-back (:mod:`tourbot.mapping.confirmation`): a left-out beam's hit returns when kept
+# beams of 4 other scans end in its cell's neighbourhood, or when its end lies in a line of
 # structure the map holds (occupied cells within 2 cells on two sides at least 90 degrees apart;
-# values chosen on crowd seeds 70-75)
-KEPT_CONFIRMATION = ConfirmationParams(line_radius=2, line_angle=90.0)
-# the check of the ``cleared`` mode: ``far``'s, and specks that one scan hit from beyond 4 m only
-# (the leg detector's reach) judged with the far test's values also when the occupied cells in
-# their ring are such specks too (visitors standing together; chosen on crowd seeds 70-75)
-CLEARED_CHECK = replace(FAR_CHECK, mutual_range=4.0)
-FILTER_MODES = (
-    "paper",
-    "sectors",
-    "blobs",
-    "shapes",
-    "consistent",
-    "thorough",
-    "confirmed",
-    "far",
-    "kept",
-    "cleared",
-    "joint",
-)
+# seeds 70-75).
+GIVE_BACK = ConfirmationParams(line_radius=2, line_angle=90.0)
+DEFAULT_MODE = "checked"
+FILTER_MODES = (DEFAULT_MODE, "paper")
 
 
 @dataclass(frozen=True)
@@ -136,36 +125,23 @@ class PeopleFilterParams:
     ``align_features``: beams ending on the scan's person features get no weight in alignment
     (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
 
-    Beyond the paper (see :meth:`mode`): ``free_sectors``: the map also clears the cells between
-    neighbouring beams that the laser saw past on both sides (:mod:`tourbot.mapping.free_space`),
-    so that a visitor hit once at a distance is cleared by the later scans that saw the floor
-    around the spot, although none of their beams crossed its cell. ``far_blobs``: the beams on a
-    person-sized blob beyond the leg detector's reach (:mod:`tourbot.mapping.blobs`, ``blobs``) are
-    left out of the map (not of alignment) like a person's, unless the map so far has a log-odds
-    of ``blob_evidence`` or more in the 3 x 3 cells around their end (something static seen
-    there before), and fewer than ``blob_repeats`` blobs were left out there before: a pole seen
-    from afar is a blob in scan after scan at one spot, and is mapped from its
-    ``blob_repeats + 1``-th scan on.
-
-    Rules on the shape of each scan and the map so far (``shapes``), for the map only (alignment
-    keeps the weights above): ``leg_segments``: the beams of every leg candidate within
-    ``leg_range`` whose P(leg) by the width and contrast rule is at least ``leg_probability``
-    (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
-    feature holds them (visitors standing in groups), with the same evidence and repeat guards as
-    the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
-    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide
-    (``blobs.max_width``, :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so
-    far has a log-odds at most this in all of the 3 x 3 cells around its end is left out:
-    something person-sized stands where the floor was seen, the grid difference of Sec. 4
-    (Fig. 6) applied to every such beam, not only to person features (None: off). Long runs are
-    never judged so: a wall that a drifting path puts into space seen free before stays.
-    ``consistency``: the finished map is checked against itself
-    (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
+    Beyond the paper (on by default, off in :meth:`paper`): ``free_sectors``: the map also clears
+    the cells between neighbouring beams that the laser saw past on both sides
+    (:mod:`tourbot.mapping.free_space`), so that a visitor hit once at a distance is cleared by the
+    later scans that saw the floor around the spot, although none of their beams crossed its cell.
+    ``far_blobs``: the beams on a person-sized blob beyond the leg detector's reach
+    (:mod:`tourbot.mapping.blobs`, ``blobs``) are left out of the map (not of alignment) like a
+    person's, unless the map so far has a log-odds of ``blob_evidence`` or more in the 3 x 3 cells
+    around their end (something static seen there before), and fewer than ``blob_repeats`` blobs
+    were left out there before: a pole seen from afar is a blob in scan after scan at one spot, and
+    is mapped from its ``blob_repeats + 1``-th scan on.
+    ``confirmation`` (``GIVE_BACK``; None: none): the left-out beams whose ends kept beams of
+    several other scans confirm, or that continue a line of structure the map holds
+    (:mod:`tourbot.mapping.confirmation`), get their hits back in the finished map.
+    ``consistency`` (``MAP_CHECK``; None: no check): then the finished map is checked against
+    itself (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
     decimetres across (visitors standing together), with free floor around them and behind them
-    along the beams that hit them are cleared (None: no check).
-    ``confirmation``: before that check, the left-out beams whose ends kept beams of several
-    other scans confirm (:mod:`tourbot.mapping.confirmation`) get their hits back in the finished
-    map (None: none).
+    along the beams that hit them are cleared.
     """
 
     bin_size: float = 0.15
@@ -181,60 +157,27 @@ class PeopleFilterParams:
     static_evidence: float = 3.0
     keep_free_space: bool = True
     align_features: bool = True
-    free_sectors: bool = False
-    far_blobs: bool = False
+    free_sectors: bool = True
+    far_blobs: bool = True
     blobs: BlobParams = field(default_factory=BlobParams)
     blob_evidence: float = 0.5
     blob_repeats: int = 3
-    leg_segments: bool = False
-    leg_probability: float = 0.99
-    leg_range: float = 4.0
-    leg_repeats: int = 3
-    seen_free: float | None = None
-    consistency: ConsistencyParams | None = None
-    confirmation: ConfirmationParams | None = None
+    consistency: ConsistencyParams | None = MAP_CHECK
+    confirmation: ConfirmationParams | None = GIVE_BACK
+
+    @classmethod
+    def paper(cls) -> PeopleFilterParams:
+        """Burgard et al. Sec. 5 alone: tracks and person features, none of the rules beyond it."""
+        return cls(free_sectors=False, far_blobs=False, consistency=None, confirmation=None)
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
-        """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
-        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``shapes`` (and
-        leg segments and beams ending in space seen free), ``consistent`` (``blobs``, and the
-        finished map's specks that its free space contradicts cleared), ``thorough`` (``shapes``
-        and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
-        scans confirm given back to the finished map, then a looser check: a ring at least 40 %
-        seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
-        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``),
-        ``kept`` (``far``, and the left-out beams whose end lies in a line of structure the map
-        holds given back too, ``KEPT_CONFIRMATION``), ``cleared`` (``far``, and specks one scan
-        hit from beyond 4 m next to each other judged with that test too, ``CLEARED_CHECK``),
-        ``joint`` (``far`` with both: ``kept``'s give-back and ``cleared``'s check)."""
+        """The parameters of a named mode: ``checked`` (the default: the paper's filter, free
+        sectors, far blobs, and the finished map checked, ``GIVE_BACK`` then ``MAP_CHECK``) or
+        ``paper`` (:meth:`paper`)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
-        shapes = name in ("shapes", "thorough")
-        checks = {
-            "consistent": ConsistencyParams(),
-            "thorough": ConsistencyParams(),
-            "confirmed": CONFIRMED_CHECK,
-            "far": FAR_CHECK,
-            "kept": FAR_CHECK,
-            "cleared": CLEARED_CHECK,
-            "joint": CLEARED_CHECK,
-        }
-        confirmation = {
-            "confirmed": ConfirmationParams(),
-            "far": ConfirmationParams(),
-            "kept": KEPT_CONFIRMATION,
-            "cleared": ConfirmationParams(),
-            "joint": KEPT_CONFIRMATION,
-        }
-        return cls(
-            free_sectors=name != "paper",
-            far_blobs=name not in {"paper", "sectors"},
-            leg_segments=shapes,
-            seen_free=-0.6 if shapes else None,
-            consistency=checks.get(name),
-            confirmation=confirmation.get(name),
-        )
+        return cls.paper() if name == "paper" else cls()
 
 
 def hit_probability(
@@ -356,7 +299,6 @@ class PeopleFilteredMapper:
         self._written_index: list[int] = []  # per scan written: its index
         self._left_origins: list[FloatArray] = []  # per scan written: laser position of each left-out end
         self._left_ends: list[FloatArray] = []  # per scan written: the world ends of the left-out beams
-        self._leg_spots: dict[tuple[int, int], int] = {}  # leg segments' beams left out, by map cell
         # the map that alignment-time judgements read, when the map-only rules make the returned
         # map differ from it (written from the first aligned scan on; None: the returned map)
         self._evidence_map: IncrementalMapper | None = None
@@ -460,9 +402,8 @@ class PeopleFilteredMapper:
         return grid
 
     def _map_only_rules(self) -> bool:
-        """Whether rules for the returned map only are on (far blobs, leg segments, seen free)."""
-        p = self.params
-        return p.far_blobs or p.leg_segments or p.seen_free is not None
+        """Whether rules for the returned map only are on (far blobs)."""
+        return self.params.far_blobs
 
     def _evidence(self, points: FloatArray, into: Literal["map", "alignment"]) -> FloatArray:
         """Log-odds at world ``points`` of the map the judgements ``into`` a map read: the returned
@@ -524,49 +465,21 @@ class PeopleFilteredMapper:
             if blob.any():
                 blob[blob] = self._new_spots(pts[blob], self._blob_spots, self.params.blob_repeats)
             person |= blob
-        if into == "map":
-            person |= self._shape_beams(item, pts, hit & ~person)
         return person
 
-    def _shape_beams(
-        self, item: _Pending, pts: FloatArray, candidates: NDArray[np.bool_]
-    ) -> NDArray[np.bool_]:
-        """The beams among ``candidates`` that the rules on the scan's shape and the map so far
-        leave out (``leg_segments``, ``seen_free``; see :class:`PeopleFilterParams`)."""
-        p = self.params
-        out = np.zeros(len(candidates), dtype=bool)
-        if p.leg_segments:
-            legs = candidates & leg_beams(
-                item.scan, LegConfig(model=None, max_range=p.leg_range), p.leg_probability
-            )
-            if legs.any():
-                legs[legs] = self._evidence_around(pts[legs]) < p.blob_evidence
-            if legs.any():
-                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats, per_scan=True)
-            out |= legs
-        if p.seen_free is not None:
-            free = candidates & ~out & narrow_runs(item.scan, p.blobs)
-            if free.any():
-                free[free] = self._evidence_around(pts[free]) <= p.seen_free
-            out |= free
-        return out
-
     def _new_spots(
-        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int, per_scan: bool = False
+        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int
     ) -> NDArray[np.bool_]:
         """Which ends of one scan lie where fewer than ``repeats`` ends were left out before (in the
         3 x 3 cells around, counted in ``spots``); counts them. A blob seen again and again at one
-        spot is static. Without ``per_scan`` every end counts (the far blobs: a beam or two each);
-        with it a cell counts once per scan and the most-counted cell around decides, so that a
-        leg seen by several beams of one scan counts as one sighting."""
+        spot is static; every end counts (the far blobs: a beam or two each)."""
         res = self.mapper.params.resolution
         cells = np.floor(points / res).astype(np.int64)
         new = np.zeros(len(cells), dtype=bool)
         for k, (cx, cy) in enumerate(cells.tolist()):
             around = [spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
-            new[k] = (max(around) if per_scan else sum(around)) < repeats
-        counted = {(cx, cy) for cx, cy in cells[new].tolist()} if per_scan else cells[new].tolist()
-        for cx, cy in counted:
+            new[k] = sum(around) < repeats
+        for cx, cy in cells[new].tolist():
             spots[(cx, cy)] = spots.get((cx, cy), 0) + 1
         return new
 
