@@ -14,6 +14,7 @@ from tourbot.mapping.incremental import IncrementalMapper
 from tourbot.mapping.people_filter import (
     DEFAULT_MODE,
     FILTER_MODES,
+    FarBlobParams,
     PeopleFilteredMapper,
     PeopleFilterParams,
     hit_probability,
@@ -27,7 +28,7 @@ from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import LaserGeometry, RobotLog, Scan
 
 PAPER = PeopleFilterParams.paper()
-BLOBS = replace(PAPER, free_sectors=True, far_blobs=True)  # the far blobs without the map's checks
+BLOBS = replace(PAPER, free_sectors=True, far_blobs=FarBlobParams())  # the far blobs without the map's checks
 
 
 def test_hit_probability_of_one_person() -> None:

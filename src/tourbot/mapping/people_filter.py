@@ -63,8 +63,11 @@ __all__ = [
     "FILTER_MODES",
     "GIVE_BACK",
     "MAP_CHECK",
+    "AlignmentParams",
+    "FarBlobParams",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
+    "PersonBeamParams",
     "beam_endpoints",
     "hit_probability",
     "in_boxes",
@@ -101,51 +104,42 @@ FILTER_MODES = (DEFAULT_MODE, "paper")
 
 
 @dataclass(frozen=True)
-class PeopleFilterParams:
-    """Parameters of people filtering (bins of 15 cm as in Burgard et al. Sec. 5).
+class AlignmentParams:
+    """How the people weigh the beams of a scan in its alignment (Eq. 10-12; bins of 15 cm as in
+    Burgard et al. Sec. 5).
 
-    Alignment (Eq. 10-12): ``body_radius``: a beam ending this close to a person's samples may be
-    reflected by them; a tentative track counts with the share ``hits / confirm_hits`` of the way to
-    its confirmation.
-
-    Map building: ``box_half_size``: half the side of a tracked person's bounding box (legs up to
-    a stride apart); ``scans_around``: how many scans later a scan is written, and so how late a
-    track may be confirmed and still count in it; a track not confirmed by then counts when it had
-    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 above). Person
-    features of the scan itself count (in a box of ``feature_half_size``) when their P(moving) is
-    at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
-    them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
-    passed the person and is kept.
-    ``window``: a counted track's boxes at its positions in the ``window`` scans before and after
-    also count in a scan (the paper's "several previous and next scans", to cope with the tracker's
-    delay; the scans after are those still waiting, so at most ``scans_around``; 0: the scan's own).
-    ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
-    occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
-    ``keep_free_space``: a person's beam still marks the cells in front of the person free.
+    ``bin_size``: the side of the histogram bins of each person's samples (m). ``body_radius``: a
+    beam ending this close to a person's samples may be reflected by them (m); a tentative track
+    counts with the share ``hits / confirm_hits`` of the way to its confirmation.
     ``align_features``: beams ending on the scan's person features get no weight in alignment
     (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
-
-    Beyond the paper (on by default, off in :meth:`paper`): ``free_sectors``: the map also clears
-    the cells between neighbouring beams that the laser saw past on both sides
-    (:mod:`tourbot.mapping.free_space`), so that a visitor hit once at a distance is cleared by the
-    later scans that saw the floor around the spot, although none of their beams crossed its cell.
-    ``far_blobs``: the beams on a person-sized blob beyond the leg detector's reach
-    (:mod:`tourbot.mapping.blobs`, ``blobs``) are left out of the map (not of alignment) like a
-    person's, unless the map so far has a log-odds of ``blob_evidence`` or more in the 3 x 3 cells
-    around their end (something static seen there before), and fewer than ``blob_repeats`` blobs
-    were left out there before: a pole seen from afar is a blob in scan after scan at one spot, and
-    is mapped from its ``blob_repeats + 1``-th scan on.
-    ``confirmation`` (``GIVE_BACK``; None: none): the left-out beams whose ends kept beams of
-    several other scans confirm, or that continue a line of structure the map holds
-    (:mod:`tourbot.mapping.confirmation`), get their hits back in the finished map.
-    ``consistency`` (``MAP_CHECK``; None: no check): then the finished map is checked against
-    itself (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
-    decimetres across (visitors standing together), with free floor around them and behind them
-    along the beams that hit them are cleared.
     """
 
     bin_size: float = 0.15
     body_radius: float = 0.3
+    align_features: bool = True
+
+
+@dataclass(frozen=True)
+class PersonBeamParams:
+    """Which beams of a scan its people take out of the map when the scan is written (Sec. 5).
+
+    ``box_half_size``: half the side of a tracked person's bounding box (m: legs up to a stride
+    apart). ``scans_around``: how many scans later a scan is written, and so how late a track may
+    be confirmed and still count in it; a track not confirmed by then counts when it had
+    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 in alignment).
+    Person features of the scan itself count (in a box of ``feature_half_size``, m) when their
+    P(moving) is at least ``feature_moving`` or the map so far has a log-odds at most
+    ``feature_free`` around them (seen free before). ``beyond``: a beam ending farther than this
+    (m) behind a person's centre passed the person and is kept. ``window``: a counted track's boxes
+    at its positions in the ``window`` scans before and after also count in a scan (the paper's
+    "several previous and next scans", to cope with the tracker's delay; the scans after are those
+    still waiting, so at most ``scans_around``; 0: the scan's own). ``static_evidence``: a beam in a
+    box is kept when it ends in a cell the map already holds as occupied with at least this
+    log-odds (a wall seen before a visitor stood in front of it). ``keep_free_space``: a person's
+    beam still marks the cells in front of the person free.
+    """
+
     box_half_size: float = 0.3
     scans_around: int = 3
     window: int = 0
@@ -156,19 +150,53 @@ class PeopleFilterParams:
     beyond: float = 0.2
     static_evidence: float = 3.0
     keep_free_space: bool = True
-    align_features: bool = True
+
+
+@dataclass(frozen=True)
+class FarBlobParams:
+    """Beyond the paper: the beams on a person-sized blob beyond the leg detector's reach
+    (:mod:`tourbot.mapping.blobs`, ``shape``) are left out of the map (not of alignment) like a
+    person's, unless the map so far has a log-odds of ``evidence`` or more in the 3 x 3 cells
+    around their end (something static seen there before), and fewer than ``repeats`` blobs were
+    left out there before: a pole seen from afar is a blob in scan after scan at one spot, and is
+    mapped from its ``repeats + 1``-th scan on."""
+
+    shape: BlobParams = field(default_factory=BlobParams)
+    evidence: float = 0.5
+    repeats: int = 3
+
+
+@dataclass(frozen=True)
+class PeopleFilterParams:
+    """Parameters of people filtering, in groups: ``alignment`` (Eq. 10-12), ``beams`` (the map
+    that is written, Sec. 5), and the rules beyond the paper (on by default, off in
+    :meth:`paper`):
+
+    - ``free_sectors``: the map also clears the cells between neighbouring beams that the laser
+      saw past on both sides (:mod:`tourbot.mapping.free_space`), so that a visitor hit once at a
+      distance is cleared by the later scans that saw the floor around the spot, although none of
+      their beams crossed its cell;
+    - ``far_blobs`` (:class:`FarBlobParams`; None: off);
+    - ``confirmation`` (``GIVE_BACK``; None: none): the left-out beams whose ends kept beams of
+      several other scans confirm, or that continue a line of structure the map holds
+      (:mod:`tourbot.mapping.confirmation`), get their hits back in the finished map;
+    - ``consistency`` (``MAP_CHECK``; None: no check): then the finished map is checked against
+      itself (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
+      decimetres across (visitors standing together), with free floor around them and behind them
+      along the beams that hit them are cleared.
+    """
+
+    alignment: AlignmentParams = field(default_factory=AlignmentParams)
+    beams: PersonBeamParams = field(default_factory=PersonBeamParams)
     free_sectors: bool = True
-    far_blobs: bool = True
-    blobs: BlobParams = field(default_factory=BlobParams)
-    blob_evidence: float = 0.5
-    blob_repeats: int = 3
-    consistency: ConsistencyParams | None = MAP_CHECK
+    far_blobs: FarBlobParams | None = field(default_factory=FarBlobParams)
     confirmation: ConfirmationParams | None = GIVE_BACK
+    consistency: ConsistencyParams | None = MAP_CHECK
 
     @classmethod
     def paper(cls) -> PeopleFilterParams:
         """Burgard et al. Sec. 5 alone: tracks and person features, none of the rules beyond it."""
-        return cls(free_sectors=False, far_blobs=False, consistency=None, confirmation=None)
+        return cls(free_sectors=False, far_blobs=None, consistency=None, confirmation=None)
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
@@ -183,14 +211,14 @@ class PeopleFilterParams:
 def hit_probability(
     sample_sets: Iterable[FloatArray],
     points: FloatArray,
-    params: PeopleFilterParams | None = None,
+    params: AlignmentParams | None = None,
     existence: Iterable[float] | None = None,
 ) -> FloatArray:
     """``P(hit_xy | X)`` at world ``points`` ``(B, 2)`` from the people's samples (Eq. 10-11).
 
     ``existence`` (one per sample set, default 1) scales each person's ``P(hit_xy | x_i)``.
     """
-    p = params or PeopleFilterParams()
+    p = params or AlignmentParams()
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     miss = np.ones(len(pts))
     reach = (p.body_radius / p.bin_size) ** 2
@@ -291,7 +319,7 @@ class PeopleFilteredMapper:
     def __post_init__(self) -> None:
         self._confirmed: set[int] = set()  # ids of every track confirmed so far
         self._pending: collections.deque[_Pending] = collections.deque()
-        self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
+        self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.beams.window)
         self._index = 0
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
         self._origins: list[FloatArray] = []  # per scan written: the laser position of each kept end
@@ -349,15 +377,15 @@ class PeopleFilteredMapper:
             confirm = self.tracker.config.confirm_hits
             existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
-            h = hit_probability([sets[t.id] for t in tracks], pts, p, existence)
-            if p.align_features:
+            h = hit_probability([sets[t.id] for t in tracks], pts, p.alignment, existence)
+            if p.alignment.align_features:
                 h = np.maximum(h, self._person_beams(item, tracks=False))
             item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
             # the next scan aligns against this one at once, with the people known now
             self._integrate(item, self._person_beams(item), "alignment")
         self._pending.append(item)
         self._index += 1
-        while self._pending and self._pending[0].index + p.scans_around < self._index:
+        while self._pending and self._pending[0].index + p.beams.scans_around < self._index:
             self._write(self._pending.popleft())
         return item.pose
 
@@ -403,7 +431,7 @@ class PeopleFilteredMapper:
 
     def _map_only_rules(self) -> bool:
         """Whether rules for the returned map only are on (far blobs)."""
-        return self.params.far_blobs
+        return self.params.far_blobs is not None
 
     def _evidence(self, points: FloatArray, into: Literal["map", "alignment"]) -> FloatArray:
         """Log-odds at world ``points`` of the map the judgements ``into`` a map read: the returned
@@ -416,7 +444,7 @@ class PeopleFilteredMapper:
     ) -> tuple[FloatArray, FloatArray]:
         """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
         features only, without ``tracks``), judged against the map ``into`` reads."""
-        p = self.params
+        p = self.params.beams
         centres = np.zeros((0, 2))
         if tracks:
             # the scan's own tracks, and those of the scans within the window (before and after)
@@ -431,7 +459,8 @@ class PeopleFilteredMapper:
 
     def _track_centres(self, item: _Pending) -> FloatArray:
         """Positions ``(K, 2)`` in a waiting scan of the tracks that count as people."""
-        tentative = self.params.tentative_hits if self.params.tentative_hits is not None else np.inf
+        hits_needed = self.params.beams.tentative_hits
+        tentative = hits_needed if hits_needed is not None else np.inf
         tracked = [
             i in self._confirmed or hits >= tentative
             for i, hits in zip(item.track_ids, item.track_hits, strict=True)
@@ -455,15 +484,17 @@ class PeopleFilteredMapper:
         centres, half = self._people(item, tracks, into)
         pts, hit = beam_endpoints(item.scan, item.pose)
         laser = compose(item.pose, item.scan.geometry.offset)
-        person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
+        beams = self.params.beams
+        person = hit & person_beams(pts, laser, centres, half, beams.beyond)
         if person.any():
-            person[person] = self._evidence(pts[person], into) < self.params.static_evidence
-        if into == "map" and self.params.far_blobs:
-            blob = hit & ~person & person_blobs(item.scan, self.params.blobs)
+            person[person] = self._evidence(pts[person], into) < beams.static_evidence
+        far = self.params.far_blobs
+        if into == "map" and far is not None:
+            blob = hit & ~person & person_blobs(item.scan, far.shape)
             if blob.any():  # nothing seen occupied around it yet: not a pole or an exhibit's edge
-                blob[blob] = self._evidence_around(pts[blob]) < self.params.blob_evidence
+                blob[blob] = self._evidence_around(pts[blob]) < far.evidence
             if blob.any():
-                blob[blob] = self._new_spots(pts[blob], self._blob_spots, self.params.blob_repeats)
+                blob[blob] = self._new_spots(pts[blob], self._blob_spots, far.repeats)
             person |= blob
         return person
 
@@ -512,7 +543,7 @@ class PeopleFilteredMapper:
         mapper: IncrementalMapper | None = None,
     ) -> None:
         target = self.mapper if mapper is None else mapper
-        if self.params.keep_free_space:
+        if self.params.beams.keep_free_space:
             target.integrate(item.scan, item.pose, free_only=person, into=into)
         else:
             target.integrate(item.scan, item.pose, keep=~person, into=into)
