@@ -17,6 +17,7 @@ from tourbot.mapping.people_filter import (
     FarBlobParams,
     PeopleFilteredMapper,
     PeopleFilterParams,
+    PeopleMappingConfig,
     hit_probability,
     in_boxes,
     person_beams,
@@ -104,7 +105,9 @@ def test_people_are_left_out_of_the_map(hall: OccupancyGrid) -> None:
     log, people = _walker_log(hall)
     robot = log.reference_poses[0]
     plain = IncrementalMapper(start=robot)
-    filtered = PeopleFilteredMapper.create(start=robot, seed=1, params=PeopleFilterParams.paper())
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=robot, seed=1
+    )
     for scan in log.scans:
         plain.integrate(scan, robot)
         filtered.add_scan(scan, pose=robot)
@@ -133,7 +136,9 @@ def test_a_visitor_standing_where_the_floor_was_seen_free_is_left_out(hall: Occu
     log, people = _walker_log(hall)
     robot = log.reference_poses[0]
     never = PeopleTracker(SJPDAFConfig(confirm_hits=10_000), rng=np.random.default_rng(0))
-    filtered = PeopleFilteredMapper.create(start=robot, tracker=never, params=PeopleFilterParams.paper())
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=robot, tracker=never
+    )
     plain = IncrementalMapper(start=robot)
     for scan in log.scans:
         plain.integrate(scan, robot)
@@ -164,7 +169,9 @@ def hall_walls(grid: OccupancyGrid, hall: OccupancyGrid) -> np.ndarray:
 def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: RobotLog) -> None:
     start = hall_log.reference_poses[0]
     plain = IncrementalMapper(start=start)
-    filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.paper())
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=start
+    )
     for scan in hall_log.scans[:60]:
         plain.add_scan(scan)
         filtered.add_scan(scan)
@@ -185,7 +192,7 @@ def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> Non
     sectors = replace(PeopleFilterParams.paper(), free_sectors=True)
     runs = {}
     for name, params in (("sectors", sectors), ("default", PeopleFilterParams())):
-        filtered = PeopleFilteredMapper.create(start=start, params=params)
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=start)
         for scan in hall_log.scans[:40]:
             filtered.add_scan(scan)
         filtered.finish()
@@ -207,7 +214,7 @@ def test_the_two_modes() -> None:
     assert all(getattr(PeopleFilterParams(), name) for name in beyond)
     assert replace(PeopleFilterParams(), **{n: getattr(paper, n) for n in beyond}) == paper
     assert PeopleFilteredMapper.create().mapper.params.free_sectors
-    assert not PeopleFilteredMapper.create(params=paper).mapper.params.free_sectors
+    assert not PeopleFilteredMapper.create(PeopleMappingConfig(filter=paper)).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
         PeopleFilterParams.mode("joint")
 
@@ -231,7 +238,7 @@ def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> Non
     scans = _pole_then_visitor(4)
     left = {}
     for mode, params in (("paper", PAPER), ("blobs", BLOBS)):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()
@@ -257,7 +264,7 @@ def test_the_confirmed_mode_gives_back_a_pole_other_scans_confirm_but_not_a_visi
         consistency=ConsistencyParams(ring_free=0.4, group_member_cells=6),
     )
     for mode, params in (("blobs", BLOBS), ("confirmed", confirming)):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()
@@ -286,7 +293,7 @@ def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around
     scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall, visitor, visitor])]
     grids = {}
     for mode, params in (("blobs", BLOBS), ("consistent", replace(BLOBS, consistency=ConsistencyParams()))):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan, pose in zip(scans, poses, strict=True):
             filtered.add_scan(scan, pose=pose)
         filtered.finish()
@@ -317,7 +324,7 @@ def test_the_kept_mode_gives_back_a_post_face_the_map_holds_on_both_sides_but_no
     runs = {}
     no_lines = replace(PeopleFilterParams(), confirmation=ConfirmationParams())  # no line of structure
     for mode, params in (("far", no_lines), ("kept", PeopleFilterParams())):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()

@@ -11,6 +11,7 @@ import pytest
 from tourbot.mapping.people_filter import (
     PeopleFilteredMapper,
     PeopleFilterParams,
+    PeopleMappingConfig,
     PersonBeamParams,
     beam_endpoints,
 )
@@ -58,7 +59,9 @@ def test_the_filter_leaves_out_most_beams_and_cells_of_a_simulated_crowd(
     log, person = crowd_run
     assert person.mean() > 0.05  # the visitors hide a good part of the room
     params = replace(PeopleFilterParams.paper(), beams=PersonBeamParams(window=window))
-    filtered = PeopleFilteredMapper.create(start=log.reference_poses[0], seed=0, params=params)
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=params), start=log.reference_poses[0], seed=0
+    )
     for scan, pose in zip(log.scans, log.reference_poses, strict=True):
         filtered.add_scan(scan, pose=pose)
     filtered.finish()

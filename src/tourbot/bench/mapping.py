@@ -26,7 +26,7 @@ from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog, Scan
 
 if TYPE_CHECKING:
-    from tourbot.mapping.people_filter import PeopleFilterParams
+    from tourbot.mapping.people_filter import PeopleFilterParams, PeopleMappingConfig
 
 __all__ = [
     "clean_map",
@@ -308,6 +308,13 @@ def register(bench: typer.Typer) -> None:
         report.finish(output, console)
 
 
+def _config(params: PeopleFilterParams | None) -> PeopleMappingConfig:
+    """People-filtered mapping with the filter ``params`` (the default one for None)."""
+    from tourbot.mapping.people_filter import PeopleFilterParams, PeopleMappingConfig
+
+    return PeopleMappingConfig(filter=params or PeopleFilterParams())
+
+
 def _known_pose_maps(
     log: RobotLog, seed: int, params: PeopleFilterParams | None = None
 ) -> tuple[OccupancyGrid, OccupancyGrid, NDArray[np.bool_]]:
@@ -318,7 +325,7 @@ def _known_pose_maps(
 
     ref = log.reference_poses
     plain = IncrementalMapper(start=ref[0])
-    filtered = PeopleFilteredMapper.create(start=ref[0], seed=seed, params=params)
+    filtered = PeopleFilteredMapper.create(_config(params), start=ref[0], seed=seed)
     for scan, pose in zip(log.scans, ref, strict=True):
         plain.integrate(scan, pose)
         filtered.add_scan(scan, pose=pose)
@@ -586,7 +593,7 @@ def _crowded_slam(log: RobotLog, seed: int, params: PeopleFilterParams | None = 
 
     start = log.reference_poses[0]
     plain = IncrementalMapper(start=start)
-    filtered = PeopleFilteredMapper.create(start=start, seed=seed, params=params)
+    filtered = PeopleFilteredMapper.create(_config(params), start=start, seed=seed)
     poses = []
     for scan in log.scans:
         plain.add_scan(scan)

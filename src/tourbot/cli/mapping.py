@@ -57,8 +57,12 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.output import check_output
         from tourbot.io.tum import write_tum
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
-        from tourbot.mapping.people_filter import FILTER_MODES, PeopleFilteredMapper, PeopleFilterParams
-        from tourbot.people.sjpdaf import PeopleTracker
+        from tourbot.mapping.people_filter import (
+            FILTER_MODES,
+            PeopleFilteredMapper,
+            PeopleFilterParams,
+            PeopleMappingConfig,
+        )
 
         if not resolution > 0:
             raise MappingError(f"--resolution must be positive, got {resolution}")
@@ -85,9 +89,10 @@ def register(app: typer.Typer) -> None:
         params = MapperParams(resolution=resolution)
         filtered = (
             PeopleFilteredMapper.create(
-                params,
-                tracker=PeopleTracker(config, rng=np.random.default_rng(seed)),
-                params=PeopleFilterParams.mode(people_mode),
+                PeopleMappingConfig(
+                    mapper=params, tracker=config, filter=PeopleFilterParams.mode(people_mode)
+                ),
+                seed=seed,
             )
             if config is not None
             else None

@@ -55,7 +55,7 @@ from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams, co
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.people.sjpdaf import PeopleTracker
+from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import Scan
 
 __all__ = [
@@ -67,6 +67,7 @@ __all__ = [
     "FarBlobParams",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
+    "PeopleMappingConfig",
     "PersonBeamParams",
     "beam_endpoints",
     "hit_probability",
@@ -304,6 +305,18 @@ class _Pending:
         )
 
 
+@dataclass(frozen=True)
+class PeopleMappingConfig:
+    """Every parameter of people-filtered mapping, in one typed home: the incremental scan-matching
+    mapper (:class:`~tourbot.mapping.incremental.MapperParams`, Eq. 1-2), the people tracker
+    (:class:`~tourbot.people.sjpdaf.SJPDAFConfig`, Sec. 4) and the filter
+    (:class:`PeopleFilterParams`, Sec. 5), each with its documented defaults."""
+
+    mapper: MapperParams = field(default_factory=MapperParams)
+    tracker: SJPDAFConfig = field(default_factory=SJPDAFConfig)
+    filter: PeopleFilterParams = field(default_factory=PeopleFilterParams)
+
+
 @dataclass
 class PeopleFilteredMapper:
     """Incremental mapping with the people tracker in the loop (Sec. 5)."""
@@ -334,20 +347,22 @@ class PeopleFilteredMapper:
     @classmethod
     def create(
         cls,
-        mapper_params: MapperParams | None = None,
+        config: PeopleMappingConfig | None = None,
+        *,
         tracker: PeopleTracker | None = None,
-        params: PeopleFilterParams | None = None,
         start: FloatArray | None = None,
         seed: int = 0,
     ) -> PeopleFilteredMapper:
-        params = params or PeopleFilterParams()
-        mapper_params = mapper_params or MapperParams()
-        if params.free_sectors:
+        """The mapper of ``config``, starting at ``start``; the tracker is built from
+        ``config.tracker`` and seeded with ``seed`` unless one is given."""
+        config = config or PeopleMappingConfig()
+        mapper_params = config.mapper
+        if config.filter.free_sectors:
             mapper_params = replace(mapper_params, free_sectors=True)
         return cls(
             mapper=IncrementalMapper(mapper_params, start=start),
-            tracker=tracker or PeopleTracker(rng=np.random.default_rng(seed)),
-            params=params,
+            tracker=tracker or PeopleTracker(config.tracker, rng=np.random.default_rng(seed)),
+            params=config.filter,
         )
 
     def add_scan(self, scan: Scan, pose: FloatArray | None = None) -> FloatArray:
