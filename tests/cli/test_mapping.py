@@ -48,7 +48,7 @@ def test_slam_missing_log_is_one_clear_line(tmp_path: Path, capsys: pytest.Captu
     assert "Traceback" not in err
 
 
-@pytest.mark.parametrize("mode", ["paper", "sectors", "consistent", "confirmed"])
+@pytest.mark.parametrize("mode", ["paper", "checked"])
 def test_slam_with_a_people_filter_mode(tmp_path: Path, mode: str) -> None:
     log = drive(building(), n=12)
     log.odometry = []
@@ -120,14 +120,17 @@ def test_slam_writes_a_raw_map(tmp_path: Path) -> None:
     assert grid.occupied().sum() > 50
 
 
-def test_slam_people_filter_defaults_to_the_joint_mode(
+def test_slam_people_filter_defaults_to_the_filter_s_own_default(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The default mode is the one docs/benchmarks.md (people filtering, run 11) recommends."""
+    """One default whatever the entry point: the CLI's is the dataclass's."""
+    from tourbot.mapping.people_filter import DEFAULT_MODE, PeopleFilterParams
+
+    assert PeopleFilterParams.mode(DEFAULT_MODE) == PeopleFilterParams()
     monkeypatch.setenv("COLUMNS", "400")
     with contextlib.suppress(SystemExit):  # click ends --help with exit status 0
         main(["slam", "--help"])
-    assert "[default: joint]" in capsys.readouterr().out
+    assert f"[default: {DEFAULT_MODE}]" in capsys.readouterr().out
 
 
 def test_slam_people_filter_uses_the_given_leg_model(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
+from tourbot.mapping.blobs import BlobParams, person_blobs
 from tourbot.records import LaserGeometry, Scan
 
 GEOM = LaserGeometry(181, -math.pi / 2, math.radians(1), 30.0)
@@ -39,15 +39,3 @@ def test_a_blob_at_the_edge_of_the_field_of_view_is_not_judged() -> None:
     r = _wall(5.0)
     r[:3] = 6.0  # the first beams: one side unseen
     assert not person_blobs(Scan(0.0, r, GEOM))[:3].any()
-
-
-def test_narrow_runs_are_person_wide_whatever_lies_beside() -> None:
-    r = _wall(12.0)
-    r[40:43] = 2.0  # 10 cm at 2 m
-    r[60:63] = 11.0  # 50 cm at 11 m, a wall 1 m behind
-    r[100:140] = 3.0  # 2 m wide at 3 m: a wall, not narrow
-    narrow = narrow_runs(Scan(0.0, r, GEOM))
-    assert narrow[40:43].all()
-    assert narrow[60:63].all()
-    assert not narrow[100:140].any()
-    assert not narrow[0:30].any()  # the wall ahead

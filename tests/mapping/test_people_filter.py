@@ -8,11 +8,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tourbot.mapping.confirmation import ConfirmationParams
+from tourbot.mapping.consistency import ConsistencyParams
 from tourbot.mapping.incremental import IncrementalMapper
 from tourbot.mapping.people_filter import (
+    DEFAULT_MODE,
     FILTER_MODES,
+    FarBlobParams,
     PeopleFilteredMapper,
     PeopleFilterParams,
+    PeopleMappingConfig,
     hit_probability,
     in_boxes,
     person_beams,
@@ -22,6 +27,9 @@ from tourbot.maps.raycast import DDACaster
 from tourbot.metrics import relative_pose_error
 from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import LaserGeometry, RobotLog, Scan
+
+PAPER = PeopleFilterParams.paper()
+BLOBS = replace(PAPER, free_sectors=True, far_blobs=FarBlobParams())  # the far blobs without the map's checks
 
 
 def test_hit_probability_of_one_person() -> None:
@@ -97,7 +105,9 @@ def test_people_are_left_out_of_the_map(hall: OccupancyGrid) -> None:
     log, people = _walker_log(hall)
     robot = log.reference_poses[0]
     plain = IncrementalMapper(start=robot)
-    filtered = PeopleFilteredMapper.create(start=robot, seed=1)
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=robot, seed=1
+    )
     for scan in log.scans:
         plain.integrate(scan, robot)
         filtered.add_scan(scan, pose=robot)
@@ -126,7 +136,9 @@ def test_a_visitor_standing_where_the_floor_was_seen_free_is_left_out(hall: Occu
     log, people = _walker_log(hall)
     robot = log.reference_poses[0]
     never = PeopleTracker(SJPDAFConfig(confirm_hits=10_000), rng=np.random.default_rng(0))
-    filtered = PeopleFilteredMapper.create(start=robot, tracker=never)
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=robot, tracker=never
+    )
     plain = IncrementalMapper(start=robot)
     for scan in log.scans:
         plain.integrate(scan, robot)
@@ -157,7 +169,9 @@ def hall_walls(grid: OccupancyGrid, hall: OccupancyGrid) -> np.ndarray:
 def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: RobotLog) -> None:
     start = hall_log.reference_poses[0]
     plain = IncrementalMapper(start=start)
-    filtered = PeopleFilteredMapper.create(start=start)
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=start
+    )
     for scan in hall_log.scans[:60]:
         plain.add_scan(scan)
         filtered.add_scan(scan)
@@ -170,86 +184,39 @@ def test_people_filtered_slam_tracks_like_plain_slam_without_people(hall_log: Ro
 
 
 def test_the_map_only_rules_leave_the_alignment_alone(hall_log: RobotLog) -> None:
-    """The far blobs and the shape rules act on the returned map only: scans are aligned with the
-    tracks and person features judged against a map without those rules, so the path is the
-    path of ``sectors`` (the hall's pillars, seen from afar, are blobs that the map rules hold
-    back until seen repeatedly), while the maps differ."""
+    """The far blobs act on the returned map only, and the checks on the finished map: scans are
+    aligned with the tracks and person features judged against a map without them, so the path of
+    the default mode is that of the paper's filter with free sectors (the hall's pillars, seen from
+    afar, are blobs that the map rule holds back until seen repeatedly), while the maps differ."""
     start = hall_log.reference_poses[0]
+    sectors = replace(PeopleFilterParams.paper(), free_sectors=True)
     runs = {}
-    for mode in ("sectors", "blobs", "shapes", "confirmed", "far", "joint"):
-        filtered = PeopleFilteredMapper.create(start=start, params=PeopleFilterParams.mode(mode))
+    for name, params in (("sectors", sectors), ("default", PeopleFilterParams())):
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=start)
         for scan in hall_log.scans[:40]:
             filtered.add_scan(scan)
         filtered.finish()
-        runs[mode] = filtered
-    poses = {mode: np.asarray(f.mapper.poses) for mode, f in runs.items()}
-    assert np.array_equal(poses["blobs"], poses["sectors"])
-    assert np.array_equal(poses["shapes"], poses["sectors"])
-    assert np.array_equal(poses["confirmed"], poses["sectors"])
-    assert np.array_equal(poses["far"], poses["sectors"])
-    assert np.array_equal(poses["joint"], poses["sectors"])  # the default mode
-    runs["confirmed"].grid()
-    runs["far"].grid()  # the far test gets the scan of each beam
-    assert runs["far"].cleared_cells >= runs["confirmed"].cleared_cells
-    assert runs["blobs"].removed_beams > runs["sectors"].removed_beams
-    assert not np.array_equal(runs["blobs"].mapper.grid().prob, runs["sectors"].mapper.grid().prob)
+        runs[name] = filtered
+    assert np.array_equal(np.asarray(runs["default"].mapper.poses), np.asarray(runs["sectors"].mapper.poses))
+    assert runs["default"].removed_beams > runs["sectors"].removed_beams
+    assert not np.array_equal(runs["default"].grid().prob, runs["sectors"].grid().prob)
 
 
-def test_the_modes() -> None:
+def test_the_two_modes() -> None:
+    """The default (``checked``) is the dataclass's default; ``paper`` has none of the rules beyond
+    the paper; the tracker's share of the parameters is the same in both."""
+    assert FILTER_MODES == (DEFAULT_MODE, "paper")
+    assert PeopleFilterParams.mode(DEFAULT_MODE) == PeopleFilterParams()
     paper = PeopleFilterParams.mode("paper")
-    assert not paper.free_sectors
-    assert not paper.far_blobs
-    assert PeopleFilterParams.mode("sectors").free_sectors
-    assert PeopleFilterParams.mode("blobs").far_blobs
-    assert PeopleFilterParams.mode("blobs").consistency is None
-    assert not PeopleFilterParams.mode("blobs").leg_segments
-    consistent = PeopleFilterParams.mode("consistent")
-    assert consistent.far_blobs
-    assert consistent.free_sectors
-    assert consistent.consistency is not None
-    assert not consistent.leg_segments
-    shapes = PeopleFilterParams.mode("shapes")
-    assert shapes.far_blobs
-    assert shapes.free_sectors
-    assert shapes.leg_segments
-    assert shapes.seen_free is not None
-    assert shapes.consistency is None
-    thorough = PeopleFilterParams.mode("thorough")
-    assert thorough.leg_segments
-    assert thorough.consistency is not None
-    confirmed = PeopleFilterParams.mode("confirmed")
-    assert confirmed.far_blobs
-    assert not confirmed.leg_segments
-    assert confirmed.confirmation is not None
-    assert confirmed.consistency is not None
-    assert confirmed.consistency.ring_free < consistent.consistency.ring_free
-    assert PeopleFilterParams.mode("consistent").confirmation is None
-    far = PeopleFilterParams.mode("far")
-    assert far.confirmation == confirmed.confirmation
-    assert far.consistency is not None
-    assert far.consistency.far_range is not None
-    assert replace(far.consistency, far_range=None) == confirmed.consistency
-    assert confirmed.consistency.far_range is None
-    kept = PeopleFilterParams.mode("kept")
-    assert kept.consistency == far.consistency
-    assert kept.confirmation is not None
-    assert far.confirmation is not None
-    assert far.confirmation.line_radius is None
-    assert replace(kept.confirmation, line_radius=None) == far.confirmation
-    cleared = PeopleFilterParams.mode("cleared")
-    assert cleared.confirmation == far.confirmation
-    assert cleared.consistency is not None
-    assert cleared.consistency.mutual_range is not None
-    assert replace(cleared.consistency, mutual_range=None) == far.consistency
-    assert far.consistency.mutual_range is None
-    joint = PeopleFilterParams.mode("joint")
-    assert joint.confirmation == kept.confirmation
-    assert joint.consistency == cleared.consistency
-    modes = {"paper", "sectors", "blobs", "shapes", "consistent", "thorough", "confirmed", "far"}
-    assert set(FILTER_MODES) == modes | {"kept", "cleared", "joint"}
-    assert PeopleFilteredMapper.create(params=PeopleFilterParams.mode("sectors")).mapper.params.free_sectors
+    assert paper == PeopleFilterParams.paper()
+    beyond = ("free_sectors", "far_blobs", "consistency", "confirmation")
+    assert not any(getattr(paper, name) for name in beyond)
+    assert all(getattr(PeopleFilterParams(), name) for name in beyond)
+    assert replace(PeopleFilterParams(), **{n: getattr(paper, n) for n in beyond}) == paper
+    assert PeopleFilteredMapper.create().mapper.params.free_sectors
+    assert not PeopleFilteredMapper.create(PeopleMappingConfig(filter=paper)).mapper.params.free_sectors
     with pytest.raises(ValueError, match="unknown people filter mode"):
-        PeopleFilterParams.mode("magic")
+        PeopleFilterParams.mode("joint")
 
 
 def _pole_then_visitor(poles: int) -> list[Scan]:
@@ -270,8 +237,8 @@ def test_a_far_visitor_is_left_out_as_a_blob_but_not_a_pole_seen_before() -> Non
     fourth scan on."""
     scans = _pole_then_visitor(4)
     left = {}
-    for mode in ("paper", "blobs"):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+    for mode, params in (("paper", PAPER), ("blobs", BLOBS)):
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()
@@ -291,8 +258,13 @@ def test_the_confirmed_mode_gives_back_a_pole_other_scans_confirm_but_not_a_visi
     scans = _pole_then_visitor(8)
     geom = scans[0].geometry
     runs = {}
-    for mode in ("blobs", "confirmed"):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+    confirming = replace(
+        BLOBS,
+        confirmation=ConfirmationParams(),
+        consistency=ConsistencyParams(ring_free=0.4, group_member_cells=6),
+    )
+    for mode, params in (("blobs", BLOBS), ("confirmed", confirming)):
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()
@@ -320,8 +292,8 @@ def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around
     poses = [np.zeros(3), np.array([0.0, 0.52, 0.0]), np.array([0.0, 0.52, 0.0])]
     scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall, visitor, visitor])]
     grids = {}
-    for mode in ("blobs", "consistent"):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+    for mode, params in (("blobs", BLOBS), ("consistent", replace(BLOBS, consistency=ConsistencyParams()))):
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan, pose in zip(scans, poses, strict=True):
             filtered.add_scan(scan, pose=pose)
         filtered.finish()
@@ -333,70 +305,6 @@ def test_the_consistent_mode_clears_a_visitor_the_finished_map_sees_floor_around
     assert not grids["consistent"].occupied()[row, col]
     changed = grids["blobs"].occupied() != grids["consistent"].occupied()
     assert changed.sum() == 1
-
-
-def test_a_standing_visitor_near_the_robot_is_left_out_by_the_leg_shape_but_not_a_pole() -> None:
-    """Legs 2 m away in the first scan, standing where nothing was seen before (no track, no moving
-    feature, no floor seen free): the shapes mode leaves out the beams on them; a leg-sized pole
-    seen at one spot scan after scan is mapped from its fourth scan on (one sighting per scan,
-    however many beams hit it)."""
-    geom = LaserGeometry(121, -math.radians(60), math.radians(1), 30.0)
-    wall = 6.0 / np.cos(geom.angles)
-
-    def with_circle(r: np.ndarray, at: float, radius: float, distance: float) -> np.ndarray:
-        # a circle at angle ``at`` (rad), ``distance`` away: ranges of the beams that hit it
-        out = r.copy()
-        off = distance * np.sin(geom.angles - at)
-        hit = (np.abs(off) < radius) & (np.cos(geom.angles - at) > 0)
-        along = distance * np.cos(geom.angles - at) - np.sqrt(np.maximum(radius**2 - off**2, 0.0))
-        out[hit] = np.minimum(out[hit], along[hit])
-        return out
-
-    pole = with_circle(wall, math.radians(-30), 0.06, 2.0)
-    visitor = with_circle(with_circle(pole, math.radians(20), 0.06, 2.0), math.radians(26), 0.06, 2.0)
-    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([visitor] + [pole] * 4)]
-    left = {}
-    for mode in ("blobs", "shapes"):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
-        for scan in scans:
-            filtered.add_scan(scan, pose=np.zeros(3))
-        filtered.finish()
-        left[mode] = np.asarray(filtered.left_out)
-    on_visitor = visitor < 3.0
-    on_visitor &= geom.angles > 0
-    on_pole = (pole < 3.0) & (geom.angles < 0)
-    assert on_visitor.sum() >= 4
-    assert on_pole.sum() >= 2
-    assert not left["blobs"][0, on_visitor].any()  # no track, no blob: the visitor stays
-    assert left["shapes"][0, on_visitor].all()
-    assert left["shapes"][:3][:, on_pole].all()  # the pole the first three times ...
-    assert not left["shapes"][3:][:, on_pole].any()  # ... then it is static
-    # nothing else, the wall never
-    assert left["shapes"].sum() == on_visitor.sum() + left["shapes"][:, on_pole].sum()
-
-
-def test_a_beam_ending_where_the_floor_was_seen_free_is_left_out() -> None:
-    """A wall 6 m ahead seen free up to it; a flat box (no leg, no blob: 40 cm wide, near) appears
-    at 2 m, 4 m in front of it. With ``seen_free`` its beams are left out; the wall's never, nor
-    those of a long run seen where the floor was free."""
-    geom = LaserGeometry(61, -math.radians(30), math.radians(1), 30.0)
-    wall = 6.0 / np.cos(geom.angles)
-    box = wall.copy()
-    box[25:37] = 2.0 / np.cos(geom.angles[25:37])
-    box[0:20] = 2.5 / np.cos(geom.angles[0:20])  # a long run (a wall the path drifted into): kept
-    scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([wall] * 3 + [box])]
-    left = {}
-    for seen_free in (None, -0.6):
-        params = PeopleFilterParams(seen_free=seen_free)
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=params)
-        for scan in scans:
-            filtered.add_scan(scan, pose=np.zeros(3))
-        filtered.finish()
-        left[seen_free] = np.asarray(filtered.left_out)
-    assert not left[None][3, 25:37].any()
-    assert left[-0.6][3, 25:37].all()
-    assert not left[-0.6][3, 0:20].any()
-    assert not left[-0.6][:3].any()
 
 
 def test_the_kept_mode_gives_back_a_post_face_the_map_holds_on_both_sides_but_not_a_visitor() -> None:
@@ -414,8 +322,9 @@ def test_the_kept_mode_gives_back_a_post_face_the_map_holds_on_both_sides_but_no
     visitor[100:102] = 9.0
     scans = [Scan(float(t), r, geom, odom=(0.0, 0.0, 0.0)) for t, r in enumerate([post] * 3 + [visitor])]
     runs = {}
-    for mode in ("far", "kept"):
-        filtered = PeopleFilteredMapper.create(start=np.zeros(3), params=PeopleFilterParams.mode(mode))
+    no_lines = replace(PeopleFilterParams(), confirmation=ConfirmationParams())  # no line of structure
+    for mode, params in (("far", no_lines), ("kept", PeopleFilterParams())):
+        filtered = PeopleFilteredMapper.create(PeopleMappingConfig(filter=params), start=np.zeros(3))
         for scan in scans:
             filtered.add_scan(scan, pose=np.zeros(3))
         filtered.finish()

@@ -8,7 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tourbot.mapping.people_filter import PeopleFilteredMapper, PeopleFilterParams, beam_endpoints
+from tourbot.mapping.people_filter import (
+    PeopleFilteredMapper,
+    PeopleFilterParams,
+    PeopleMappingConfig,
+    PersonBeamParams,
+    beam_endpoints,
+)
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 from tourbot.sim.crowd import CrowdConfig
@@ -52,8 +58,10 @@ def test_the_filter_leaves_out_most_beams_and_cells_of_a_simulated_crowd(
     paper's scans before and after); measured 84-87 % and 99.99 %."""
     log, person = crowd_run
     assert person.mean() > 0.05  # the visitors hide a good part of the room
-    params = PeopleFilterParams(window=window)
-    filtered = PeopleFilteredMapper.create(start=log.reference_poses[0], seed=0, params=params)
+    params = replace(PeopleFilterParams.paper(), beams=PersonBeamParams(window=window))
+    filtered = PeopleFilteredMapper.create(
+        PeopleMappingConfig(filter=params), start=log.reference_poses[0], seed=0
+    )
     for scan, pose in zip(log.scans, log.reference_poses, strict=True):
         filtered.add_scan(scan, pose=pose)
     filtered.finish()

@@ -10,7 +10,6 @@ from tourbot.people.legs import (
     LegFeatures,
     detect_legs,
     group_legs,
-    leg_beams,
     leg_segments,
     leg_segments_reference,
 )
@@ -83,17 +82,3 @@ def test_a_bump_on_a_wall_is_not_a_leg() -> None:
     circles = [(3.0, y, 0.06) for y in np.arange(-2.0, 2.0, 0.02)] + [(2.95, 0.0, 0.06)]
     legs = detect_legs(scan_with_circles(0.0, (0.0, 0.0, 0.0), circles))
     assert len(legs) == 0
-
-
-def test_leg_beams_are_the_beams_on_the_legs_only() -> None:
-    scan = scan_with_circles(0.0, (0.0, 0.0, 0.0), legs_of(2.0, 0.0, 0.0, 0.0))
-    on = leg_beams(scan, LegConfig(model=None))
-    assert on.sum() >= 4
-    # every beam marked ended on a leg (2 m away), none on the ring wall (10 m)
-    assert np.all(scan.ranges[on] < 2.5)
-    assert not leg_beams(scan, LegConfig(model=None, max_range=1.5)).any()  # beyond reach
-
-
-def test_leg_beams_leave_walls_and_wide_things_alone() -> None:
-    circles = [(2.0, y, 0.06) for y in np.arange(-0.5, 0.5, 0.05)]  # a 1 m wide box
-    assert not leg_beams(scan_with_circles(0.0, (0.0, 0.0, 0.0), circles)).any()

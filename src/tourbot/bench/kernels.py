@@ -29,10 +29,6 @@ def register(bench: typer.Typer) -> None:
         max_range: Annotated[
             list[float] | None, typer.Option(help="Caster max ranges, metres (default 10 and the laser's).")
         ] = None,
-        cddt_directions: Annotated[
-            list[int] | None,
-            typer.Option(help="Heading bins of the CDDT caster, one row each (default 256)."),
-        ] = None,
         repeat: Annotated[int, typer.Option(help="Runs per figure; the best one counts.")] = 3,
         seed: Annotated[int, typer.Option(help="Seed of the sampled poses.")] = 0,
         output: Annotated[
@@ -48,12 +44,7 @@ def register(bench: typer.Typer) -> None:
                 raise InputError(f"{name} must be at least 1, got {value}", field=name)
         if max_range is not None and min(max_range) <= 0:
             raise InputError(f"--max-range must be positive, got {min(max_range)}", field="--max-range")
-        for d in cddt_directions or []:
-            if d < 4 or d & (d - 1):
-                raise InputError(
-                    f"--cddt-directions must be powers of two >= 4, got {d}", field="--cddt-directions"
-                )
-        _run(resolution, particles, field_poses, max_range, cddt_directions or [256], repeat, seed, output)
+        _run(resolution, particles, field_poses, max_range, repeat, seed, output)
 
 
 def _best_time(fn: object, repeat: int) -> float:
@@ -76,7 +67,6 @@ def _casts(
     lasers: Any,
     angles: Any,
     max_ranges: list[float],
-    cddt_directions: list[int],
     repeat: int,
 ) -> tuple[float, Any]:
     """Rows of the casters at each max range: speed, build, memory, agreement with the DDA on the
@@ -87,7 +77,6 @@ def _casts(
     import numpy as np
 
     from tourbot.geometry import compose
-    from tourbot.maps.cddt import CDDTCaster
     from tourbot.maps.raycast import DDACaster, DistanceCaster, RayCaster
 
     geom = log.scans[0].geometry
@@ -98,10 +87,6 @@ def _casts(
     makers: list[tuple[str, str, Any]] = [
         ("DDACaster", "dda", lambda mr: DDACaster(grid, mr)),
         ("DistanceCaster", "distance", lambda mr: DistanceCaster(grid, mr)),
-    ]
-    makers += [
-        (f"CDDTCaster, {d} directions", f"cddt{d}", lambda mr, d=d: CDDTCaster(grid, mr, directions=d))
-        for d in cddt_directions
     ]
     dda_out = None
     for mr in max_ranges:
@@ -172,7 +157,6 @@ def _run(
     particles: int,
     field_poses: int,
     max_ranges: list[float] | None,
-    cddt_directions: list[int],
     repeat: int,
     seed: int,
     output: Path | None,
@@ -215,7 +199,7 @@ def _run(
         lasers = compose(robot, np.asarray(geom.offset))
         angles = geom.angles
         ranges_list = max_ranges or [10.0, geom.max_range]
-        cast_for_model = _casts(report, log, grid, lasers, angles, ranges_list, cddt_directions, repeat)
+        cast_for_model = _casts(report, log, grid, lasers, angles, ranges_list, repeat)
 
         # likelihood field: one real scan scored from many poses
         k = int(rng.integers(0, len(log)))
@@ -287,7 +271,6 @@ def _run(
     )
     casts = [v for key, v in report.meta.items() if key.startswith("cast_")]
     accelerated = [("distance", "DistanceCaster (exact)")]
-    accelerated += [(f"cddt{d}", f"CDDTCaster, {d} directions (approximate)") for d in cddt_directions]
     for key, name in accelerated:
         best_fast = max(v[f"{key}_rays_per_s"] for v in casts)
         worst_fast = min(v[f"{key}_rays_per_s"] for v in casts)

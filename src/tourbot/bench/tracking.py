@@ -28,6 +28,7 @@ import typer
 from numpy.typing import NDArray
 
 from tourbot.bench._report import BenchReport
+from tourbot.geometry import wrap_angle
 
 __all__ = ["SimConfig", "SimRun", "register", "score_frames", "simulate_crowd"]
 
@@ -109,7 +110,7 @@ def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None
     def robot_pose(t: float) -> FloatArray:
         a = omega * t
         x, y = centre + cfg.loop_radius * np.array([math.cos(a), math.sin(a)])
-        return np.array([x, y, math.atan2(math.sin(a + math.pi / 2), math.cos(a + math.pi / 2))])
+        return np.array([x, y, float(wrap_angle(a + math.pi / 2))])
 
     geometry = LaserGeometry(
         num_beams=cfg.beams,

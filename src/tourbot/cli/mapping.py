@@ -33,20 +33,12 @@ def register(app: typer.Typer) -> None:
         people_mode: Annotated[
             str,
             typer.Option(
-                help="With --people-filter: paper (tracks and person features), sectors (and the space "
-                "seen between beams cleared), blobs (and far person-sized blobs left out), shapes (and the "
-                "beams of leg-shaped segments and of ends where the floor was seen free), consistent "
-                "(blobs, and small specks, alone or in groups, that the finished map sees free floor around "
-                "and behind cleared), "
-                "thorough (shapes and the check of consistent), confirmed (blobs; the left-out beams "
-                "that other scans' kept beams confirm given back to the finished map, then a looser check), "
-                "far (confirmed, and specks hit from beyond 6 m only by one or two scans judged with a "
-                "looser check), kept (far, and the left-out beams whose end lies in a line "
-                "of structure the map holds given back too), cleared (far, and such specks seen by one "
-                "scan from beyond 4 m next to each other cleared together), joint (far with both; the "
-                "default)."
+                help="With --people-filter: checked (the default: the paper's filter, the space seen "
+                "between beams cleared, far person-sized blobs left out, and the finished map checked: "
+                "left-out beams other scans confirm given back, specks it sees free floor around and "
+                "behind cleared) or paper (tracks and person features only, Burgard et al. Sec. 5)."
             ),
-        ] = "joint",
+        ] = "checked",
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
@@ -65,8 +57,12 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.output import check_output
         from tourbot.io.tum import write_tum
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
-        from tourbot.mapping.people_filter import FILTER_MODES, PeopleFilteredMapper, PeopleFilterParams
-        from tourbot.people.sjpdaf import PeopleTracker
+        from tourbot.mapping.people_filter import (
+            FILTER_MODES,
+            PeopleFilteredMapper,
+            PeopleFilterParams,
+            PeopleMappingConfig,
+        )
 
         if not resolution > 0:
             raise MappingError(f"--resolution must be positive, got {resolution}")
@@ -93,9 +89,10 @@ def register(app: typer.Typer) -> None:
         params = MapperParams(resolution=resolution)
         filtered = (
             PeopleFilteredMapper.create(
-                params,
-                tracker=PeopleTracker(config, rng=np.random.default_rng(seed)),
-                params=PeopleFilterParams.mode(people_mode),
+                PeopleMappingConfig(
+                    mapper=params, tracker=config, filter=PeopleFilterParams.mode(people_mode)
+                ),
+                seed=seed,
             )
             if config is not None
             else None

@@ -9,9 +9,6 @@ jumps. Consecutive points belong to one run when they are closer than ``gap_fact
 spacing of two beams at that range (or ``cluster_distance``, whichever is larger), so that a
 surface seen at a distance is not cut into beam-sized pieces.
 
-The same runs, at most a person wide whatever lies beside them (:func:`narrow_runs`), are what
-the people filter may judge by the map alone (something person-sized where the floor was seen).
-
 The rules are vectorised numpy over the beams of one scan.
 """
 
@@ -24,7 +21,7 @@ from numpy.typing import NDArray
 
 from tourbot.records import Scan
 
-__all__ = ["BlobParams", "narrow_runs", "person_blobs"]
+__all__ = ["BlobParams", "person_blobs"]
 
 
 @dataclass(frozen=True)
@@ -61,17 +58,6 @@ def _runs(
     first = np.flatnonzero(start)
     last = np.r_[first[1:] - 1, n - 1]
     return valid, xy, first, last, seg
-
-
-def narrow_runs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.bool_]:
-    """Which beams of ``scan`` ``(B,)`` returned on a run at most ``max_width`` wide (at any range
-    and whatever lies beside it): a person, a pole, the edge of something; not a wall."""
-    p = params or BlobParams()
-    if len(scan.ranges) == 0:
-        return np.zeros(0, dtype=bool)
-    valid, xy, first, last, seg = _runs(scan, p)
-    width = np.linalg.norm(xy[last] - xy[first], axis=1)
-    return np.asarray((width <= p.max_width)[seg] & valid)
 
 
 def person_blobs(scan: Scan, params: BlobParams | None = None) -> NDArray[np.bool_]:

@@ -27,14 +27,16 @@ scan and the map, Sec. 4, Fig. 6, against the whole map instead of the previous 
 a person's only if it does not end beyond the person (a wall behind a visitor stays), and a
 person's beam still clears the free space in front of the person.
 
-The rules beyond the paper that leave more beams out of the returned map (far blobs, leg
-segments, beams ending in space seen free) are for that map only: a scan is aligned with the
-tracks and person features alone (Eq. 12), and these are judged against a map written with
-the same rules (``evidence map``), so that what the map-only rules leave out does not make
-the alignment take more real structure for people (on the real Intel log, without a crowd, they
-did: 0.051 m relative error with the far blobs against 0.033 m without). The passes over the
-finished map (:mod:`tourbot.mapping.confirmation`, :mod:`tourbot.mapping.consistency`) act on
-the returned map alone.
+Two modes (:meth:`PeopleFilterParams.mode`): ``paper`` is Sec. 5 alone; ``checked``, the default
+everywhere (the dataclass, ``tourbot slam``, the benchmarks), adds the rules beyond the paper
+(free sectors, far blobs, and the checks of the finished map). The rule that leaves more beams out
+of the returned map (far blobs) is for that map only: a scan is aligned with the tracks and person
+features alone (Eq. 12), and these are judged against a map written without it (``evidence
+map``), so that what the map-only rule leaves out does not make the alignment take more real
+structure for people (on the real Intel log, without a crowd, it did: 0.051 m relative error with
+the far blobs against 0.033 m without). The passes over the finished map
+(:mod:`tourbot.mapping.confirmation`, :mod:`tourbot.mapping.consistency`) act on the returned map
+alone.
 """
 
 from __future__ import annotations
@@ -48,23 +50,25 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
-from tourbot.mapping.blobs import BlobParams, narrow_runs, person_blobs
+from tourbot.mapping.blobs import BlobParams, person_blobs
 from tourbot.mapping.confirmation import ConfirmationParams, confirmed_beams, continues_structure
 from tourbot.mapping.consistency import ConsistencyParams, clear_specks
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.people.legs import LegConfig, leg_beams
-from tourbot.people.sjpdaf import PeopleTracker
+from tourbot.people.sjpdaf import PeopleTracker, SJPDAFConfig
 from tourbot.records import Scan
 
 __all__ = [
-    "CLEARED_CHECK",
-    "CONFIRMED_CHECK",
-    "FAR_CHECK",
+    "DEFAULT_MODE",
     "FILTER_MODES",
-    "KEPT_CONFIRMATION",
+    "GIVE_BACK",
+    "MAP_CHECK",
+    "AlignmentParams",
+    "FarBlobParams",
     "PeopleFilterParams",
     "PeopleFilteredMapper",
+    "PeopleMappingConfig",
+    "PersonBeamParams",
     "beam_endpoints",
     "hit_probability",
     "in_boxes",
@@ -72,104 +76,71 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-# the check of the ``confirmed`` mode: looser than ``consistent``'s, since the beams given back
-# keep static cells that the filter had cost (values chosen on crowd seeds 30-35)
-CONFIRMED_CHECK = ConsistencyParams(ring_free=0.4, group_member_cells=6)
-# the check of the ``far`` mode: ``confirmed``'s, and specks of at most 2 cells that beams of one
-# scan hit from beyond 6 m only cleared with a ring at least 75 % seen free and at least 20 %
-# behind them; groups of specks each hit from beyond 6 m only by at most 2 scans need 20 %
-# behind them instead of 50 % (values chosen on crowd seeds 50-55)
-FAR_CHECK = replace(
-    CONFIRMED_CHECK,
+# The checks of the finished map in the default mode (``checked``), beyond the paper. Specks
+# (:mod:`tourbot.mapping.consistency`): a ring at least 40 % seen free and groups of components up
+# to 6 cells, since the beams given back keep static cells that the filter had cost (chosen on
+# crowd seeds 30-35); specks of at most 2 cells that beams of one scan hit from beyond 6 m only
+# cleared with a ring at least 75 % seen free and at least 20 % behind them, groups of such specks
+# hit by at most 2 scans with 20 % behind them (seeds 50-55); specks that one scan hit from beyond
+# 4 m (the leg detector's reach) judged so also when their ring holds such specks too (visitors
+# standing together; seeds 70-75).
+MAP_CHECK = ConsistencyParams(
+    ring_free=0.4,
+    group_member_cells=6,
     far_range=6.0,
     far_scans=1,
     far_cells=2,
     far_ring_free=0.75,
     far_behind_free=0.2,
     far_group_scans=2,
+    mutual_range=4.0,
 )
-# the give-back of the ``kept`` mode: ``far``'s, and left-out beams whose end lies in a line of
+# The give-back (:mod:`tourbot.mapping.confirmation`): a left-out beam's hit returns when kept
+# beams of 4 other scans end in its cell's neighbourhood, or when its end lies in a line of
 # structure the map holds (occupied cells within 2 cells on two sides at least 90 degrees apart;
-# values chosen on crowd seeds 70-75)
-KEPT_CONFIRMATION = ConfirmationParams(line_radius=2, line_angle=90.0)
-# the check of the ``cleared`` mode: ``far``'s, and specks that one scan hit from beyond 4 m only
-# (the leg detector's reach) judged with the far test's values also when the occupied cells in
-# their ring are such specks too (visitors standing together; chosen on crowd seeds 70-75)
-CLEARED_CHECK = replace(FAR_CHECK, mutual_range=4.0)
-FILTER_MODES = (
-    "paper",
-    "sectors",
-    "blobs",
-    "shapes",
-    "consistent",
-    "thorough",
-    "confirmed",
-    "far",
-    "kept",
-    "cleared",
-    "joint",
-)
+# seeds 70-75).
+GIVE_BACK = ConfirmationParams(line_radius=2, line_angle=90.0)
+DEFAULT_MODE = "checked"
+FILTER_MODES = (DEFAULT_MODE, "paper")
 
 
 @dataclass(frozen=True)
-class PeopleFilterParams:
-    """Parameters of people filtering (bins of 15 cm as in Burgard et al. Sec. 5).
+class AlignmentParams:
+    """How the people weigh the beams of a scan in its alignment (Eq. 10-12; bins of 15 cm as in
+    Burgard et al. Sec. 5).
 
-    Alignment (Eq. 10-12): ``body_radius``: a beam ending this close to a person's samples may be
-    reflected by them; a tentative track counts with the share ``hits / confirm_hits`` of the way to
-    its confirmation.
-
-    Map building: ``box_half_size``: half the side of a tracked person's bounding box (legs up to
-    a stride apart); ``scans_around``: how many scans later a scan is written, and so how late a
-    track may be confirmed and still count in it; a track not confirmed by then counts when it had
-    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 above). Person
-    features of the scan itself count (in a box of ``feature_half_size``) when their P(moving) is
-    at least ``feature_moving`` or the map so far has a log-odds at most ``feature_free`` around
-    them (seen free before). ``beyond``: a beam ending farther than this behind a person's centre
-    passed the person and is kept.
-    ``window``: a counted track's boxes at its positions in the ``window`` scans before and after
-    also count in a scan (the paper's "several previous and next scans", to cope with the tracker's
-    delay; the scans after are those still waiting, so at most ``scans_around``; 0: the scan's own).
-    ``static_evidence``: a beam in a box is kept when it ends in a cell the map already holds as
-    occupied with at least this log-odds (a wall seen before a visitor stood in front of it).
-    ``keep_free_space``: a person's beam still marks the cells in front of the person free.
+    ``bin_size``: the side of the histogram bins of each person's samples (m). ``body_radius``: a
+    beam ending this close to a person's samples may be reflected by them (m); a tentative track
+    counts with the share ``hits / confirm_hits`` of the way to its confirmation.
     ``align_features``: beams ending on the scan's person features get no weight in alignment
     (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
-
-    Beyond the paper (see :meth:`mode`): ``free_sectors``: the map also clears the cells between
-    neighbouring beams that the laser saw past on both sides (:mod:`tourbot.mapping.free_space`),
-    so that a visitor hit once at a distance is cleared by the later scans that saw the floor
-    around the spot, although none of their beams crossed its cell. ``far_blobs``: the beams on a
-    person-sized blob beyond the leg detector's reach (:mod:`tourbot.mapping.blobs`, ``blobs``) are
-    left out of the map (not of alignment) like a person's, unless the map so far has a log-odds
-    of ``blob_evidence`` or more in the 3 x 3 cells around their end (something static seen
-    there before), and fewer than ``blob_repeats`` blobs were left out there before: a pole seen
-    from afar is a blob in scan after scan at one spot, and is mapped from its
-    ``blob_repeats + 1``-th scan on.
-
-    Rules on the shape of each scan and the map so far (``shapes``), for the map only (alignment
-    keeps the weights above): ``leg_segments``: the beams of every leg candidate within
-    ``leg_range`` whose P(leg) by the width and contrast rule is at least ``leg_probability``
-    (:func:`tourbot.people.legs.leg_beams`) are left out, whether or not a track or a moving
-    feature holds them (visitors standing in groups), with the same evidence and repeat guards as
-    the blobs (``blob_evidence``; left out at a spot in ``leg_repeats`` scans before: a table leg
-    or a pole is then mapped). ``seen_free``: a beam on a run at most a person wide
-    (``blobs.max_width``, :func:`tourbot.mapping.blobs.narrow_runs`) that ends where the map so
-    far has a log-odds at most this in all of the 3 x 3 cells around its end is left out:
-    something person-sized stands where the floor was seen, the grid difference of Sec. 4
-    (Fig. 6) applied to every such beam, not only to person features (None: off). Long runs are
-    never judged so: a wall that a drifting path puts into space seen free before stays.
-    ``consistency``: the finished map is checked against itself
-    (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
-    decimetres across (visitors standing together), with free floor around them and behind them
-    along the beams that hit them are cleared (None: no check).
-    ``confirmation``: before that check, the left-out beams whose ends kept beams of several
-    other scans confirm (:mod:`tourbot.mapping.confirmation`) get their hits back in the finished
-    map (None: none).
     """
 
     bin_size: float = 0.15
     body_radius: float = 0.3
+    align_features: bool = True
+
+
+@dataclass(frozen=True)
+class PersonBeamParams:
+    """Which beams of a scan its people take out of the map when the scan is written (Sec. 5).
+
+    ``box_half_size``: half the side of a tracked person's bounding box (m: legs up to a stride
+    apart). ``scans_around``: how many scans later a scan is written, and so how late a track may
+    be confirmed and still count in it; a track not confirmed by then counts when it had
+    ``tentative_hits`` detections (None: never; 2 is an existence share of 2/3 in alignment).
+    Person features of the scan itself count (in a box of ``feature_half_size``, m) when their
+    P(moving) is at least ``feature_moving`` or the map so far has a log-odds at most
+    ``feature_free`` around them (seen free before). ``beyond``: a beam ending farther than this
+    (m) behind a person's centre passed the person and is kept. ``window``: a counted track's boxes
+    at its positions in the ``window`` scans before and after also count in a scan (the paper's
+    "several previous and next scans", to cope with the tracker's delay; the scans after are those
+    still waiting, so at most ``scans_around``; 0: the scan's own). ``static_evidence``: a beam in a
+    box is kept when it ends in a cell the map already holds as occupied with at least this
+    log-odds (a wall seen before a visitor stood in front of it). ``keep_free_space``: a person's
+    beam still marks the cells in front of the person free.
+    """
+
     box_half_size: float = 0.3
     scans_around: int = 3
     window: int = 0
@@ -180,74 +151,75 @@ class PeopleFilterParams:
     beyond: float = 0.2
     static_evidence: float = 3.0
     keep_free_space: bool = True
-    align_features: bool = True
-    free_sectors: bool = False
-    far_blobs: bool = False
-    blobs: BlobParams = field(default_factory=BlobParams)
-    blob_evidence: float = 0.5
-    blob_repeats: int = 3
-    leg_segments: bool = False
-    leg_probability: float = 0.99
-    leg_range: float = 4.0
-    leg_repeats: int = 3
-    seen_free: float | None = None
-    consistency: ConsistencyParams | None = None
-    confirmation: ConfirmationParams | None = None
+
+
+@dataclass(frozen=True)
+class FarBlobParams:
+    """Beyond the paper: the beams on a person-sized blob beyond the leg detector's reach
+    (:mod:`tourbot.mapping.blobs`, ``shape``) are left out of the map (not of alignment) like a
+    person's, unless the map so far has a log-odds of ``evidence`` or more in the 3 x 3 cells
+    around their end (something static seen there before), and fewer than ``repeats`` blobs were
+    left out there before: a pole seen from afar is a blob in scan after scan at one spot, and is
+    mapped from its ``repeats + 1``-th scan on."""
+
+    shape: BlobParams = field(default_factory=BlobParams)
+    evidence: float = 0.5
+    repeats: int = 3
+
+
+@dataclass(frozen=True)
+class PeopleFilterParams:
+    """Parameters of people filtering, in groups: ``alignment`` (Eq. 10-12), ``beams`` (the map
+    that is written, Sec. 5), and the rules beyond the paper (on by default, off in
+    :meth:`paper`):
+
+    - ``free_sectors``: the map also clears the cells between neighbouring beams that the laser
+      saw past on both sides (:mod:`tourbot.mapping.free_space`), so that a visitor hit once at a
+      distance is cleared by the later scans that saw the floor around the spot, although none of
+      their beams crossed its cell;
+    - ``far_blobs`` (:class:`FarBlobParams`; None: off);
+    - ``confirmation`` (``GIVE_BACK``; None: none): the left-out beams whose ends kept beams of
+      several other scans confirm, or that continue a line of structure the map holds
+      (:mod:`tourbot.mapping.confirmation`), get their hits back in the finished map;
+    - ``consistency`` (``MAP_CHECK``; None: no check): then the finished map is checked against
+      itself (:mod:`tourbot.mapping.consistency`): small occupied specks, alone or in groups a few
+      decimetres across (visitors standing together), with free floor around them and behind them
+      along the beams that hit them are cleared.
+    """
+
+    alignment: AlignmentParams = field(default_factory=AlignmentParams)
+    beams: PersonBeamParams = field(default_factory=PersonBeamParams)
+    free_sectors: bool = True
+    far_blobs: FarBlobParams | None = field(default_factory=FarBlobParams)
+    confirmation: ConfirmationParams | None = GIVE_BACK
+    consistency: ConsistencyParams | None = MAP_CHECK
+
+    @classmethod
+    def paper(cls) -> PeopleFilterParams:
+        """Burgard et al. Sec. 5 alone: tracks and person features, none of the rules beyond it."""
+        return cls(free_sectors=False, far_blobs=None, consistency=None, confirmation=None)
 
     @classmethod
     def mode(cls, name: str) -> PeopleFilterParams:
-        """The parameters of a named mode: ``paper`` (tracks and person features, Sec. 5),
-        ``sectors`` (and free sectors in the map), ``blobs`` (and far blobs too), ``shapes`` (and
-        leg segments and beams ending in space seen free), ``consistent`` (``blobs``, and the
-        finished map's specks that its free space contradicts cleared), ``thorough`` (``shapes``
-        and the check of ``consistent``), ``confirmed`` (``blobs``; the left-out beams that other
-        scans confirm given back to the finished map, then a looser check: a ring at least 40 %
-        seen free, groups of components up to 6 cells), ``far`` (``confirmed``, and the specks
-        that beams of one scan hit from afar only judged with a looser test, ``FAR_CHECK``),
-        ``kept`` (``far``, and the left-out beams whose end lies in a line of structure the map
-        holds given back too, ``KEPT_CONFIRMATION``), ``cleared`` (``far``, and specks one scan
-        hit from beyond 4 m next to each other judged with that test too, ``CLEARED_CHECK``),
-        ``joint`` (``far`` with both: ``kept``'s give-back and ``cleared``'s check)."""
+        """The parameters of a named mode: ``checked`` (the default: the paper's filter, free
+        sectors, far blobs, and the finished map checked, ``GIVE_BACK`` then ``MAP_CHECK``) or
+        ``paper`` (:meth:`paper`)."""
         if name not in FILTER_MODES:
             raise ValueError(f"unknown people filter mode {name!r} (one of {', '.join(FILTER_MODES)})")
-        shapes = name in ("shapes", "thorough")
-        checks = {
-            "consistent": ConsistencyParams(),
-            "thorough": ConsistencyParams(),
-            "confirmed": CONFIRMED_CHECK,
-            "far": FAR_CHECK,
-            "kept": FAR_CHECK,
-            "cleared": CLEARED_CHECK,
-            "joint": CLEARED_CHECK,
-        }
-        confirmation = {
-            "confirmed": ConfirmationParams(),
-            "far": ConfirmationParams(),
-            "kept": KEPT_CONFIRMATION,
-            "cleared": ConfirmationParams(),
-            "joint": KEPT_CONFIRMATION,
-        }
-        return cls(
-            free_sectors=name != "paper",
-            far_blobs=name not in {"paper", "sectors"},
-            leg_segments=shapes,
-            seen_free=-0.6 if shapes else None,
-            consistency=checks.get(name),
-            confirmation=confirmation.get(name),
-        )
+        return cls.paper() if name == "paper" else cls()
 
 
 def hit_probability(
     sample_sets: Iterable[FloatArray],
     points: FloatArray,
-    params: PeopleFilterParams | None = None,
+    params: AlignmentParams | None = None,
     existence: Iterable[float] | None = None,
 ) -> FloatArray:
     """``P(hit_xy | X)`` at world ``points`` ``(B, 2)`` from the people's samples (Eq. 10-11).
 
     ``existence`` (one per sample set, default 1) scales each person's ``P(hit_xy | x_i)``.
     """
-    p = params or PeopleFilterParams()
+    p = params or AlignmentParams()
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     miss = np.ones(len(pts))
     reach = (p.body_radius / p.bin_size) ** 2
@@ -333,6 +305,18 @@ class _Pending:
         )
 
 
+@dataclass(frozen=True)
+class PeopleMappingConfig:
+    """Every parameter of people-filtered mapping, in one typed home: the incremental scan-matching
+    mapper (:class:`~tourbot.mapping.incremental.MapperParams`, Eq. 1-2), the people tracker
+    (:class:`~tourbot.people.sjpdaf.SJPDAFConfig`, Sec. 4) and the filter
+    (:class:`PeopleFilterParams`, Sec. 5), each with its documented defaults."""
+
+    mapper: MapperParams = field(default_factory=MapperParams)
+    tracker: SJPDAFConfig = field(default_factory=SJPDAFConfig)
+    filter: PeopleFilterParams = field(default_factory=PeopleFilterParams)
+
+
 @dataclass
 class PeopleFilteredMapper:
     """Incremental mapping with the people tracker in the loop (Sec. 5)."""
@@ -348,7 +332,7 @@ class PeopleFilteredMapper:
     def __post_init__(self) -> None:
         self._confirmed: set[int] = set()  # ids of every track confirmed so far
         self._pending: collections.deque[_Pending] = collections.deque()
-        self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.window)
+        self._written: collections.deque[_Pending] = collections.deque(maxlen=self.params.beams.window)
         self._index = 0
         self._blob_spots: dict[tuple[int, int], int] = {}  # far blobs left out, by map cell
         self._origins: list[FloatArray] = []  # per scan written: the laser position of each kept end
@@ -356,7 +340,6 @@ class PeopleFilteredMapper:
         self._written_index: list[int] = []  # per scan written: its index
         self._left_origins: list[FloatArray] = []  # per scan written: laser position of each left-out end
         self._left_ends: list[FloatArray] = []  # per scan written: the world ends of the left-out beams
-        self._leg_spots: dict[tuple[int, int], int] = {}  # leg segments' beams left out, by map cell
         # the map that alignment-time judgements read, when the map-only rules make the returned
         # map differ from it (written from the first aligned scan on; None: the returned map)
         self._evidence_map: IncrementalMapper | None = None
@@ -364,20 +347,22 @@ class PeopleFilteredMapper:
     @classmethod
     def create(
         cls,
-        mapper_params: MapperParams | None = None,
+        config: PeopleMappingConfig | None = None,
+        *,
         tracker: PeopleTracker | None = None,
-        params: PeopleFilterParams | None = None,
         start: FloatArray | None = None,
         seed: int = 0,
     ) -> PeopleFilteredMapper:
-        params = params or PeopleFilterParams()
-        mapper_params = mapper_params or MapperParams()
-        if params.free_sectors:
+        """The mapper of ``config``, starting at ``start``; the tracker is built from
+        ``config.tracker`` and seeded with ``seed`` unless one is given."""
+        config = config or PeopleMappingConfig()
+        mapper_params = config.mapper
+        if config.filter.free_sectors:
             mapper_params = replace(mapper_params, free_sectors=True)
         return cls(
             mapper=IncrementalMapper(mapper_params, start=start),
-            tracker=tracker or PeopleTracker(rng=np.random.default_rng(seed)),
-            params=params,
+            tracker=tracker or PeopleTracker(config.tracker, rng=np.random.default_rng(seed)),
+            params=config.filter,
         )
 
     def add_scan(self, scan: Scan, pose: FloatArray | None = None) -> FloatArray:
@@ -407,15 +392,15 @@ class PeopleFilteredMapper:
             confirm = self.tracker.config.confirm_hits
             existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
-            h = hit_probability([sets[t.id] for t in tracks], pts, p, existence)
-            if p.align_features:
+            h = hit_probability([sets[t.id] for t in tracks], pts, p.alignment, existence)
+            if p.alignment.align_features:
                 h = np.maximum(h, self._person_beams(item, tracks=False))
             item = item.moved_to(np.asarray(self.mapper.match(scan, match_weights=1.0 - h).pose))
             # the next scan aligns against this one at once, with the people known now
             self._integrate(item, self._person_beams(item), "alignment")
         self._pending.append(item)
         self._index += 1
-        while self._pending and self._pending[0].index + p.scans_around < self._index:
+        while self._pending and self._pending[0].index + p.beams.scans_around < self._index:
             self._write(self._pending.popleft())
         return item.pose
 
@@ -460,9 +445,8 @@ class PeopleFilteredMapper:
         return grid
 
     def _map_only_rules(self) -> bool:
-        """Whether rules for the returned map only are on (far blobs, leg segments, seen free)."""
-        p = self.params
-        return p.far_blobs or p.leg_segments or p.seen_free is not None
+        """Whether rules for the returned map only are on (far blobs)."""
+        return self.params.far_blobs is not None
 
     def _evidence(self, points: FloatArray, into: Literal["map", "alignment"]) -> FloatArray:
         """Log-odds at world ``points`` of the map the judgements ``into`` a map read: the returned
@@ -475,7 +459,7 @@ class PeopleFilteredMapper:
     ) -> tuple[FloatArray, FloatArray]:
         """Centres ``(K, 2)`` and box half sizes of the people in a waiting scan (the person
         features only, without ``tracks``), judged against the map ``into`` reads."""
-        p = self.params
+        p = self.params.beams
         centres = np.zeros((0, 2))
         if tracks:
             # the scan's own tracks, and those of the scans within the window (before and after)
@@ -490,7 +474,8 @@ class PeopleFilteredMapper:
 
     def _track_centres(self, item: _Pending) -> FloatArray:
         """Positions ``(K, 2)`` in a waiting scan of the tracks that count as people."""
-        tentative = self.params.tentative_hits if self.params.tentative_hits is not None else np.inf
+        hits_needed = self.params.beams.tentative_hits
+        tentative = hits_needed if hits_needed is not None else np.inf
         tracked = [
             i in self._confirmed or hits >= tentative
             for i, hits in zip(item.track_ids, item.track_hits, strict=True)
@@ -514,59 +499,33 @@ class PeopleFilteredMapper:
         centres, half = self._people(item, tracks, into)
         pts, hit = beam_endpoints(item.scan, item.pose)
         laser = compose(item.pose, item.scan.geometry.offset)
-        person = hit & person_beams(pts, laser, centres, half, self.params.beyond)
+        beams = self.params.beams
+        person = hit & person_beams(pts, laser, centres, half, beams.beyond)
         if person.any():
-            person[person] = self._evidence(pts[person], into) < self.params.static_evidence
-        if into == "map" and self.params.far_blobs:
-            blob = hit & ~person & person_blobs(item.scan, self.params.blobs)
+            person[person] = self._evidence(pts[person], into) < beams.static_evidence
+        far = self.params.far_blobs
+        if into == "map" and far is not None:
+            blob = hit & ~person & person_blobs(item.scan, far.shape)
             if blob.any():  # nothing seen occupied around it yet: not a pole or an exhibit's edge
-                blob[blob] = self._evidence_around(pts[blob]) < self.params.blob_evidence
+                blob[blob] = self._evidence_around(pts[blob]) < far.evidence
             if blob.any():
-                blob[blob] = self._new_spots(pts[blob], self._blob_spots, self.params.blob_repeats)
+                blob[blob] = self._new_spots(pts[blob], self._blob_spots, far.repeats)
             person |= blob
-        if into == "map":
-            person |= self._shape_beams(item, pts, hit & ~person)
         return person
 
-    def _shape_beams(
-        self, item: _Pending, pts: FloatArray, candidates: NDArray[np.bool_]
-    ) -> NDArray[np.bool_]:
-        """The beams among ``candidates`` that the rules on the scan's shape and the map so far
-        leave out (``leg_segments``, ``seen_free``; see :class:`PeopleFilterParams`)."""
-        p = self.params
-        out = np.zeros(len(candidates), dtype=bool)
-        if p.leg_segments:
-            legs = candidates & leg_beams(
-                item.scan, LegConfig(model=None, max_range=p.leg_range), p.leg_probability
-            )
-            if legs.any():
-                legs[legs] = self._evidence_around(pts[legs]) < p.blob_evidence
-            if legs.any():
-                legs[legs] = self._new_spots(pts[legs], self._leg_spots, p.leg_repeats, per_scan=True)
-            out |= legs
-        if p.seen_free is not None:
-            free = candidates & ~out & narrow_runs(item.scan, p.blobs)
-            if free.any():
-                free[free] = self._evidence_around(pts[free]) <= p.seen_free
-            out |= free
-        return out
-
     def _new_spots(
-        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int, per_scan: bool = False
+        self, points: FloatArray, spots: dict[tuple[int, int], int], repeats: int
     ) -> NDArray[np.bool_]:
         """Which ends of one scan lie where fewer than ``repeats`` ends were left out before (in the
         3 x 3 cells around, counted in ``spots``); counts them. A blob seen again and again at one
-        spot is static. Without ``per_scan`` every end counts (the far blobs: a beam or two each);
-        with it a cell counts once per scan and the most-counted cell around decides, so that a
-        leg seen by several beams of one scan counts as one sighting."""
+        spot is static; every end counts (the far blobs: a beam or two each)."""
         res = self.mapper.params.resolution
         cells = np.floor(points / res).astype(np.int64)
         new = np.zeros(len(cells), dtype=bool)
         for k, (cx, cy) in enumerate(cells.tolist()):
             around = [spots.get((cx + dx, cy + dy), 0) for dx in (-1, 0, 1) for dy in (-1, 0, 1)]
-            new[k] = (max(around) if per_scan else sum(around)) < repeats
-        counted = {(cx, cy) for cx, cy in cells[new].tolist()} if per_scan else cells[new].tolist()
-        for cx, cy in counted:
+            new[k] = sum(around) < repeats
+        for cx, cy in cells[new].tolist():
             spots[(cx, cy)] = spots.get((cx, cy), 0) + 1
         return new
 
@@ -599,7 +558,7 @@ class PeopleFilteredMapper:
         mapper: IncrementalMapper | None = None,
     ) -> None:
         target = self.mapper if mapper is None else mapper
-        if self.params.keep_free_space:
+        if self.params.beams.keep_free_space:
             target.integrate(item.scan, item.pose, free_only=person, into=into)
         else:
             target.integrate(item.scan, item.pose, keep=~person, into=into)

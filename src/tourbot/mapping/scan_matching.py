@@ -26,6 +26,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.geometry import wrap_angle
+
 __all__ = [
     "MatchParams",
     "hill_climb",
@@ -255,5 +257,5 @@ def hill_climb(
         params.halvings if halvings is None else halvings,
         params.max_iterations,
     )
-    best[2] = math.atan2(math.sin(best[2]), math.cos(best[2]))
+    best[2] = float(wrap_angle(best[2]))
     return best, float(val)

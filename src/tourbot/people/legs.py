@@ -29,7 +29,6 @@ __all__ = [
     "PersonFeatures",
     "detect_legs",
     "group_legs",
-    "leg_beams",
     "leg_candidates",
     "leg_segments",
     "leg_segments_reference",
@@ -132,32 +131,6 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     prob = np.where(shaped, cfg.model.probability(features), legs.probability)
     keep = prob >= cfg.min_probability
     return LegFeatures(legs.points[keep], legs.width[keep], prob[keep])
-
-
-def leg_beams(
-    scan: Scan, config: LegConfig | None = None, min_probability: float = 0.99
-) -> NDArray[np.bool_]:
-    """Which beams of ``scan`` ``(B,)`` lie on a leg candidate whose P(leg) by the width and contrast
-    rule (:func:`leg_segments`, Burgard et al. Sec. 4: local minima of a leg's width) reaches
-    ``min_probability``, within ``config.max_range`` and beyond ``config.min_range``.
-
-    The beams themselves, not a box around the leg: a map can leave out exactly what looked like a
-    leg, without the wall beside it. The rule judges width and the jumps to the neighbouring beams
-    only (no fit of a circle), so that real legs in trousers pass as well as round ones.
-    """
-    cfg = config or LegConfig()
-    r = np.asarray(scan.ranges, dtype=np.float64)
-    valid = _valid_ranges(scan, np.inf)
-    pts, _, prob, first, last = leg_segments(r, scan.geometry.angles, valid, cfg)
-    out = np.zeros(r.shape[0], dtype=bool)
-    near = np.linalg.norm(pts, axis=1) >= cfg.min_range if pts.shape[0] else np.zeros(0, dtype=bool)
-    for f, e in zip(
-        first[near & (prob >= min_probability)].tolist(),
-        last[near & (prob >= min_probability)].tolist(),
-        strict=True,
-    ):
-        out[f : e + 1] = True
-    return out & valid
 
 
 def leg_candidates(

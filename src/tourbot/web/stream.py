@@ -31,6 +31,7 @@ import struct
 from dataclasses import dataclass, field
 
 from tourbot.errors import TourbotError
+from tourbot.geometry import wrap_angle
 
 __all__ = [
     "KEYFRAME",
@@ -157,7 +158,7 @@ class _Quantizer:
             qth = round((body.theta % _TWO_PI) / _TWO_PI * 65536) % 65536
             qw = _clamp(body.omega, c.turn_quantum, -127, 127)
             payload += _ROBOT_EXTRA.pack(qth, qw)
-            theta, omega = _wrap(qth * _TWO_PI / 65536), qw * c.turn_quantum
+            theta, omega = float(wrap_angle(qth * _TWO_PI / 65536)), qw * c.turn_quantum
         held = _Held(
             t,
             qx * c.position_quantum,
@@ -168,11 +169,6 @@ class _Quantizer:
             omega,
         )
         return payload, held
-
-
-def _wrap(angle: float) -> float:
-    wrapped = math.remainder(angle, _TWO_PI)
-    return math.pi if wrapped == -math.pi else wrapped
 
 
 @dataclass
@@ -255,7 +251,7 @@ class StreamEncoder:
         x, y, theta = held.at(t)
         if math.hypot(x - body.x, y - body.y) > c.position_tolerance:
             return True
-        return body.id == ROBOT_ID and abs(_wrap(theta - body.theta)) > c.heading_tolerance
+        return body.id == ROBOT_ID and abs(float(wrap_angle(theta - body.theta))) > c.heading_tolerance
 
 
 def _keyframe(epoch: float, ticks: int, payloads: list[bytes]) -> bytes:
@@ -345,7 +341,7 @@ class StreamDecoder:
             if i == ROBOT_ID:
                 qth, qw = _ROBOT_EXTRA.unpack_from(data, offset)
                 offset += _ROBOT_EXTRA.size
-                theta, omega = _wrap(qth * _TWO_PI / 65536), qw * c.turn_quantum
+                theta, omega = float(wrap_angle(qth * _TWO_PI / 65536)), qw * c.turn_quantum
             held[i] = _Held(
                 t,
                 qx * c.position_quantum,
@@ -379,7 +375,7 @@ class StreamDecoder:
         bodies = []
         for i, h in sorted(self._held.items()):
             x, y, theta = h.at(when)
-            bodies.append(Body(i, x, y, h.vx, h.vy, _wrap(theta), h.omega))
+            bodies.append(Body(i, x, y, h.vx, h.vy, float(wrap_angle(theta)), h.omega))
         robots = [b for b in bodies if b.id == ROBOT_ID]
         if not robots:
             raise StreamError("no robot in the stream yet")
