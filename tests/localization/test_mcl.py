@@ -370,7 +370,7 @@ def test_dense_crowd_neither_triggers_recovery_nor_loses_tracking(room: Occupanc
 
 
 def _phantom_kidnap(odom: np.ndarray, at: int, delta: np.ndarray) -> np.ndarray:
-    """The odometry after a kidnap before scan ``at`` as :mod:`tourbot.localization.kidnap` makes
+    """The odometry after a kidnap before scan ``at`` as :mod:`tourbot.sim.kidnap` makes
     it: a motion ``delta`` that never happened, carried along by every later reading."""
     out = odom.copy()
     correction = compose(compose(odom[at], delta), relative(odom[at], np.zeros(3)))

@@ -9,11 +9,11 @@ import pytest
 
 from tourbot.io.carmen import read_carmen
 from tourbot.localization.beam_filters import BeamFilter
-from tourbot.localization.kidnap import Kidnap, apply_kidnaps
 from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import build_reference_map
 from tourbot.records import RobotLog
+from tourbot.sim.kidnap import Kidnap, apply_kidnaps
 
 STRETCH = 60  # scans: about 4 minutes of the tour, with visitors around the robot
 

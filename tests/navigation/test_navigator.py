@@ -7,6 +7,7 @@ from dataclasses import replace
 import pytest
 
 from tourbot.cli._tour_view import start_pose_for
+from tourbot.localization.mcl import MCLConfig
 from tourbot.runtime import NavMode
 from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
 from tourbot.runtime.snapshot import StateSnapshot
@@ -17,7 +18,7 @@ from tourbot.site.default import default_site
 def test_an_empty_museum_never_blocks_the_robot() -> None:
     """Setting off from a viewing pose near walls and exhibits is slow, but not blocked by people."""
     site = default_site()
-    settings = SimulationSettings(crowd="empty", seed=0, particles=300)
+    settings = SimulationSettings(crowd="empty", seed=0, mcl=MCLConfig().with_samples(300))
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=0.1))
     robot = simulated_runtime(site, settings, start=start_pose_for(site, "short"), record=False)
     robot.runtime.start_tour("short")

@@ -402,7 +402,7 @@ class GridMarkovLocalization:
                         self.use_table(ExpectedRangeTable.load(path))
                         self.table_source = f"read from {path}"
                         return self._table  # type: ignore[return-value]
-                    except GridMarkovError:
+                    except LocalizationError:
                         pass  # unreadable or stale: build it again and overwrite
             if self._caster_factory is None:
                 caster = _default_caster(lat.grid, max_range, cfg.unknown_blocks)
