@@ -281,12 +281,14 @@ def test_small_motions_accumulate_instead_of_rounding_away(step: float) -> None:
     loc.reset_tracking(start, np.diag([0.01, 0.01, 0.01]) ** 2)
     mean0 = _belief_mean(loc)
     odom = np.zeros(3)
-    assert loc._motion_update(odom) is False  # the first reading only sets the reference
+    assert loc.predict(odom) is False  # the first reading only sets the reference
     for _ in range(12):
         odom = compose(odom, [step, 0.0, 0.0])
-        loc._motion_update(odom)
+        loc.predict(odom)
     moved = _belief_mean(loc) - mean0
-    held_back = np.hypot(*(odom[:2] - loc._odom_ref[:2]))  # type: ignore[index]
+    ref = loc.odometry_reference
+    assert ref is not None
+    held_back = np.hypot(*(odom[:2] - ref[:2]))
     assert moved[0] == pytest.approx(12 * step - held_back, abs=0.03)
     assert abs(moved[1]) < 0.03
     assert held_back < 0.075

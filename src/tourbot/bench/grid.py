@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -367,7 +367,7 @@ def register(bench: typer.Typer) -> None:
             "0,3", help="Seeds of the kidnapped runs (one run per seed and filter)."
         ),
         output: Path | None = _OUTPUT,
-        config: Path | None = typer.Option(None, "--config", help="Localization profile (YAML)."),
+        config: Annotated[Path | None, typer.Option("--config", help="Localization profile (YAML).")] = None,
     ) -> None:
         """Grid Markov localization on FHW: speed (real-time factor), accuracy, global, kidnap recovery."""
         from rich.progress import Progress

@@ -18,7 +18,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
@@ -163,9 +163,10 @@ def register(bench: typer.Typer) -> None:
         kidnap_spread: float = typer.Option(5.0, help="The kidnap's time is drawn over this many seconds."),
         kidnap_window: float = typer.Option(60.0, help="Seconds allowed to recover from a kidnap."),
         tours: bool = typer.Option(True, help="Run the tours (--no-tours: only speed and kidnaps)."),
-        config: Path | None = typer.Option(
-            None, "--config", help="Localization profile of the robot (YAML; tourbot config show)."
-        ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
     ) -> None:
         """Simulator speed and tour success, collisions, blocked time and localization error."""
         from dataclasses import replace

@@ -10,7 +10,7 @@ writes a recording, a summary and a GIF.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -41,9 +41,10 @@ def register(app: typer.Typer) -> None:
         particles: int | None = typer.Option(
             None, help="MCL samples (default: the configuration's sampling.max_samples)."
         ),
-        config: Path | None = typer.Option(
-            None, "--config", help="Localization profile of the robot (YAML; tourbot config show)."
-        ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
         dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times (--record)."),
         site: str = typer.Option("fhw", help="Shipped site name or site file."),
         out: str = typer.Option(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -20,9 +21,10 @@ def register(app: typer.Typer) -> None:
         write_log: str = typer.Option(
             "out/sim/sim.log.gz", "--write-log", help="CARMEN log to write (true pose as reference)."
         ),
-        config: Path | None = typer.Option(
-            None, "--config", help="Localization profile of the robot (YAML; tourbot config show)."
-        ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
     ) -> None:
         """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
 

@@ -25,13 +25,13 @@ from numpy.typing import NDArray
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights
-from tourbot.sampling import systematic_resample_rows
 from tourbot.people.ego_motion import ScanMatchedPoses
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
 from tourbot.people.static_filter import RobotBodyMask, StaticConfig, StaticFilter
 from tourbot.records import Scan
+from tourbot.sampling import systematic_resample_rows
 
 __all__ = ["PeopleTracker", "SJPDAFConfig", "Track"]
 
