@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from tourbot.app.simulated import SimulationSettings, crowd_config, simulated_runtime, time_to_recover
+from tourbot.localization.mcl import MCLConfig
+from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.runtime import RuntimeControlError
 from tourbot.runtime.animation import animate
 from tourbot.runtime.sinks import Recorder
@@ -37,7 +40,9 @@ def test_crowd_config_by_name_or_number() -> None:
 
 
 def test_a_short_tour_completes_on_the_estimate(hall: Site, tmp_path: Path) -> None:
-    robot = simulated_runtime(hall, SimulationSettings(crowd=5, seed=1, particles=300), start=(2.0, 6.0, 0.0))
+    robot = simulated_runtime(
+        hall, SimulationSettings(crowd=5, seed=1, mcl=MCLConfig().with_samples(300)), start=(2.0, 6.0, 0.0)
+    )
     rt = robot.runtime
     with pytest.raises(SiteError, match="no tour named"):
         rt.start_tour("nope")
@@ -67,7 +72,9 @@ def test_a_short_tour_completes_on_the_estimate(hall: Site, tmp_path: Path) -> N
 
 
 def test_goal_and_stop(hall: Site) -> None:
-    robot = simulated_runtime(hall, SimulationSettings(crowd="empty", particles=200), start=(2.0, 6.0, 0.0))
+    robot = simulated_runtime(
+        hall, SimulationSettings(crowd="empty", mcl=MCLConfig().with_samples(200)), start=(2.0, 6.0, 0.0)
+    )
     rt = robot.runtime
     rt.send_goal(4.0, 6.0, 0.0)
     for _ in range(30):
@@ -92,7 +99,11 @@ def test_a_standing_robot_carried_off_is_found_again(destination: tuple[float, f
         [[14.0, 8.0], [17.0, 8.0], [17.0, 8.15], [14.0, 8.15]],
     ]
     site = site_from_dict({**HALL, "map": {**HALL["map"], "walls": walls}}, base_dir=Path("."))
-    settings = SimulationSettings(crowd=5, seed=2, particles=500)
+    # the FHW profile, with the track verified every 5 s (a standing robot's kidnap is not seen by
+    # readings through walls alone)
+    fhw = LocalizationProfile.load(FHW_PROFILE).mcl.with_samples(500)
+    mcl = replace(fhw, recovery=replace(fhw.recovery, verify_period=5.0))
+    settings = SimulationSettings(crowd=5, seed=2, mcl=mcl)
     robot = simulated_runtime(site, settings, start=(2.0, 6.0, 0.0), record=False)
     rt = robot.runtime
     while rt.source.time < 12.6:  # standing, localized; the kidnap falls between two verifications

@@ -95,3 +95,50 @@ def test_localize_grid_says_it_builds_the_table_and_caches_it(
     second = " ".join(capsys.readouterr().err.split())
     assert "expected-range table" in second
     assert "built in" in second
+
+
+def test_localize_takes_a_profile_and_refuses_a_bad_one(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log, room, truth = files
+    out = tmp_path / "traj.tum"
+    profile = tmp_path / "p.yaml"
+    profile.write_text(
+        "mcl:\n  sampling: {max_samples: 400, min_samples: 100}\n  sensor: {beam_filter: none}\n"
+    )
+    main(
+        [
+            "localize",
+            str(log),
+            "--map",
+            str(room),
+            "--start-from-reference",
+            "--config",
+            str(profile),
+            "-o",
+            str(out),
+        ]
+    )
+    _, poses = read_tum(out)
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.3
+    capsys.readouterr()
+    profile.write_text("mcl:\n  sampling: {max_samples: many}\n")
+    with pytest.raises(SystemExit) as exc:
+        main(
+            [
+                "localize",
+                str(log),
+                "--map",
+                str(room),
+                "--start-from-reference",
+                "--config",
+                str(profile),
+                "-o",
+                str(out),
+            ]
+        )
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "p.yaml" in err
+    assert "mcl.sampling.max_samples: must be an integer" in err

@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.localization.beam_filters import BeamFilter
+from tourbot.localization.errors import LocalizationError
 from tourbot.localization.grid_markov import (
     ExpectedRangeTable,
     GridMarkovConfig,
@@ -280,12 +281,14 @@ def test_small_motions_accumulate_instead_of_rounding_away(step: float) -> None:
     loc.reset_tracking(start, np.diag([0.01, 0.01, 0.01]) ** 2)
     mean0 = _belief_mean(loc)
     odom = np.zeros(3)
-    assert loc._motion_update(odom) is False  # the first reading only sets the reference
+    assert loc.predict(odom) is False  # the first reading only sets the reference
     for _ in range(12):
         odom = compose(odom, [step, 0.0, 0.0])
-        loc._motion_update(odom)
+        loc.predict(odom)
     moved = _belief_mean(loc) - mean0
-    held_back = np.hypot(*(odom[:2] - loc._odom_ref[:2]))  # type: ignore[index]
+    ref = loc.odometry_reference
+    assert ref is not None
+    held_back = np.hypot(*(odom[:2] - ref[:2]))
     assert moved[0] == pytest.approx(12 * step - held_back, abs=0.03)
     assert abs(moved[1]) < 0.03
     assert held_back < 0.075
@@ -360,7 +363,6 @@ def test_reset_tracking_defaults_to_the_tracking_std(room: OccupancyGrid) -> Non
 
 
 def test_grid_errors_are_localization_errors() -> None:
-    from tourbot.localization.mcl import LocalizationError
 
     assert issubclass(GridMarkovError, LocalizationError)
 
@@ -417,7 +419,7 @@ def test_a_corrupt_cached_table_is_built_again(room: OccupancyGrid, tmp_path: Pa
     assert again.table_source.startswith("built and saved to")
     np.testing.assert_array_equal(table.bins, built.bins)
     path.write_bytes(b"still not a table")
-    with pytest.raises(GridMarkovError, match="not an expected-range table"):
+    with pytest.raises(LocalizationError, match="not an expected-range table"):
         ExpectedRangeTable.load(path)
 
 

@@ -8,6 +8,7 @@ import pytest
 
 from tourbot.app.demo import start_pose_for
 from tourbot.app.simulated import SimulationSettings, simulated_runtime
+from tourbot.localization.mcl import MCLConfig
 from tourbot.site.default import default_site
 from tourbot.snapshot import NavMode, StateSnapshot
 
@@ -16,7 +17,7 @@ from tourbot.snapshot import NavMode, StateSnapshot
 def test_an_empty_museum_never_blocks_the_robot() -> None:
     """Setting off from a viewing pose near walls and exhibits is slow, but not blocked by people."""
     site = default_site()
-    settings = SimulationSettings(crowd="empty", seed=0, particles=300)
+    settings = SimulationSettings(crowd="empty", seed=0, mcl=MCLConfig().with_samples(300))
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=0.1))
     robot = simulated_runtime(site, settings, start=start_pose_for(site, "short"), record=False)
     robot.runtime.start_tour("short")

@@ -16,8 +16,6 @@ from tourbot.people.association import (
     pair_likelihoods_reference,
     sample_weights,
     sample_weights_reference,
-    systematic_resample,
-    systematic_resample_reference,
 )
 
 
@@ -88,28 +86,6 @@ def test_weights_favour_samples_near_the_feature() -> None:
     lik = pair_likelihoods(samples, detect, np.array([[0.0, 0.0]]), pt, pf, np.array([0.2]))
     w = sample_weights(lik, pt, np.array([1.0]), 1.0 - detect, np.array([0.0]))
     assert w[0, 0] > w[0, 1] > w[0, 2]
-
-
-@settings(max_examples=60, deadline=None)
-@given(seed=st.integers(0, 2**16), k=st.integers(1, 3), n=st.integers(1, 40), sparse=st.booleans())
-def test_systematic_resample_matches_reference(seed: int, k: int, n: int, sparse: bool) -> None:
-    rng = np.random.default_rng(seed)
-    w = rng.uniform(0.0, 1.0, (k, n))
-    if sparse:
-        w[rng.uniform(size=(k, n)) < 0.7] = 0.0
-        w[:, 0] += 1e-3
-    w /= w.sum(axis=1, keepdims=True)
-    offsets = rng.uniform(0.0, 1.0, k)
-    idx = systematic_resample(w, offsets)
-    np.testing.assert_array_equal(idx, systematic_resample_reference(w, offsets))
-    # Zero-weight samples are never drawn.
-    assert np.all(np.take_along_axis(w, idx, axis=1) > 0.0)
-
-
-def test_resampling_keeps_the_only_weighted_sample() -> None:
-    w = np.zeros((1, 5))
-    w[0, 3] = 1.0
-    assert systematic_resample(w, np.array([0.7])).tolist() == [[3, 3, 3, 3, 3]]
 
 
 @st.composite

@@ -217,7 +217,7 @@ def test_replay_of_a_real_log_through_mcl(fhw_log_path: Path) -> None:
     source = LogSource.from_path(fhw_log_path)
     log = source._log
     grid = build_reference_map(log, resolution=0.1)
-    mcl = MonteCarloLocalization(grid, MCLConfig(max_samples=300, min_samples=300), seed=0)
+    mcl = MonteCarloLocalization(grid, MCLConfig().with_samples(300, fixed=True), seed=0)
     first = log.scans[0].reference
     assert first is not None
     mcl.reset_tracking(first)

@@ -92,7 +92,7 @@ def test_kidnaps_change_only_the_odometry() -> None:
     log = _log(grid)
     cfg = OverlayConfig(crowd=CrowdConfig(num_people=0), warmup=0.0, kidnap=None)
     plain = overlay_crowd(log, grid, cfg, seed=0)
-    from tourbot.localization.kidnap import KidnapConfig
+    from tourbot.sim.kidnap import KidnapConfig
 
     kid_cfg = OverlayConfig(
         crowd=CrowdConfig(num_people=0), warmup=0.0, kidnap=KidnapConfig(probability_per_metre=1.0)

@@ -15,6 +15,7 @@ from rich.table import Table
 from tourbot.app.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
 from tourbot.errors import TourbotError
 from tourbot.io.output import write_text_whole
+from tourbot.localization.mcl.config import MCLConfig
 from tourbot.site.default import site_path
 from tourbot.site.model import Site, load_site
 from tourbot.snapshot import NavMode, StateSnapshot
@@ -86,7 +87,7 @@ def run_tour(
     seed: int,
     duration: float,
     speedup: float,
-    particles: int,
+    mcl: MCLConfig,
     dwell_scale: float,
     out: Path,
     animation: bool,
@@ -95,7 +96,7 @@ def run_tour(
     console = console or Console()
     the_site = load_site(site_path(site))
     the_site.tour(tour)  # a clear error before anything starts
-    settings = SimulationSettings(crowd=crowd, seed=seed, particles=particles, speedup=speedup or None)
+    settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, speedup=speedup or None)
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=dwell_scale))
     t0 = time.perf_counter()
     with console.status("building the simulated museum (first run compiles the kernels)..."):

@@ -1,4 +1,4 @@
-"""A ready-wired runtime on the simulator: a site, a crowd, MCL with the novelty filter, the navigator.
+"""A ready-wired runtime on the simulator: a site, a crowd, Monte Carlo localization, the navigator.
 
 This is what ``tourbot demo``, ``tourbot bench sim`` and the web server (``tourbot serve``) run:
 the robot localizes with Monte Carlo localization on the site's static map (which knows nothing of
@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 from tourbot.interfaces import Sink
+from tourbot.localization.mcl.config import MCLConfig
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 from tourbot.runtime.loop import Runtime, RuntimeConfig
@@ -44,16 +45,9 @@ class SimulationSettings:
 
     crowd: str | int = "peak"
     seed: int = 0
-    particles: int = 1000
-    # Sensor resetting (augmented MCL's injection of scan-drawn samples) for a robot carried off,
-    # standing or driving: at most this share of the samples per scan; 0 turns recovery off.
-    # A guess replaces the track only after beating it on two scans that contradict the track
-    # (MCLConfig.fresh_wins), so a crowd that makes a look-alike place fit once cannot move it.
-    max_injection: float = 0.2
-    # Every this many seconds of scans the track is checked against the best other place the
-    # scan suggests (MCLConfig.verify_period): a standing robot, or one moved along a hall, is
-    # not caught by readings through walls alone. None: only that test notices a kidnap.
-    verify_period: float | None = 5.0
+    # The robot's Monte Carlo localization: the one configuration of the estimator (its defaults,
+    # or a profile loaded with --config; tourbot.localization.profile).
+    mcl: MCLConfig = field(default_factory=MCLConfig)
     localization: UpdatePolicy = field(default_factory=UpdatePolicy)
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
@@ -80,19 +74,13 @@ def simulated_runtime(
     record: bool = True,
     sinks: tuple[Sink, ...] = (),
 ) -> SimulatedRobot:
-    """Wire simulator -> MCL (novelty filter) -> navigator -> sinks on ``site``."""
-    from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+    """Wire simulator -> MCL -> navigator -> sinks on ``site``."""
+    from tourbot.localization.mcl import MonteCarloLocalization
 
     s = settings or SimulationSettings()
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start)
-    mcl_cfg = MCLConfig(
-        max_samples=s.particles,
-        min_samples=min(500, s.particles),
-        max_injection=s.max_injection,
-        verify_period=s.verify_period,
-    )
-    mcl = MonteCarloLocalization(site.grid, mcl_cfg, seed=s.seed)
+    mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
     mcl.reset_tracking(simulator.robot.pose)
     navigator = SiteNavigator(site, s.navigation)

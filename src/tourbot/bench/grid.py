@@ -10,7 +10,7 @@ measured against the corrected poses. Three experiments, after the paper's Table
 - global localization from a uniform belief at a few starting scans: scans and log seconds until
   the estimate is within 45 cm, and the time of the first (whole-grid) update;
 - recovery: the odometry is kidnapped with the paper's statistics
-  (:mod:`tourbot.localization.kidnap`: 0.005 per metre, 180 +- 90 deg, 0 +- 1 m); the recovery
+  (:mod:`tourbot.sim.kidnap`: 0.005 per metre, 180 +- 90 deg, 0 +- 1 m); the recovery
   time is from the kidnap to the start of the first stretch of more than 10 s within 45 cm
   (the paper's definition).
 
@@ -24,7 +24,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import typer
@@ -116,17 +116,21 @@ def run_grid_bench(
     kidnap_seeds: Sequence[int] = (0, 3),
     progress: Any = None,
     picture: Path | None = None,
+    config: Any = None,
 ) -> BenchReport:
     """Run the three experiments on a real log; returns the filled :class:`BenchReport`.
 
     ``picture``: where to draw the map with the reference path and each filter's tracked path.
+    ``config``: the :class:`GridMarkovConfig` (its defaults when None).
     """
+    from dataclasses import replace
+
     from tourbot.data import find_data
     from tourbot.io.carmen import read_carmen
     from tourbot.localization.beam_filters import BeamFilter
     from tourbot.localization.grid_markov import GridMarkovConfig, GridMarkovLocalization
-    from tourbot.localization.kidnap import apply_kidnaps, plan_kidnaps
     from tourbot.maps.reference import build_reference_map
+    from tourbot.sim.kidnap import apply_kidnaps, plan_kidnaps
 
     report = BenchReport(
         "grid",
@@ -150,7 +154,7 @@ def run_grid_bench(
     t0 = time.perf_counter()
     grid = build_reference_map(log)
     t_map = time.perf_counter() - t0
-    cfg = GridMarkovConfig()
+    cfg = config if config is not None else GridMarkovConfig()
     base = GridMarkovLocalization(grid, cfg)
     t0 = time.perf_counter()
     task = progress.add_task("expected-range table", total=base.lattice.n_free) if progress else None
@@ -175,9 +179,7 @@ def run_grid_bench(
     )
 
     def new(filter_name: str) -> Any:
-        return GridMarkovLocalization(
-            grid, GridMarkovConfig(beam_filter=BeamFilter(filter_name)), table=table
-        )
+        return GridMarkovLocalization(grid, replace(cfg, beam_filter=BeamFilter(filter_name)), table=table)
 
     def stepper(name: str, total: int) -> Callable[[], None] | None:
         if progress is None:
@@ -342,12 +344,14 @@ def register(bench: typer.Typer) -> None:
             "0,3", help="Seeds of the kidnapped runs (one run per seed and filter)."
         ),
         output: Path | None = _OUTPUT,
+        config: Annotated[Path | None, typer.Option("--config", help="Localization profile (YAML).")] = None,
     ) -> None:
         """Grid Markov localization on FHW: speed (real-time factor), accuracy, global, kidnap recovery."""
         from rich.progress import Progress
 
         from tourbot.errors import InputError
         from tourbot.localization.beam_filters import BeamFilter
+        from tourbot.localization.profile import LocalizationProfile
 
         def split(text: str) -> list[str]:
             return [t.strip() for t in text.split(",") if t.strip()]
@@ -374,5 +378,6 @@ def register(bench: typer.Typer) -> None:
                 kidnap_seeds=numbers(kidnap_seeds, "--kidnap-seeds"),
                 progress=progress,
                 picture=(output or default_output("grid")).with_suffix(".png"),
+                config=LocalizationProfile.load(config).grid,
             )
         report.finish(output)

@@ -9,7 +9,7 @@ novelty filter; Nav2 AMCL through the ``amcl`` package), on logs overlaid with t
   (% of scans whose estimate is > 45 cm from the reference, the paper's criterion), mean position
   and heading error, CPU time per update and real-time factor (log duration / total CPU time of
   the updates; CPU time because the machine is shared);
-- *recovery* on the peak crowd with kidnaps (:mod:`tourbot.localization.kidnap`, 0.005 per metre):
+- *recovery* on the peak crowd with kidnaps (:mod:`tourbot.sim.kidnap`, 0.005 per metre):
   for each kidnap, whether and when the error stays < 45 cm for more than 10 s (the paper's
   criterion), in seconds and metres travelled;
 - *global localization* from a uniform start on the first ``global_scans`` scans of the peak crowd:
@@ -87,7 +87,13 @@ def _run(loc: Localizer, log: Any, scans: int | None = None) -> RunResult:
 
 
 def _factory(
-    method: str, grid: Any, particles: int, *, fixed: bool = False, beams: int | None = None
+    method: str,
+    grid: Any,
+    particles: int,
+    *,
+    fixed: bool = False,
+    beams: int | None = None,
+    profile: Any = None,
 ) -> Callable[[str, Any, int], Localizer]:
     """A function ``(start, first_pose, seed) -> localizer`` for ``method`` (start: ``tracking``
     or ``global``). ``fixed`` holds the sample count at ``particles`` (no KLD adaptation); ``beams``
@@ -96,11 +102,9 @@ def _factory(
 
     kind, _, filt = method.partition("-")
     if kind == "mcl":
-        from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+        from tourbot.localization.mcl import MonteCarloLocalization
 
-        cfg = replace(MCLConfig(), beam_filter=BeamFilter(filt), max_samples=particles)
-        if fixed:
-            cfg = replace(cfg, min_samples=particles)
+        cfg = profile.mcl.with_filter(BeamFilter(filt)).with_samples(particles, fixed=fixed)
 
         def make_mcl(start: str, pose: Any, seed: int) -> Localizer:
             m = MonteCarloLocalization(grid, cfg, seed=seed)
@@ -112,13 +116,13 @@ def _factory(
 
         return make_mcl
     if kind == "grid":
-        from tourbot.localization.grid_markov import GridMarkovConfig, GridMarkovLocalization
+        from tourbot.localization.grid_markov import GridMarkovLocalization
 
         # One lattice and expected-range table for the three filters (it is the costly part).
         shared = _GRIDS.get(id(grid))
         if shared is None:
-            shared = _GRIDS[id(grid)] = GridMarkovLocalization(grid)
-        shared.config = replace(GridMarkovConfig(), beam_filter=BeamFilter(filt))
+            shared = _GRIDS[id(grid)] = GridMarkovLocalization(grid, profile.grid)
+        shared.config = replace(profile.grid, beam_filter=BeamFilter(filt))
 
         def make_grid(start: str, pose: Any, seed: int) -> Localizer:  # noqa: ARG001 (deterministic)
             if start == "global":
@@ -213,6 +217,9 @@ def register(bench: typer.Typer) -> None:
         ] = 0.005,
         figure: Annotated[bool, typer.Option(help="Draw the Fig. 5-like picture.")] = True,
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file to write.")] = None,
+        config: Annotated[
+            Path | None, typer.Option("--config", help="Localization profile (YAML; tourbot config show).")
+        ] = None,
     ) -> None:
         """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
         from rich.console import Console
@@ -222,10 +229,13 @@ def register(bench: typer.Typer) -> None:
         from tourbot.data import data_dir
         from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
-        from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
         from tourbot.records import RobotLog
+        from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
 
         console = Console()
+        from tourbot.localization.profile import LocalizationProfile
+
+        profile = LocalizationProfile.load(config)
         if first_seed < 0:
             raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         root = data_dir()
@@ -263,6 +273,7 @@ def register(bench: typer.Typer) -> None:
             ],
         )
         report.meta = {
+            "config": str(config) if config is not None else "defaults",
             "seeds": n_seeds,
             "first_seed": first_seed,
             "particles": particles,
@@ -322,7 +333,7 @@ def register(bench: typer.Typer) -> None:
                     glob_ok, glob_t = [], []
                     censored = 0
                     outcomes: dict[int, list[Any]] = {}
-                    make = _factory(method, grid, particles)
+                    make = _factory(method, grid, particles, profile=profile)
                     first = tuple(ref[0])
                     for d in data:
                         seed = d["seed"]
@@ -402,7 +413,7 @@ def register(bench: typer.Typer) -> None:
                         }
                     )
                 if name == names[0]:
-                    _speed(report, base, grid, chosen, duration, speed_scans if not quick else 5)
+                    _speed(report, base, grid, chosen, duration, speed_scans if not quick else 5, profile)
                 if figure and figure_runs and name == names[0]:
                     pic = (output or Path("bench-results/localization.json")).with_name(
                         "localization-fig5.png"
@@ -419,14 +430,16 @@ def register(bench: typer.Typer) -> None:
         report.finish(output, console)
 
 
-def _speed(report: BenchReport, log: Any, grid: Any, methods: list[str], duration: float, scans: int) -> None:
+def _speed(
+    report: BenchReport, log: Any, grid: Any, methods: list[str], duration: float, scans: int, profile: Any
+) -> None:
     """MCL vs AMCL at 5000 samples and all beams, side by side on the same scans."""
     per_scan = duration / max(1, len(log.scans) - 1)
     timed: dict[str, float] = {}
     for method in ("mcl-novelty", "mcl-none", "amcl"):
         if method not in methods:
             continue
-        make = _factory(method, grid, 5000, fixed=True, beams=log.scans[0].ranges.size)
+        make = _factory(method, grid, 5000, fixed=True, beams=log.scans[0].ranges.size, profile=profile)
         loc = make("tracking", tuple(log.reference_poses[0]), 0)
         r = _run(loc, log, scans)
         timed[method] = float(np.median(r.seconds[1:] if len(r.seconds) > 1 else r.seconds))

@@ -4,7 +4,7 @@ The MCL engineer's own figures (the full comparison with grid Markov localizatio
 crowded logs is ``tourbot bench localization``). For each beam filter, MCL tracks the whole log
 from the first reference pose with a fixed sample count and every beam; then, on copies of the log
 with kidnaps as in Fox et al. 1998 (0.005 per metre: heading 180 +/- 90 deg, position 0 +/- 1 m;
-``tourbot.localization.kidnap``), the time to recover is measured as the paper does (error below
+``tourbot.sim.kidnap``), the time to recover is measured as the paper does (error below
 45 cm for more than 10 s; :func:`tourbot.metrics.recovery`, whose censoring rule leaves out a
 kidnap that the next one or the end of the log follows too soon to judge).
 """
@@ -36,21 +36,24 @@ def register(bench: typer.Typer) -> None:
         kidnap_seeds: Annotated[int, typer.Option(help="Kidnapped copies of the log (novelty filter).")] = 3,
         scans: Annotated[int, typer.Option(help="Use only the first N scans (0: all).")] = 0,
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+        config: Annotated[
+            Path | None, typer.Option("--config", help="Localization profile (YAML; tourbot config show).")
+        ] = None,
     ) -> None:
         """MCL on FHW: CPU time per update (5000 samples, 180 beams), errors, kidnap recovery."""
-        from dataclasses import replace
-
         from rich.progress import Progress
 
         from tourbot.data import find_data
         from tourbot.io.carmen import read_carmen
         from tourbot.localization.beam_filters import BeamFilter
-        from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
-        from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+        from tourbot.localization.mcl import MonteCarloLocalization
+        from tourbot.localization.profile import LocalizationProfile
         from tourbot.maps.reference import build_reference_map
         from tourbot.metrics import failure_rate, pose_errors, recovery
         from tourbot.records import RobotLog
+        from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
 
+        profile = LocalizationProfile.load(config)
         log = read_carmen(find_data("carmen/fhw-corrected.log.gz"))
         grid = build_reference_map(log, 0.05)
         if scans > 0:
@@ -65,7 +68,13 @@ def register(bench: typer.Typer) -> None:
              "heading deg", "kidnaps", "recovered", "censored", "mean recovery s"],
         )  # fmt: skip
         report.meta.update(
-            {"log": "fhw-corrected", "scans": len(log.scans), "particles": particles, "beams": 180}
+            {
+                "log": "fhw-corrected",
+                "scans": len(log.scans),
+                "particles": particles,
+                "beams": 180,
+                "config": str(config) if config is not None else "defaults",
+            }
         )
         report.notes += [
             "FHW as recorded (its own visitors; no crowd overlay): the peak-crowd figures come from "
@@ -78,7 +87,7 @@ def register(bench: typer.Typer) -> None:
         ]
 
         def run(kind: BeamFilter, scan_log: RobotLog, seed: int) -> tuple[np.ndarray, float, float]:
-            cfg = replace(MCLConfig(), beam_filter=kind, max_samples=particles, min_samples=particles)
+            cfg = profile.mcl.with_filter(kind).with_samples(particles, fixed=True)
             loc = MonteCarloLocalization(grid, cfg, seed=seed)
             loc.reset_tracking(ref[0])
             est = np.zeros((len(ref), 3))

@@ -18,7 +18,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import typer
@@ -163,12 +163,10 @@ def register(bench: typer.Typer) -> None:
         kidnap_spread: float = typer.Option(5.0, help="The kidnap's time is drawn over this many seconds."),
         kidnap_window: float = typer.Option(60.0, help="Seconds allowed to recover from a kidnap."),
         tours: bool = typer.Option(True, help="Run the tours (--no-tours: only speed and kidnaps)."),
-        max_injection: float = typer.Option(
-            -1.0, help="Override SimulationSettings.max_injection (sensor resetting; < 0: default)."
-        ),
-        verify_period: float = typer.Option(
-            -1.0, help="Override SimulationSettings.verify_period (s; 0: off; < 0: default)."
-        ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
     ) -> None:
         """Simulator speed and tour success, collisions, blocked time and localization error."""
         from dataclasses import replace
@@ -188,11 +186,9 @@ def register(bench: typer.Typer) -> None:
             seeds, tour, speed_steps = 1, "short", 50
         people_counts = (50,) if quick else (50, 100, 200)
         crowd_list = [c.strip() for c in crowds.split(",") if c.strip()]
-        base = SimulationSettings()
-        if max_injection >= 0:
-            base = replace(base, max_injection=max_injection)
-        if verify_period >= 0:
-            base = replace(base, verify_period=verify_period or None)
+        from tourbot.localization.profile import LocalizationProfile
+
+        base = SimulationSettings(mcl=LocalizationProfile.load(config).mcl)
         base = replace(base, navigation=replace(base.navigation, dwell_scale=0.25))
         kidnap_columns = ["kidnaps recovered", "recovery mean s", "recovery max s"] if kidnap_seeds else []
         report = BenchReport(
@@ -220,8 +216,9 @@ def register(bench: typer.Typer) -> None:
                 "seeds": seeds,
                 "laser_beams": 360,
                 "laser_hz": 10,
-                "max_injection": base.max_injection,
-                "verify_period": base.verify_period,
+                "config": str(config) if config is not None else "defaults",
+                "max_injection": base.mcl.recovery.max_injection,
+                "verify_period": base.mcl.recovery.verify_period,
             }
         )
         with Progress(console=console) as progress:

@@ -10,8 +10,12 @@ writes a recording, a summary and a GIF.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from tourbot.localization.mcl.config import MCLConfig
 
 __all__ = ["register"]
 
@@ -35,8 +39,12 @@ def register(app: typer.Typer) -> None:
             "real time when serving).",
         ),
         particles: int | None = typer.Option(
-            None, help="MCL samples (default 1000 with --record, 300 when serving, to keep real time)."
+            None, help="MCL samples (default: the configuration's sampling.max_samples)."
         ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
         dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times (--record)."),
         site: str = typer.Option("fhw", help="Shipped site name or site file."),
         out: str = typer.Option(
@@ -67,6 +75,11 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        from tourbot.localization.profile import LocalizationProfile
+
+        mcl = LocalizationProfile.load(config).mcl
+        if particles is not None:
+            mcl = mcl.with_samples(particles)
         if record:
             from tourbot.app.demo import run_tour
 
@@ -77,7 +90,7 @@ def register(app: typer.Typer) -> None:
                 seed=seed,
                 duration=duration,
                 speedup=speedup,
-                particles=particles or 1000,
+                mcl=mcl,
                 dwell_scale=dwell_scale,
                 out=Path(out),
                 animation=animation,
@@ -88,7 +101,7 @@ def register(app: typer.Typer) -> None:
             crowd,
             seed,
             speedup or 1.0,
-            particles or 300,
+            mcl,
             Path(out),
             host,
             port,
@@ -102,7 +115,7 @@ def _serve(
     crowd: str,
     seed: int,
     speedup: float,
-    particles: int,
+    mcl: MCLConfig,
     out: Path,
     host: str,
     port: int,
@@ -123,7 +136,7 @@ def _serve(
     out.mkdir(parents=True, exist_ok=True)
     settings = ServeSettings(
         site=site, database=database or f"sqlite:///{out / f'tourbot-{name}.db'}", crowd=crowd, seed=seed,
-        particles=particles, host=host, port=port, staff_password=staff_password,
+        mcl=mcl, host=host, port=port, staff_password=staff_password,
         speech_dir=out / "speech", speedup=speedup, fresh_staff_password=True,
     )  # fmt: skip
     t0 = time.perf_counter()

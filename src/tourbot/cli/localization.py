@@ -16,6 +16,7 @@ if TYPE_CHECKING:
 
     from tourbot.localization.beam_filters import BeamFilter
     from tourbot.localization.estimate import LocalizationEstimate
+    from tourbot.localization.profile import LocalizationProfile
     from tourbot.maps.grid import OccupancyGrid
     from tourbot.records import Scan
 
@@ -56,14 +57,23 @@ def register(app: typer.Typer) -> None:
             Method.MCL
         ),
         beam_filter: Annotated[
-            FilterChoice,
+            FilterChoice | None,
             typer.Option(
-                "--filter", help="Beam filter of Fox et al. 1998: none, entropy (Eq. 3-4), novelty (Eq. 5-6)."
+                "--filter",
+                help="Beam filter of Fox et al. 1998: none, entropy (Eq. 3-4), novelty (Eq. 5-6) "
+                "(default: the configuration's).",
             ),
-        ] = FilterChoice.NOVELTY,
+        ] = None,
         particles: Annotated[
-            int, typer.Option(help="MCL: most samples held while tracking (KLD-sampling may use fewer).")
-        ] = 5000,
+            int | None,
+            typer.Option(
+                help="MCL: most samples held while tracking (KLD-sampling may use fewer; default: the "
+                "configuration's sampling.max_samples)."
+            ),
+        ] = None,
+        config: Annotated[
+            Path | None, typer.Option("--config", help="Localization profile (YAML; tourbot config show).")
+        ] = None,
         global_: Annotated[
             bool, typer.Option("--global", help="Start lost: global localization from the whole free space.")
         ] = False,
@@ -114,8 +124,11 @@ def register(app: typer.Typer) -> None:
                 "choose exactly one start: --start X,Y,THETA, --start-from-reference (the first scan's "
                 "reference pose), or --global (start lost)"
             )
-        if particles < 1:
+        if particles is not None and particles < 1:
             raise InputError(f"must be at least 1, got {particles}", field="--particles")
+        from tourbot.localization.profile import LocalizationProfile
+
+        profile = LocalizationProfile.load(config)
         console = Console(stderr=True)
         with console.status(f"reading {log}"):
             robot_log = load_log(log)
@@ -134,12 +147,13 @@ def register(app: typer.Typer) -> None:
                 raise InputError("--start-from-reference: the first scan has no reference pose", path=log)
             pose0 = ref0
 
-        kind = BeamFilter(beam_filter.value)
-        localizer = _make_localizer(method, grid, kind, particles, seed)
+        default_filter = profile.grid.beam_filter if method == Method.GRID else profile.mcl.sensor.beam_filter
+        kind = default_filter if beam_filter is None else BeamFilter(beam_filter.value)
+        localizer = _make_localizer(method, grid, kind, particles, seed, profile)
         if pose0 is None:
             localizer.reset_global()
         else:
-            std = (0.1, 0.1, math.radians(5.0))
+            std = profile.grid.tracking_std if method == Method.GRID else profile.mcl.sampling.tracking_std
             localizer.reset_tracking(pose0, np.diag(np.square(std)))
 
         if method == Method.GRID:
@@ -224,25 +238,27 @@ class _Localizer(Protocol):
 
 
 def _make_localizer(
-    method: Method, grid: OccupancyGrid, kind: BeamFilter, particles: int, seed: int
+    method: Method,
+    grid: OccupancyGrid,
+    kind: BeamFilter,
+    particles: int | None,
+    seed: int,
+    profile: LocalizationProfile,
 ) -> _Localizer:
     """The localizer for ``--method`` (imported lazily: numba kernels load only when used)."""
     from dataclasses import replace
 
     if method == Method.GRID:
-        from tourbot.localization.grid_markov import GridMarkovConfig, GridMarkovLocalization
+        from tourbot.localization.grid_markov import GridMarkovLocalization
 
-        return GridMarkovLocalization(grid, replace(GridMarkovConfig(), beam_filter=kind))
-    from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+        return GridMarkovLocalization(grid, replace(profile.grid, beam_filter=kind))
+    from tourbot.localization.mcl import MonteCarloLocalization
 
-    base = MCLConfig()
-    cfg = replace(
-        base,
-        beam_filter=kind,
-        max_samples=particles,
-        min_samples=min(base.min_samples, particles),
+    cfg = profile.mcl.with_filter(kind)
+    if particles is not None:
+        cfg = cfg.with_samples(particles)
         # Ten times the tracking budget to start lost (Nav2 AMCL: 500-2000 samples tracking, the
         # global start as many as allowed), never more than the configured global count.
-        global_samples=max(particles, min(base.global_samples, 10 * particles)),
-    )
+        glob = cfg.global_
+        cfg = replace(cfg, global_=replace(glob, samples=max(particles, min(glob.samples, 10 * particles))))
     return MonteCarloLocalization(grid, cfg, seed=seed)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -20,6 +21,10 @@ def register(app: typer.Typer) -> None:
         write_log: str = typer.Option(
             "out/sim/sim.log.gz", "--write-log", help="CARMEN log to write (true pose as reference)."
         ),
+        config: Annotated[
+            Path | None,
+            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+        ] = None,
     ) -> None:
         """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
 
@@ -38,6 +43,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.carmen import write_carmen
         from tourbot.io.output import write_text_whole
         from tourbot.io.tum import write_tum
+        from tourbot.localization.profile import LocalizationProfile
         from tourbot.sim.simulator import SimConfig
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
@@ -46,7 +52,8 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
         console = Console()
         the_site = load_site(site_path(site))
-        settings = SimulationSettings(crowd=crowd, seed=seed, sim=SimConfig(record=True))
+        mcl = LocalizationProfile.load(config).mcl
+        settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, sim=SimConfig(record=True))
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime
         rt.start_tour(tour)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
@@ -20,7 +21,6 @@ SiteOpt = Annotated[str, typer.Option("--site", help="a shipped site name (fhw) 
 def _db(database: str | None, site: str) -> Database:
     """The site database; a SQLite file that did not exist is created, and the user told so (a
     mistyped ``--database`` would otherwise put their work in a new, empty database unnoticed)."""
-    from pathlib import Path
 
     from tourbot.web.db import default_url, open_database, sqlite_file
 
@@ -60,10 +60,14 @@ def register(app: typer.Typer) -> None:
                 help="run each simulated robot in its own process (the default), or in the server's",
             ),
         ] = True,
+        config: Annotated[
+            Path | None, typer.Option("--config", help="Localization profile of the robots (YAML).")
+        ] = None,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
         from tourbot.app.simulated import crowd_config
         from tourbot.errors import InputError
+        from tourbot.localization.profile import LocalizationProfile
         from tourbot.web.serve import ServeSettings, build_site_app, run
 
         # checked before the database is opened (and the site imported into it)
@@ -76,6 +80,7 @@ def register(app: typer.Typer) -> None:
         settings = ServeSettings(
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
+            mcl=LocalizationProfile.load(config).mcl,
         )  # fmt: skip
         web, _ = build_site_app(settings)
         run(web, host, port)

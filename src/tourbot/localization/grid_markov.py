@@ -402,7 +402,7 @@ class GridMarkovLocalization:
                         self.use_table(ExpectedRangeTable.load(path))
                         self.table_source = f"read from {path}"
                         return self._table  # type: ignore[return-value]
-                    except GridMarkovError:
+                    except LocalizationError:
                         pass  # unreadable or stale: build it again and overwrite
             if self._caster_factory is None:
                 caster = _default_caster(lat.grid, max_range, cfg.unknown_blocks)
@@ -491,7 +491,7 @@ class GridMarkovLocalization:
             )
         table = self.prepare(scan.geometry.max_range)
         odom = np.asarray(odom_pose, dtype=np.float64).reshape(3)
-        moved = self._motion_update(odom)  # Eq. 1
+        moved = self.predict(odom)  # Eq. 1
         used, info = self._sensor_update(scan, table)  # Eq. 2-6 and the uniform mixture
         info["motion_applied"] = float(moved)
         pose, cov = self._estimate()
@@ -506,8 +506,14 @@ class GridMarkovLocalization:
             info=info,
         )
 
-    def _motion_update(self, odom: FloatArray) -> bool:
-        """Eq. 1 on the held poses, once the odometry has moved enough since the last motion step."""
+    @property
+    def odometry_reference(self) -> FloatArray | None:
+        """The odometry pose of the last motion step (motion since then is held back)."""
+        return self._odom_ref
+
+    def predict(self, odom: FloatArray) -> bool:
+        """Eq. 1 on the held poses, once the odometry has moved enough since the last motion step
+        (half a cell or half a heading step); returns whether the belief moved."""
         cfg = self.config
         if self._odom_ref is None:
             self._odom_ref = odom

@@ -8,7 +8,6 @@ each a numba kernel with a plain-numpy reference beside it:
 - :func:`joint_betas`: the association probabilities ``beta_ji`` of Eq. 6-7, summed over all valid
   joint events of one cluster of people and features.
 - :func:`sample_weights`: the sample weights of Eq. 9.
-- :func:`systematic_resample`: the bootstrap resampling that ends the correction step.
 
 Eq. 7 is used in its detection-aware form: a joint event ``theta`` weighs
 ``gamma^(m - |theta|) * prod_{(j,i) in theta} P_D p(z_j | x_i) * prod_{i missed} (1 - P_D)``, where
@@ -27,6 +26,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.union_find import find, union
+
 __all__ = [
     "cluster_betas",
     "cluster_betas_reference",
@@ -36,8 +37,6 @@ __all__ = [
     "pair_likelihoods_reference",
     "sample_weights",
     "sample_weights_reference",
-    "systematic_resample",
-    "systematic_resample_reference",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -190,14 +189,6 @@ def joint_betas(ratio: FloatArray, miss: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
-def _find(parent: IntArray, a: int) -> int:
-    while parent[a] != a:
-        parent[a] = parent[parent[a]]
-        a = parent[a]
-    return a
-
-
-@numba.njit(cache=True)
 def _cluster_betas_kernel(
     pair_track: IntArray, pair_feature: IntArray, ratio: FloatArray, miss: FloatArray, M: int, max_events: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -205,13 +196,10 @@ def _cluster_betas_kernel(
     P = pair_track.shape[0]
     parent = np.arange(K + M)
     for p in range(P):
-        a = _find(parent, pair_track[p])
-        b = _find(parent, K + pair_feature[p])
-        if a != b:
-            parent[a] = b
+        union(parent, pair_track[p], K + pair_feature[p])
     root = np.empty(K + M, dtype=np.int64)
     for v in range(K + M):
-        root[v] = _find(parent, v)
+        root[v] = find(parent, v)
     beta0 = np.ones(K)
     pair_beta = np.zeros(P)
     local = np.full(K + M, -1, dtype=np.int64)
@@ -378,48 +366,4 @@ def sample_weights(
         np.ascontiguousarray(pair_beta, dtype=np.float64),
         np.ascontiguousarray(miss, dtype=np.float64),
         np.ascontiguousarray(beta0, dtype=np.float64),
-    )
-
-
-# --- bootstrap resampling -------------------------------------------------------------------------
-
-
-def systematic_resample_reference(weights: FloatArray, offsets: FloatArray) -> IntArray:
-    """Indices ``(K, N)`` drawing each sample with probability equal to its weight (systematic
-    resampling, one uniform ``offsets[k]`` in [0, 1) per person)."""
-    K, N = weights.shape
-    cum = np.cumsum(weights, axis=1)
-    total = cum[:, -1].copy()
-    cum[:, -1] = np.inf  # the last sample takes whatever rounding leaves over
-    out = np.empty((K, N), dtype=np.int64)
-    for k in range(K):
-        u = (np.arange(N) + offsets[k]) * (total[k] / N)
-        out[k] = np.searchsorted(cum[k], u, side="right")
-    return out
-
-
-@numba.njit(cache=True)
-def _systematic_kernel(weights: FloatArray, offsets: FloatArray) -> IntArray:
-    K, N = weights.shape
-    out = np.empty((K, N), dtype=np.int64)
-    for k in range(K):
-        total = 0.0
-        for n in range(N):
-            total += weights[k, n]
-        step = total / N
-        c = weights[k, 0]
-        i = 0
-        for n in range(N):
-            u = (n + offsets[k]) * step
-            while u >= c and i < N - 1:
-                i += 1
-                c += weights[k, i]
-            out[k, n] = i
-    return out
-
-
-def systematic_resample(weights: FloatArray, offsets: FloatArray) -> IntArray:
-    """Numba kernel of :func:`systematic_resample_reference`."""
-    return _systematic_kernel(
-        np.ascontiguousarray(weights, dtype=np.float64), np.ascontiguousarray(offsets, dtype=np.float64)
     )

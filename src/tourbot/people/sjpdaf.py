@@ -26,12 +26,13 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose, invert, transform_points
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights, systematic_resample
+from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
 from tourbot.people.motion import WalkingModel, predict_samples
 from tourbot.people.occlusion import OcclusionConfig, occlusion_probability, points_in_sensor_frame
 from tourbot.people.static_filter import RobotBodyMask, StaticConfig, StaticFilter
 from tourbot.records import Scan
+from tourbot.sampling import systematic_resample_rows
 
 __all__ = ["PeopleTracker", "SJPDAFConfig", "ScanPoseSource", "Track"]
 
@@ -358,7 +359,7 @@ class PeopleTracker:
         if K == 0:
             return
         w = sample_weights(a.likelihood, a.pair_track, a.pair_beta, a.miss, a.beta0)
-        idx = systematic_resample(w, self.rng.random(K))
+        idx = systematic_resample_rows(w, self.rng.random(K))
         self._samples = np.take_along_axis(self._samples, idx[:, :, None], axis=1)
 
     def _manage(

@@ -7,7 +7,7 @@ recorded range is shortened to that leg, with sensor noise. Visitors persist fro
 occlude each other and the walls, so the corruption is consistent over time, as in the crowded
 museum data of Fox, Burgard, Thrun & Cremers (1998, Sec. "Experimental results", Fig. 1b, Fig. 4).
 The result is a new log (every localizer reads identical input) and the truth: which beams were
-corrupted in each scan, and the kidnaps (:mod:`tourbot.localization.kidnap`) if asked for.
+corrupted in each scan, and the kidnaps (:mod:`tourbot.sim.kidnap`) if asked for.
 
 Beams are cut with the project's ray caster, :func:`tourbot.maps.raycast.circle_ranges`: the
 recorded range already ends at the real wall, so only the circles need casting.
@@ -27,11 +27,11 @@ from numpy.typing import NDArray
 from tourbot.errors import InputError, TourbotError
 from tourbot.geometry import compose, wrap_angle
 from tourbot.io.output import write_text_whole
-from tourbot.localization.kidnap import Kidnap, KidnapConfig, apply_kidnaps, plan_kidnaps
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import circle_ranges
 from tourbot.records import RobotLog, Scan
 from tourbot.sim.crowd import PRESETS, Crowd, CrowdConfig
+from tourbot.sim.kidnap import Kidnap, KidnapConfig, apply_kidnaps, plan_kidnaps
 
 __all__ = [
     "CrowdTruth",

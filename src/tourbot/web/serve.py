@@ -9,13 +9,14 @@ from __future__ import annotations
 import errno
 import secrets
 import socket
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from fastapi import FastAPI
 from rich.console import Console
 
 from tourbot.errors import TourbotError
+from tourbot.localization.mcl.config import MCLConfig
 from tourbot.web.app import WebConfig, create_app
 from tourbot.web.db import Database, default_url, open_database
 from tourbot.web.guard import GuardConfig
@@ -34,7 +35,7 @@ class ServeSettings:
     robots: int = 1
     crowd: str = "sparse"
     seed: int = 0
-    particles: int = 300
+    mcl: MCLConfig = field(default_factory=MCLConfig)  # the robots' localization
     host: str = "127.0.0.1"
     port: int = 8000
     slot_minutes: float = 10.0
@@ -62,7 +63,7 @@ class SimulatedRobotFactory:
     site: str
     crowd: str | int
     seed: int
-    particles: int
+    mcl: MCLConfig
     speedup: float = 1.0
 
     def __call__(self) -> RobotLink:
@@ -72,7 +73,7 @@ class SimulatedRobotFactory:
         from tourbot.web.runtime_link import RuntimeLink
 
         site = load_site(site_path(self.site))
-        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, particles=self.particles)
+        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
         robot = simulated_runtime(site, sim_settings, record=False)
         period = float(robot.simulator.dt) / self.speedup
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
@@ -87,11 +88,11 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     for i, name in enumerate(_robot_names(settings.robots)):
         seed = settings.seed + i
         if settings.robot_process:
-            factory = SimulatedRobotFactory(settings.site, settings.crowd, seed, settings.particles)
+            factory = SimulatedRobotFactory(settings.site, settings.crowd, seed, settings.mcl)
             links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
         else:
             factory = SimulatedRobotFactory(
-                settings.site, settings.crowd, seed, settings.particles, settings.speedup
+                settings.site, settings.crowd, seed, settings.mcl, settings.speedup
             )
             links[name] = factory()
     for link in links.values():

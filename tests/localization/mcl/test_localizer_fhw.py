@@ -9,12 +9,14 @@ import pytest
 
 from tourbot.io.carmen import read_carmen
 from tourbot.localization.beam_filters import BeamFilter
-from tourbot.localization.kidnap import Kidnap, apply_kidnaps
-from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+from tourbot.localization.mcl import MonteCarloLocalization
+from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import build_reference_map
 from tourbot.records import RobotLog
+from tourbot.sim.kidnap import Kidnap, apply_kidnaps
 
+_FHW = LocalizationProfile.load(FHW_PROFILE).mcl
 STRETCH = 60  # scans: about 4 minutes of the tour, with visitors around the robot
 
 
@@ -27,7 +29,7 @@ def fhw(fhw_log_path: Path) -> tuple[RobotLog, OccupancyGrid]:
 
 
 def _track(log: RobotLog, grid: OccupancyGrid, kind: BeamFilter, seed: int = 0) -> np.ndarray:
-    mcl = MonteCarloLocalization(grid, MCLConfig(max_samples=1000, beam_filter=kind), seed=seed)
+    mcl = MonteCarloLocalization(grid, _FHW.with_samples(1000).with_filter(kind), seed=seed)
     mcl.reset_tracking(log.scans[0].reference)  # type: ignore[arg-type]
     est = np.array([mcl.update(s.odom, s).pose for s in log.scans])  # type: ignore[arg-type]
     ref = log.reference_poses

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from tourbot.geometry import relative
-from tourbot.localization.kidnap import Kidnap, KidnapConfig, KidnapError, apply_kidnaps, plan_kidnaps
 from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan
+from tourbot.sim.kidnap import Kidnap, KidnapConfig, KidnapError, apply_kidnaps, plan_kidnaps
 
 
 def _straight_log(n: int = 50, step: float = 0.5) -> RobotLog:

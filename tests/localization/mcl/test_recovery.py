@@ -1,0 +1,263 @@
+"""Recovery through its own API: the fit's averages, the too-long verdicts, the guesses' contest."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from tourbot.geometry import compose
+from tourbot.localization.mcl import MonteCarloLocalization, Recovery, RecoveryConfig, RecoveryState
+from tourbot.localization.mcl.clustering import best_cluster_estimate, cluster_bins
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.records import LaserGeometry
+
+from ..conftest import simulate, waypoints_path
+from .conftest import tuned
+from .scenes import crowd_around
+
+Judge = Callable[[np.ndarray, np.ndarray | None], float]
+
+
+def test_augmented_mcl_injects_when_the_short_term_fit_drops() -> None:
+    # Probabilistic Robotics Table 8.3 with the textbook's ratio 1: inject max(0, 1 - w_fast / w_slow).
+    rec = Recovery(RecoveryConfig(alpha_slow=0.1, alpha_fast=0.5, max_injection=1.0))
+    assert rec.injection_from_fit(0.9, evidence=True) == 0.0  # the first scan starts both averages
+    assert rec.state.w_slow == rec.state.w_fast == 0.9
+    assert rec.injection_from_fit(0.9, evidence=True) == 0.0
+    drop = rec.injection_from_fit(0.1, evidence=True)
+    w_slow, w_fast = 0.9 + 0.1 * (0.1 - 0.9), 0.9 + 0.5 * (0.1 - 0.9)
+    assert drop == pytest.approx(1.0 - w_fast / w_slow)
+    before = RecoveryState(**vars(rec.state))
+    assert rec.injection_from_fit(0.0, evidence=False) == 0.0  # no evidence: nothing changes
+    assert rec.state == before
+    capped = Recovery(RecoveryConfig(alpha_fast=1.0, max_injection=0.2))
+    capped.injection_from_fit(1.0, evidence=True)
+    assert capped.injection_from_fit(0.0, evidence=True) == 0.2
+
+
+def test_too_long_verdicts_count_and_confirm() -> None:
+    rec = Recovery(RecoveryConfig(lost_fraction=0.3, global_after=2))
+    rec.reset(10, global_start=True)
+    assert rec.state.global_phase
+    assert rec.state.unconfirmed
+    assert rec.contradicted
+    rec.state.global_phase = False
+    rec.judge_track(0.5)
+    assert rec.state.lost_scans == 1
+    assert rec.contradicted
+    rec.judge_track(math.nan)  # no evidence: neither raised nor reset
+    assert rec.state.lost_scans == 1
+    rec.judge_track(0.1)
+    assert rec.state.lost_scans == 0
+    assert rec.state.passed == 1
+    assert rec.state.unconfirmed
+    rec.judge_track(0.1)
+    assert not rec.state.unconfirmed
+    assert not rec.contradicted
+    assert rec.wide_search() == (True, False)  # a reset by the fit searches far, no table
+
+
+def test_verification_schedule() -> None:
+    rec = Recovery(RecoveryConfig(verify_period=5.0, verify_margin=0.5))
+    assert rec.verification_due(0.0)
+    assert not rec.verified(0.0, 0.2)
+    assert not rec.verification_due(4.0)
+    assert rec.verification_due(5.0)
+    assert rec.verified(5.0, 0.8)  # a clearly better place: suspect, and verified every scan
+    assert rec.verification_due(5.5)
+    assert not rec.verified(5.5, 0.0)
+    rec.state.recovered = True  # a guess became the track: verified for verify_period seconds
+    assert rec.verification_due(6.0)
+    assert rec.state.verify_until == 11.0
+    assert not Recovery(RecoveryConfig()).verification_due(0.0)  # verify_period None: never
+
+
+@dataclass
+class _Scene:
+    """A crowded scan at ``truth[4]`` and a belief of three groups: the established track
+    (turned around and moved by a metre when lost, else moved 1.5 m along the robot's way),
+    guesses at the true pose with almost no weight, and guesses at a decoy 2.6 m away holding
+    most of the weight, as the likelihood field gives it to a look-alike place in a crowd."""
+
+    mcl: MonteCarloLocalization
+    recovery: Recovery
+    samples: np.ndarray
+    weights: np.ndarray
+    track: np.ndarray
+    near: np.ndarray
+    far: np.ndarray
+    ranges: np.ndarray
+    valid: np.ndarray
+    truth: np.ndarray
+    geometry: LaserGeometry
+
+    def judge(self, p: np.ndarray, others: np.ndarray | None = None) -> float:
+        poses = p[None, :] if others is None else np.vstack([p[None, :], others])
+        rec = self.mcl.config.recovery
+        return self.mcl.sensor.too_long_fraction(
+            poses, self.ranges, self.geometry, self.valid, rec.lost_margin, rec.lost_min_beams
+        )
+
+    def score(self, poses: np.ndarray) -> np.ndarray:
+        return self.mcl.sensor.crowd_log_likelihood(poses, self.ranges, self.geometry, self.valid)
+
+    def step(self, judge: Judge | None = None) -> np.ndarray:
+        """One scan's recovery as the update runs it; returns the estimate."""
+        j = self.judge if judge is None else judge
+        b = self.mcl.config.sampling.kld_bin
+        labels = cluster_bins(self.samples, b[0], b[2])
+        est = self.recovery.established_weights(self.weights)
+        pose = best_cluster_estimate(self.samples, est, labels)[0]
+        too_long = j(pose, None)
+        self.recovery.judge_track(too_long)
+        decision = self.recovery.arbitrate(
+            self.samples, self.weights, labels, pose, too_long, self.score, j, int(self.valid.sum())
+        )
+        if decision.weights is not None:
+            self.weights = decision.weights
+        if decision.became_track:
+            pose = best_cluster_estimate(self.samples, self.weights, labels)[0]
+        return pose
+
+
+def _scene(room: OccupancyGrid, lost_track: bool) -> _Scene:
+    truth = waypoints_path(10)
+    crowded = simulate(room, truth, seed=27, circles=crowd_around(truth, np.random.default_rng(27), 10))
+    scan = crowded.scans[4]
+    r = np.asarray(scan.ranges)
+    valid = r < scan.geometry.max_range
+    mcl = MonteCarloLocalization(room, tuned(300, 100), seed=28)
+    wrong = compose(truth[4], np.array([0.5, -0.4, 2.7] if lost_track else [1.5, 0.0, 0.0]))
+    decoy = np.array([4.69, 4.07, 2.29])  # a look-alike: no wall seen through, the truth explains more
+    jitter = np.random.default_rng(29).normal(0.0, [0.02, 0.02, 0.01], (300, 3))
+    samples = (
+        np.vstack([np.tile(wrong, (200, 1)), np.tile(truth[4], (50, 1)), np.tile(decoy, (50, 1))]) + jitter
+    )
+    track, near, far = (np.arange(300) < 200), (np.arange(300) // 50 == 4), (np.arange(300) >= 250)
+    weights = np.where(track, 0.5 / 200, np.where(near, 1e-9, 0.5 / 50))
+    recovery = Recovery(mcl.config.recovery, 300)
+    recovery.fresh = ~track
+    return _Scene(
+        mcl, recovery, samples, weights / weights.sum(), track, near, far, r, valid, truth[4], scan.geometry
+    )
+
+
+def test_a_recovery_guess_is_chosen_by_the_crowd_beam_model_and_must_win_twice(room: OccupancyGrid) -> None:
+    # The scan contradicts the track (it sees through walls there). Of the two guesses, the one
+    # at the true pose explains the scan under the crowd beam model, though the weights favour
+    # the decoy: the true one wins the scan and is held (the decoy loses its weight), and
+    # becomes the track only when it wins again.
+    sc = _scene(room, lost_track=True)
+    lost = sc.mcl.config.recovery.lost_fraction
+    assert sc.judge(sc.samples[0]) > lost
+    ll = sc.score(np.stack([sc.truth, sc.samples[260], sc.samples[0]]))
+    assert ll[0] > ll[1] > ll[2]  # the decoy too explains the scan better than the lost track
+    assert sc.judge(sc.samples[260], sc.samples[sc.far][:8]) <= lost
+    pose = sc.step()
+    assert np.hypot(*(pose[:2] - sc.samples[0, :2])) < 0.1  # still the track after one win
+    assert sc.recovery.state.guess_wins == 1
+    assert sc.recovery.held[sc.near].all()
+    assert not sc.recovery.held[sc.track | sc.far].any()
+    assert sc.weights[sc.far].sum() == 0.0  # the losing guess is dropped
+    pose = sc.step()  # the next scan says the same: found again
+    assert np.hypot(*(pose[:2] - sc.truth[:2])) < 0.1
+    assert not sc.recovery.fresh.any()
+    assert sc.recovery.state.recovered
+
+
+def test_a_far_guess_clearly_better_than_an_unsuspected_track_wins(room: OccupancyGrid) -> None:
+    # Moved along its way, a track may pass the too-long test (a crowd excuses the short side);
+    # a guess at another place that explains the scan better by more than the verification's
+    # margin per return wins; guesses at the track's own place do not.
+    sc = _scene(room, lost_track=False)
+
+    def unsuspecting(p: np.ndarray, others: np.ndarray | None = None) -> float:
+        return 0.0 if others is None else sc.judge(p, others)  # the track passes the too-long test
+
+    gain = sc.score(sc.truth[None])[0] - sc.score(sc.samples[:1])[0]
+    assert gain > sc.mcl.config.recovery.verify_margin * int(sc.valid.sum())
+    sc.step(unsuspecting)
+    assert sc.recovery.state.guess_wins == 1
+    assert sc.recovery.held[sc.near].all()
+    pose = sc.step(unsuspecting)
+    assert np.hypot(*(pose[:2] - sc.truth[:2])) < 0.1
+    sc = _scene(room, lost_track=False)
+    sc.samples[~sc.track] = sc.samples[0] + np.array([0.3, 0.0, 0.0])
+    sc.step(unsuspecting)
+    assert sc.recovery.state.guess_wins == 0
+
+
+def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: OccupancyGrid) -> None:
+    # Where the map and the building disagree (glass, corners) the true pose too fails the
+    # too-long test now and then: a guess the test contradicts may still replace a track that it
+    # contradicts more, never one that it contradicts less.
+    sc = _scene(room, lost_track=True)
+    b = sc.mcl.config.sampling.kld_bin
+    labels = cluster_bins(sc.samples, b[0], b[2])
+    n = int(sc.valid.sum())
+
+    def glassy(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
+        return 0.35  # every guess sees through a few glass walls
+
+    args = (sc.samples, sc.weights, labels, sc.samples[0], sc.score)
+    won = sc.recovery.best_guess(*args, glassy, True, 0.8, n)
+    assert won is not None
+    assert won[sc.near].all()
+    assert sc.recovery.best_guess(*args, glassy, True, 0.3, n) is None
+    assert sc.recovery.best_guess(*args, sc.judge, True, math.nan, n) is not None
+
+
+def test_a_scan_that_is_no_evidence_neither_confirms_nor_contradicts(room: OccupancyGrid) -> None:
+    # Too few returns to judge (NaN) says nothing about the track nor about the guesses: none
+    # wins such a scan, even against a track contradicted on the scans before, and the lost
+    # count is neither raised nor reset.
+    sc = _scene(room, lost_track=True)
+
+    def blind(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
+        return math.nan
+
+    sc.recovery.state.lost_scans = 1
+    weights = sc.weights.copy()
+    sc.step(blind)
+    assert sc.recovery.state.guess_wins == 0
+    assert not sc.recovery.held.any()
+    assert sc.recovery.state.lost_scans == 1
+    np.testing.assert_array_equal(sc.weights, weights)
+    # A guess held since a scan with evidence stays held through one without, and becomes the
+    # track when it wins the next scan with evidence.
+    sc.step()
+    assert sc.recovery.state.guess_wins == 1
+    assert sc.recovery.held[sc.near].all()
+    lost = sc.recovery.state.lost_scans
+    pose = sc.step(blind)
+    assert sc.recovery.state.guess_wins == 1
+    assert sc.recovery.held[sc.near].all()
+    assert sc.recovery.state.lost_scans == lost
+    assert np.hypot(*(pose[:2] - sc.samples[0, :2])) < 0.1  # still the old track
+    pose = sc.step()
+    assert np.hypot(*(pose[:2] - sc.truth[:2])) < 0.1
+    assert not sc.recovery.fresh.any()
+    assert sc.weights[sc.far].sum() == 0.0
+    # A failed verification judged every return of its scan: it still contradicts the track.
+    sc = _scene(room, lost_track=True)
+    sc.recovery.state.suspect = True
+    sc.step(blind)
+    assert sc.recovery.state.guess_wins == 1
+    assert sc.recovery.held[sc.near].all()
+
+
+def test_guesses_are_left_out_of_the_established_weights() -> None:
+    rec = Recovery(RecoveryConfig(), 4)
+    w = np.array([0.1, 0.2, 0.3, 0.4])
+    np.testing.assert_array_equal(rec.established_weights(w), w)
+    rec.fresh = np.array([False, True, False, True])
+    np.testing.assert_array_equal(rec.established_weights(w), [0.1, 0.0, 0.3, 0.0])
+    rec.fresh[:] = True  # nothing else left: all of them
+    np.testing.assert_array_equal(rec.established_weights(w), w)
+    rec.match(6)
+    assert rec.fresh.shape == rec.held.shape == (6,)
+    assert not rec.fresh.any()
