@@ -78,12 +78,19 @@ Record = Scan | Odometry
 
 @dataclass
 class RobotLog:
-    """A whole recording held in memory: its scans and raw odometry, in record order."""
+    """A whole recording held in memory: its scans and raw odometry, in record order.
+
+    ``odometry_kind`` says what the odometry is: ``"raw"`` (the source's stream, no re-anchoring
+    found), ``"rebuilt"`` (raw odometry rebuilt from the increments of a stream re-anchored to the
+    reference at every scan) or ``"re-anchored"`` (such a stream kept as recorded: it holds the
+    reference's corrections, so no localization or mapping figure may stand on it).
+    """
 
     source: str
     scans: list[Scan] = field(default_factory=list)
     odometry: list[Odometry] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    odometry_kind: str = "raw"
 
     def __len__(self) -> int:
         return len(self.scans)

@@ -238,7 +238,7 @@ def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path
     from tourbot.io import read_carmen, write_carmen
     from tourbot.sim.overlay import OverlayConfig, overlay_crowd, read_truth, truth_path, write_truth
 
-    path = cache / f"{name}-{preset}-{seed}.log.gz"
+    path = cache / f"{name}-{preset}-{seed}-{log.odometry_kind}.log.gz"  # never an older odometry's
     if path.exists() and truth_path(path).exists():
         return read_carmen(path), read_truth(truth_path(path))
     result = overlay_crowd(log, grid, OverlayConfig.preset(preset), seed=seed, preset=preset)
@@ -290,7 +290,6 @@ def register(bench: typer.Typer) -> None:
         from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
         from tourbot.localization.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
-        from tourbot.records import RobotLog
 
         console = Console()
         if first_seed < 0:
@@ -345,7 +344,7 @@ def register(bench: typer.Typer) -> None:
                 base = read_carmen(root / "carmen" / LOGS[name])
                 grid = _map(base, name, cache)  # the whole log's reference map
                 if limit:
-                    base = RobotLog(base.source, base.scans[:limit], base.odometry, base.warnings)
+                    base = replace(base, scans=base.scans[:limit])
                 duration = float(base.times[-1] - base.times[0])
                 ref = base.reference_poses
                 path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])

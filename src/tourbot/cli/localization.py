@@ -10,6 +10,8 @@ from typing import TYPE_CHECKING, Annotated, Protocol
 
 import typer
 
+from tourbot.cli.logs import OdometryOpt, OdometryStream
+
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from rich.console import Console
@@ -89,6 +91,7 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option(help="Grid: read / keep the expected-range table in --table-cache."),
         ] = True,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Localize a robot from its log's odometry and scans; write one pose per scan, in log order.
 
@@ -118,7 +121,7 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must be at least 1, got {particles}", field="--particles")
         console = Console(stderr=True)
         with console.status(f"reading {log}"):
-            robot_log = load_log(log)
+            robot_log = load_log(log, odometry=odometry_stream.value)
             grid = read_map(map_yaml)
         if not robot_log.scans:
             raise InputError("the log has no laser scan", path=log)

@@ -51,11 +51,15 @@ from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
 __all__ = [
     "DEFAULT_MAX_RANGE",
     "LASER_TYPES",
+    "ODOMETRY_KINDS",
+    "ODOMETRY_MODES",
     "CarmenReader",
+    "OdometrySurvey",
     "guess_angle_increment",
     "guess_fov",
     "iter_carmen",
     "read_carmen",
+    "survey_odometry",
     "write_carmen",
 ]
 
@@ -64,6 +68,13 @@ DEFAULT_MAX_RANGE = 80.0
 
 #: The laser message types the reader turns into scans.
 LASER_TYPES = ("FLASER", "RLASER", "ROBOTLASER1", "RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
+
+#: How a reader treats a re-anchored odometry stream: rebuild it from its increments, or keep it.
+ODOMETRY_MODES = ("rebuilt", "as-recorded")
+
+#: What a log's odometry is once read: the stream as it was (no re-anchoring found), rebuilt from
+#: the increments of a re-anchored stream, or a re-anchored stream kept as recorded.
+ODOMETRY_KINDS = ("raw", "rebuilt", "re-anchored")
 
 _IDENT = re.compile(r"^[A-Z][A-Z0-9_]*$")
 _ROBOTLASER = re.compile(r"^ROBOTLASER[1-9]$")
@@ -211,6 +222,140 @@ def _pose(tokens: list[str], start: int, names: Sequence[str]) -> Pose:
     return (x, y, th)
 
 
+# --------------------------------------------------------------------------------------------------
+# Re-anchored odometry
+
+#: Two poses are "the same" (a copy) within these (the logs print 6 significant digits).
+_COPY_TOL = 1e-4
+
+
+@dataclass
+class OdometrySurvey:
+    """What a first pass over a log found about its ``ODOM`` stream.
+
+    ``copies``: line numbers of ``ODOM`` lines that repeat the pose of the laser line next to them
+    (right after it, or right before it in a log that puts them there; whatever their timestamp):
+    copies of a scan's corrected pose, not odometry. ``real``: the other ``ODOM`` lines (``stamped``:
+    those with a non-zero timestamp).
+    ``misfit``: how far the step of the reading after each copy is from the step before it (wheel
+    steps change little from one reading to the next), summed (m, plus 0.3 m per radian), with the
+    step measured from the copy and from the reading before the copy. ``reanchored``: the stream
+    continues from the copies (measured from them the steps fit better: measured from the reading
+    before, each step would hold a correction); then raw odometry is the chain of increments that
+    skips each jump onto a copy.
+    """
+
+    copies: set[int] = field(default_factory=set)
+    real: int = 0
+    stamped: int = 0  # real readings with a non-zero timestamp
+    scans: int = 0
+    anchored_scans: int = 0
+    misfit: tuple[float, float] = (0.0, 0.0)
+    tourbot: bool = False  # written by tourbot (its PARAM lines say how to read the odometry)
+
+    @property
+    def reanchored(self) -> bool:
+        return bool(self.copies) and self.misfit[0] < self.misfit[1]
+
+
+def _same_pose(a: Pose, b: Pose) -> bool:
+    return (
+        abs(a[0] - b[0]) <= _COPY_TOL
+        and abs(a[1] - b[1]) <= _COPY_TOL
+        and abs(float(wrap_angle(a[2] - b[2]))) <= _COPY_TOL
+    )
+
+
+def _laser_pose(tokens: list[bytes]) -> Pose | None:
+    """The robot pose written on a FLASER/RLASER/ROBOTLASER line, None if it has none or is malformed."""
+    try:
+        kind = tokens[0]
+        if kind in (b"FLASER", b"RLASER"):
+            at = 2 + int(tokens[1])
+        elif kind.startswith(b"ROBOTLASER"):
+            n = int(tokens[8])
+            at = 10 + n + int(tokens[9 + n]) + 3
+        else:
+            return None
+        x, y, th = (float(t) for t in tokens[at : at + 3])
+    except (ValueError, IndexError):
+        return None
+    return (x, y, th)
+
+
+def survey_odometry(path: str | Path) -> OdometrySurvey:
+    """Find the copies of the scans' poses in a log's ``ODOM`` stream, and whether it continues from them.
+
+    The pattern is that of corrected logs (``../shared/data/README.md``): after each scan an ``ODOM``
+    line (timestamp zero, or garbage) repeats the scan's corrected pose, and the timestamped
+    readings continue from it. Copies are recognised by their pose alone, so real readings with
+    zero or garbage timestamps are kept. Malformed lines are left to the main pass.
+    """
+    survey = OdometrySurvey()
+    events: list[tuple[int, Pose, bool, bool]] = []  # (line, pose, is_laser, stamped)
+    try:
+        with _open_binary(Path(path)) as stream:
+            for lineno, raw in enumerate(stream, start=1):
+                head = raw[:12]
+                if head.startswith(b"ODOM "):
+                    tokens = raw.split()
+                    try:
+                        pose = (float(tokens[1]), float(tokens[2]), float(tokens[3]))
+                        stamped = any(float(t) != 0.0 for t in tokens[7:10:2])
+                    except (ValueError, IndexError):
+                        continue
+                    events.append((lineno, pose, False, stamped))
+                elif head.startswith((b"FLASER ", b"RLASER ", b"ROBOTLASER")):
+                    laser = _laser_pose(raw.split())
+                    survey.scans += 1
+                    if laser is not None:
+                        events.append((lineno, laser, True, False))
+                elif head.startswith(b"PARAM tourb"):
+                    survey.tourbot = True
+    except (OSError, EOFError, zlib.error, gzip.BadGzipFile):
+        pass  # the main pass reports it, with the line
+
+    # The copy of a scan's pose is the ODOM line right after its laser line (or, in a log that puts
+    # them there, right before it).
+    def neighbour(k: int, side: int) -> tuple[int, Pose, bool, bool] | None:
+        j = k + side
+        return events[j] if 0 <= j < len(events) and events[j][2] else None
+
+    def match(k: int, side: int) -> tuple[int, Pose, bool, bool] | None:
+        laser = neighbour(k, side)
+        return laser if laser is not None and _same_pose(events[k][1], laser[1]) else None
+
+    odoms = [k for k, e in enumerate(events) if not e[2]]
+    after = sum(match(k, -1) is not None for k in odoms)
+    before = sum(match(k, +1) is not None for k in odoms)
+    # after the scan is the pattern; before it only where most scans have one (never by chance)
+    side = +1 if before > after and before >= max(3, survey.scans // 2) else -1
+    anchored: set[int] = set()
+    recent: deque[Pose] = deque(maxlen=2)  # the last two real readings
+    pending: Pose | None = None  # the latest copy since the last real reading
+    misfit = [0.0, 0.0]  # how far the step after each copy is from the step before it, both ways
+    for k in odoms:
+        lineno, pose, _, stamped = events[k]
+        laser = match(k, side)
+        if laser is not None:
+            survey.copies.add(lineno)
+            anchored.add(laser[0])
+            pending = pose
+            continue
+        survey.real += 1
+        survey.stamped += stamped
+        if pending is not None and len(recent) == 2:
+            before = relative(recent[0], recent[1])
+            for which, base in enumerate((pending, recent[1])):
+                d = relative(base, pose) - before
+                misfit[which] += math.hypot(d[0], d[1]) + 0.3 * abs(float(wrap_angle(d[2])))
+        pending = None
+        recent.append(pose)
+    survey.anchored_scans = len(anchored)
+    survey.misfit = (misfit[0], misfit[1])
+    return survey
+
+
 class CarmenReader:
     """Streams the records of one CARMEN log; iterate it once.
 
@@ -219,7 +364,9 @@ class CarmenReader:
     the sensors whose maximum range no record or ``PARAM`` line gave (``DEFAULT_MAX_RANGE`` used).
     """
 
-    def __init__(self, path: str | Path, *, lenient: bool = False) -> None:
+    def __init__(self, path: str | Path, *, lenient: bool = False, odometry: str = "rebuilt") -> None:
+        if odometry not in ODOMETRY_MODES:
+            raise ValueError(f"odometry must be one of {', '.join(ODOMETRY_MODES)}, not {odometry!r}")
         self.path = Path(path)
         self.lenient = lenient
         self.warnings: list[str] = []
@@ -232,7 +379,15 @@ class CarmenReader:
         self._scan_reference: str | None = None  # tourbot's PARAM: "line" or "none"
         self._geometries: dict[tuple[object, ...], LaserGeometry] = {}
         self._has_stream = False
-        self._last_laser_pose: Pose | None = None  # pose of the laser line just read, if last
+        self.odometry = odometry
+        self.survey = OdometrySurvey()
+        self.odometry_kind = "raw"
+        self._rebuilding = False
+        self._lineno = 0
+        # the rebuild: the rebuilt pose of the latest reading, and the raw pose its next increment
+        # starts from (the latest reading, or the re-anchoring line after it)
+        self._rebuilt: Pose | None = None
+        self._chain_base: Pose | None = None
         # odometry matching
         self._record_order = False
         self._history: deque[Odometry] = deque(maxlen=512)
@@ -247,8 +402,14 @@ class CarmenReader:
             raise LogFormatError("no such file", path=self.path)
         if self.path.is_dir():
             raise LogFormatError("is a folder, not a CARMEN log file", path=self.path)
-        self._has_stream = self._find_odometry_stream()
+        self.survey = survey_odometry(self.path)
+        # the laser lines' own odometry poses are used only in a log with neither a timestamped
+        # stream nor copies (in corrected logs, found by their copies, those poses are corrected)
+        sv = self.survey
+        self._has_stream = sv.real > 0 and (sv.stamped > 0 or bool(sv.copies))
+        self._note_survey()
         for lineno, tokens in self._lines():
+            self._lineno = lineno
             try:
                 item = self._parse(tokens)
             except _MalformedError as exc:
@@ -256,9 +417,6 @@ class CarmenReader:
                 continue
             if isinstance(item, _RawScan):
                 item.line = lineno
-                self._last_laser_pose = item.pose
-            elif tokens[0] not in ("ODOM", "NEFF"):
-                self._last_laser_pose = None
             if item is None:
                 continue
             yield from self._push(item, lineno)
@@ -321,25 +479,6 @@ class CarmenReader:
             return []
         return tokens
 
-    def _find_odometry_stream(self) -> bool:
-        """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
-        try:
-            with _open_binary(self.path) as stream:
-                for raw in stream:
-                    if not raw.startswith(b"ODOM"):
-                        continue
-                    tokens = raw.split()
-                    for index in (7, 9):
-                        if len(tokens) > index:
-                            try:
-                                if float(tokens[index]) != 0.0:
-                                    return True
-                            except ValueError:
-                                pass
-        except (OSError, EOFError, zlib.error):
-            pass  # the main pass reports it, with the line
-        return False
-
     def _malformed(self, exc: _MalformedError, lineno: int) -> None:
         if not self.lenient:
             raise LogFormatError(exc.reason, path=self.path, line=lineno, field=exc.field)
@@ -371,17 +510,61 @@ class CarmenReader:
         pose = _pose(tokens, 1, ("x", "y", "theta"))
         tv = _number(tokens[4], "tv")
         rv = _number(tokens[5], "rv")
-        accel = _number(tokens[6], "accel")
+        _number(tokens[6], "accel")
         ts = _timestamp(tokens, 7, "ODOM")
-        after_scan, self._last_laser_pose = self._last_laser_pose, None
-        if self._has_stream and self._scan_odometry is None:
-            # Corrected logs repeat each scan's corrected pose on an ODOM line right after the
-            # scan, with a zero (sometimes garbage, earlier) timestamp: it is not odometry.
-            copy = pose == after_scan and tv == 0.0 and rv == 0.0 and accel == 0.0
-            earlier = self._last_odom_time is not None and ts <= self._last_odom_time
-            if ts == 0.0 or (copy and earlier):
-                return None
+        if self._scan_odometry is None and self._lineno in self.survey.copies:
+            # a copy of a scan's corrected pose (see survey_odometry): not odometry; in a re-anchored
+            # stream the next reading continues from it, so the next increment starts here
+            if self.survey.reanchored:
+                self._chain_base = pose
+            return None
+        if self._rebuilding:
+            pose = self._rebuild(pose)
         return Odometry(timestamp=ts, pose=pose, tv=tv, rv=rv)
+
+    def _rebuild(self, raw: Pose) -> Pose:
+        """Chain the increment since the last reading (or re-anchoring line) onto the rebuilt path."""
+        if self._rebuilt is None or self._chain_base is None:
+            rebuilt = raw
+        else:
+            # rebuilt (+) (base (-) raw), in scalars: numpy's per-call cost is 10x the arithmetic here
+            bx, by, bth = self._chain_base
+            c, s = math.cos(bth), math.sin(bth)
+            dx, dy = raw[0] - bx, raw[1] - by
+            fx, fy, dth = c * dx + s * dy, -s * dx + c * dy, raw[2] - bth
+            x, y, th = self._rebuilt
+            c, s = math.cos(th), math.sin(th)
+            heading = math.remainder(th + dth, 2.0 * math.pi)
+            rebuilt = (x + c * fx - s * fy, y + s * fx + c * fy, heading if heading > -math.pi else math.pi)
+        self._rebuilt = rebuilt
+        self._chain_base = raw
+        return rebuilt
+
+    def _note_survey(self) -> None:
+        """Decide how the odometry stream is read, and say so in one line."""
+        sv = self.survey
+        if sv.tourbot or not sv.copies:
+            return
+        found = (
+            f"{self.path}: the ODOM stream repeats the corrected pose of {sv.anchored_scans} of "
+            f"{sv.scans} scans on an extra line"
+        )
+        if not sv.reanchored:
+            why = "the stream does not continue from them" if any(sv.misfit) else "too few readings to tell"
+            self.warnings.append(f"{found}; the copies are left out, the stream kept ({why})")
+        elif self.odometry == "rebuilt":
+            self.odometry_kind = "rebuilt"
+            self._rebuilding = True
+            self.warnings.append(
+                f"{found} and continues from it (re-anchored to the reference); raw odometry rebuilt from "
+                "its increments, the jumps onto the copies dropped (--odometry-stream as-recorded keeps it)"
+            )
+        else:
+            self.odometry_kind = "re-anchored"
+            self.warnings.append(
+                f"{found} and continues from it: kept as recorded (--odometry-stream as-recorded), so the "
+                "odometry holds the reference's corrections and its error never grows"
+            )
 
     def _parse_old_laser(self, tokens: list[str]) -> _RawScan:
         kind = tokens[0]
@@ -519,6 +702,11 @@ class CarmenReader:
             p.max_range = number
 
     def _tourbot_param(self, name: str, value: str) -> None:
+        if name == "odometry_kind":
+            if value not in ODOMETRY_KINDS:
+                raise _MalformedError(f"unknown odometry kind {value!r} ({', '.join(ODOMETRY_KINDS)})", name)
+            self.odometry_kind = value
+            return
         if name == "scan_odometry":
             self._scan_odometry = value
             return
@@ -646,14 +834,20 @@ def _interpolate(history: deque[Odometry], t: float) -> Pose:
 
 
 def iter_carmen(
-    path: str | Path, *, lenient: bool = False, warnings: list[str] | None = None
+    path: str | Path,
+    *,
+    lenient: bool = False,
+    warnings: list[str] | None = None,
+    odometry: str = "rebuilt",
 ) -> Iterator[Record]:
     """Stream the records (odometry readings and scans of every laser) of a CARMEN log in order.
 
     Malformed records raise :class:`LogFormatError` naming the file, line and field, or with
     ``lenient=True`` are skipped and counted. Warnings are appended to ``warnings`` when given.
+    ``odometry``: ``"rebuilt"`` (raw odometry rebuilt from the increments of a re-anchored stream)
+    or ``"as-recorded"``.
     """
-    reader = CarmenReader(path, lenient=lenient)
+    reader = CarmenReader(path, lenient=lenient, odometry=odometry)
     try:
         yield from reader
     finally:
@@ -675,7 +869,9 @@ def _infer_max_range(scans: list[Scan]) -> float | None:
     return float(piled.min()) if piled.size else None
 
 
-def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = None) -> RobotLog:
+def read_carmen(
+    path: str | Path, *, lenient: bool = False, laser: str | None = None, odometry: str = "rebuilt"
+) -> RobotLog:
     """Read a whole CARMEN log (plain or gzip) into a :class:`RobotLog`.
 
     ``laser`` picks the laser (``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``RAWLASER1``...); by
@@ -683,13 +879,17 @@ def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = 
     time) and, in corrected logs, ``reference`` (the corrected pose). When no record or ``PARAM``
     line gives the laser's maximum range it is inferred from the readings (see
     :func:`_infer_max_range`).
+
+    A re-anchored odometry stream (corrected logs: the stream continues from a copy of each scan's
+    corrected pose) is rebuilt from its increments unless ``odometry="as-recorded"``; the log's
+    ``odometry_kind`` says which, and a warning says what was found.
     """
-    reader = CarmenReader(path, lenient=lenient)
+    reader = CarmenReader(path, lenient=lenient, odometry=odometry)
     scans: list[Scan] = []
-    odometry: list[Odometry] = []
+    readings: list[Odometry] = []
     for record in reader:
         if isinstance(record, Odometry):
-            odometry.append(record)
+            readings.append(record)
         else:
             scans.append(record)
     warnings = list(reader.warnings)
@@ -716,7 +916,13 @@ def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = 
                 g = cache.setdefault(s.geometry, replace(s.geometry, max_range=inferred))
                 fixed.append(replace(s, geometry=g))
             scans = fixed
-    return RobotLog(source=str(path), scans=scans, odometry=odometry, warnings=warnings)
+    return RobotLog(
+        source=str(path),
+        scans=scans,
+        odometry=readings,
+        warnings=warnings,
+        odometry_kind=reader.odometry_kind,
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -762,6 +968,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
         out.write(f"PARAM tourbot_scan_reference {ref_policy} nohost 0\n")
+        out.write(f"PARAM tourbot_odometry_kind {log.odometry_kind} nohost 0\n")
         current: dict[str, LaserGeometry] = {}
         odometry = log.odometry
         k = 0
