@@ -32,7 +32,8 @@ def _drift(log: RobotLog) -> float:
     return float(np.hypot(*(moved[:2] - r[-1, :2])))
 
 
-def test_mapping_bench_reads_rebuilt_odometry(shared_data: Path) -> None:
+@pytest.mark.usefixtures("shared_data")
+def test_mapping_bench_reads_rebuilt_odometry() -> None:
     log = tourbot.bench.mapping._read("intel", 300)
     assert log.odometry_kind == "rebuilt"
     assert _drift(log) > 0.5  # the re-anchored stream ends within centimetres of the reference

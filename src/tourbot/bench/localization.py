@@ -53,7 +53,12 @@ FAIL_DISTANCE = 0.45  # m, Fox et al. 1998, Sec. "Experimental results"
 STAY = 10.0  # s, "smaller than 45cm for more than 10 seconds"
 KIDNAP_SEED_OFFSET = 10_000
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
-LOGS = {"fhw": "fhw-corrected.log.gz", "intel": "intel-corrected.log.gz"}
+LOGS = {
+    "fhw": "fhw-corrected.log.gz",
+    "intel": "intel-corrected.log.gz",
+    "aces": "aces-corrected.log.gz",
+    "freiburg-079": "freiburg-079-corrected.log.gz",
+}
 _GRIDS: dict[int, Any] = {}
 
 
@@ -255,7 +260,9 @@ def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path
 def register(bench: typer.Typer) -> None:
     @bench.command("localization")
     def localization(
-        logs: Annotated[str, typer.Option(help="Logs, comma-separated: fhw, intel.")] = "fhw",
+        logs: Annotated[
+            str, typer.Option(help="Logs, comma-separated: fhw, intel, aces, freiburg-079.")
+        ] = "fhw",
         methods: Annotated[str, typer.Option(help="Localizers, comma-separated.")] = ",".join(METHODS),
         seeds: Annotated[
             int, typer.Option(help="Seeds (crowds, kidnaps, filters); >= 5 for the report.")

@@ -326,28 +326,28 @@ def survey_odometry(path: str | Path) -> OdometrySurvey:
         return laser if laser is not None and _same_pose(events[k][1], laser[1]) else None
 
     odoms = [k for k, e in enumerate(events) if not e[2]]
-    after = sum(match(k, -1) is not None for k in odoms)
-    before = sum(match(k, +1) is not None for k in odoms)
+    n_after = sum(match(k, -1) is not None for k in odoms)
+    n_before = sum(match(k, +1) is not None for k in odoms)
     # after the scan is the pattern; before it only where most scans have one (never by chance)
-    side = +1 if before > after and before >= max(3, survey.scans // 2) else -1
+    side = +1 if n_before > n_after and n_before >= max(3, survey.scans // 2) else -1
     anchored: set[int] = set()
     recent: deque[Pose] = deque(maxlen=2)  # the last two real readings
     pending: Pose | None = None  # the latest copy since the last real reading
     misfit = [0.0, 0.0]  # how far the step after each copy is from the step before it, both ways
     for k in odoms:
         lineno, pose, _, stamped = events[k]
-        laser = match(k, side)
-        if laser is not None:
+        copied = match(k, side)
+        if copied is not None:
             survey.copies.add(lineno)
-            anchored.add(laser[0])
+            anchored.add(copied[0])
             pending = pose
             continue
         survey.real += 1
         survey.stamped += stamped
         if pending is not None and len(recent) == 2:
-            before = relative(recent[0], recent[1])
+            step_before = relative(recent[0], recent[1])
             for which, base in enumerate((pending, recent[1])):
-                d = relative(base, pose) - before
+                d = relative(base, pose) - step_before
                 misfit[which] += math.hypot(d[0], d[1]) + 0.3 * abs(float(wrap_angle(d[2])))
         pending = None
         recent.append(pose)
