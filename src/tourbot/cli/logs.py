@@ -57,14 +57,14 @@ def register(app: typer.Typer) -> None:
         sensors = sorted({s.sensor for s in scans})
         beams = sorted({s.geometry.num_beams for s in scans})
         g = scans[0].geometry
-        times = robot_log.times
         table.add_row("format", "ROS bag" if log_kind(log) == "rosbag" else "CARMEN log")
         table.add_row("laser", ", ".join(sensors))
         table.add_row("scans", str(len(scans)))
         table.add_row("beams per scan", ", ".join(map(str, beams)))
         table.add_row("field of view", f"{g.fov * 180 / 3.141592653589793:.1f} deg")
         table.add_row("max range", f"{g.max_range:.2f} m")
-        table.add_row("duration", f"{times[-1] - times[0]:.1f} s")
+        span, why = robot_log.duration()
+        table.add_row("duration", f"{span:.1f} s" if span is not None else f"unknown ({why})")
         table.add_row("odometry readings", str(len(robot_log.odometry)))
         if not all(s.odom is None for s in scans):
             table.add_row("path length (odometry)", f"{path_length(robot_log.odom_poses):.1f} m")
@@ -72,8 +72,11 @@ def register(app: typer.Typer) -> None:
             table.add_row("path length (reference)", f"{path_length(robot_log.reference_poses):.1f} m")
         else:
             table.add_row("reference poses", "none")
+        table.add_row("odometry", robot_log.odometry_kind)
         table.add_row("warnings", str(len(robot_log.warnings)))
         console.print(table)
+        for note in robot_log.notes:
+            console.print(f"[bold]inferred:[/] {note}", highlight=False)
         for warning in robot_log.warnings:
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)
 

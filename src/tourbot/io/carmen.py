@@ -35,7 +35,7 @@ import math
 import re
 import zlib
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, cast
@@ -75,6 +75,9 @@ ODOMETRY_MODES = ("rebuilt", "as-recorded")
 #: What a log's odometry is once read: the stream as it was (no re-anchoring found), rebuilt from
 #: the increments of a re-anchored stream, or a re-anchored stream kept as recorded.
 ODOMETRY_KINDS = ("raw", "rebuilt", "re-anchored")
+
+#: Timestamps wrap around at these (s): 32-bit unsigned and signed seconds, 32-bit milliseconds.
+_WRAPS = (2.0**32, 2.0**31, 2.0**32 / 1000.0)
 
 _IDENT = re.compile(r"^[A-Z][A-Z0-9_]*$")
 _ROBOTLASER = re.compile(r"^ROBOTLASER[1-9]$")
@@ -118,6 +121,10 @@ class _LaserParams:
     resolution: float | None = None  # radians
     max_range: float | None = None
     offset_x: float = 0.0
+    # how the angles were read: (PARAM name, value as written, "degrees" or "radians", why)
+    fov_read: tuple[str, float, str, str] | None = None
+    resolution_read: tuple[str, float, str, str] | None = None
+    max_range_param: str | None = None
     # tourbot's own exact (radian, unrounded) parameters, written by ``write_carmen``
     exact: dict[str, float] = field(default_factory=dict)
 
@@ -394,6 +401,8 @@ class CarmenReader:
         self._queue: deque[Odometry | _RawScan] = deque()
         self._last_odom_time: float | None = None
         self._last_scan_time: dict[str, float] = {}
+        self._wrap_offset: dict[str, float] = {}
+        self._wrap_last: dict[str, float] = {}
 
     # -- public --------------------------------------------------------------------------------
 
@@ -695,11 +704,20 @@ class CarmenReader:
         if "offset" in key:
             p.offset_x = number
         elif "fov" in key and number > 0:
-            p.fov = math.radians(number)
+            # a laser scanner sees tens of degrees at least: 3.14159 is radians, 180 degrees
+            radians = number <= 2.0 * math.pi + 1e-6
+            why = "a field of view of at most 6.3 degrees is not a laser scanner's" if radians else ""
+            p.fov = number if radians else math.radians(number)
+            p.fov_read = (name, number, "radians" if radians else "degrees", why)
         elif "resolution" in key and number > 0:
-            p.resolution = math.radians(number)
+            # scanners step by 0.25 degrees at the finest: 0.0174 is radians, 1 or 0.5 degrees
+            radians = number < 0.1
+            why = "a step under 0.1 degree is not a laser scanner's" if radians else ""
+            p.resolution = number if radians else math.radians(number)
+            p.resolution_read = (name, number, "radians" if radians else "degrees", why)
         elif ("maxrange" in key or key.endswith("max")) and number > 0:
             p.max_range = number
+            p.max_range_param = name
 
     def _tourbot_param(self, name: str, value: str) -> None:
         if name == "odometry_kind":
@@ -760,8 +778,33 @@ class CarmenReader:
             "(the latest odometry reading before each scan)"
         )
 
+    def _unwrap(self, stream: str, ts: float, lineno: int) -> float:
+        """A timestamp with the wrap-arounds of its stream (32-bit seconds or milliseconds) undone."""
+        offset = self._wrap_offset.get(stream, 0.0)
+        last = self._wrap_last.get(stream)
+        if ts == 0.0:
+            return ts  # zero means "no timestamp", handled by the caller
+        t = ts + offset
+        if last is not None:
+            for modulus in _WRAPS:
+                jump = t - last
+                if abs(abs(jump) - modulus) < 0.01 * modulus:
+                    offset -= math.copysign(modulus, jump)
+                    t = ts + offset
+                    self.warnings.append(
+                        f"{self.path}:{lineno}: timestamps of {stream} wrap around ({last!r} then {ts!r}, "
+                        f"a jump of {jump:+.6g} s); unwrapped by {modulus:g} s"
+                    )
+                    break
+        self._wrap_offset[stream] = offset
+        self._wrap_last[stream] = t
+        return t
+
     def _push(self, item: Odometry | _RawScan, lineno: int) -> Iterator[Record]:
         if isinstance(item, Odometry):
+            ts = self._unwrap("odometry", item.timestamp, lineno)
+            if ts != item.timestamp:
+                item = replace(item, timestamp=ts)
             last = self._last_odom_time
             if item.timestamp == 0.0:
                 self._fall_back(lineno, "of odometry are zero")
@@ -771,6 +814,7 @@ class CarmenReader:
             self._last_odom_time = item.timestamp
             self._history.append(item)
         else:
+            item.timestamp = self._unwrap(f"{item.sensor} scans", item.timestamp, lineno)
             last_scan = self._last_scan_time.get(item.sensor)
             if item.timestamp == 0.0:
                 self._fall_back(lineno, f"of {item.sensor} scans are zero")
@@ -907,22 +951,150 @@ def read_carmen(
         others = ", ".join(f"{sum(s.sensor == o for s in scans)} {o}" for o in sensors if o != chosen)
         warnings.append(f"{path}: read the {chosen} scans; also holds {others} scans (choose with laser=)")
     scans = [s for s in scans if s.sensor == chosen]
-    if chosen in reader.defaulted_max_range:
-        inferred = _infer_max_range(scans)
-        if inferred is not None:
-            cache: dict[LaserGeometry, LaserGeometry] = {}
-            fixed = []
-            for s in scans:
-                g = cache.setdefault(s.geometry, replace(s.geometry, max_range=inferred))
-                fixed.append(replace(s, geometry=g))
-            scans = fixed
-    return RobotLog(
+    notes: list[str] = []
+    scans = _settle_max_range(reader, chosen, scans, warnings, notes)
+    log = RobotLog(
         source=str(path),
         scans=scans,
         odometry=readings,
         warnings=warnings,
         odometry_kind=reader.odometry_kind,
+        notes=notes,
     )
+    if reader.odometry_kind != "raw":
+        notes.append(
+            f"odometry: {reader.odometry_kind} (copies of the scan poses after "
+            f"{reader.survey.anchored_scans} of {reader.survey.scans} scans, the stream continuing from them)"
+        )
+    log.scans = _settle_layout(reader, chosen, log, path)
+    return log
+
+
+def _with_geometry(scans: list[Scan], make: Callable[[LaserGeometry], LaserGeometry]) -> list[Scan]:
+    cache: dict[LaserGeometry, LaserGeometry] = {}
+    out = []
+    for s in scans:
+        g = cache.get(s.geometry)
+        if g is None:
+            g = cache[s.geometry] = make(s.geometry)
+        out.append(s if g is s.geometry else replace(s, geometry=g))
+    return out
+
+
+def _settle_max_range(
+    reader: CarmenReader, chosen: str, scans: list[Scan], warnings: list[str], notes: list[str]
+) -> list[Scan]:
+    """The laser's maximum range: stated, inferred from the readings, or a stated cap seen through."""
+    params = reader._params["front" if chosen == "FLASER" else "rear"]
+    stated = scans[0].geometry.max_range
+    if chosen in reader.defaulted_max_range:
+        piled = _infer_max_range(scans)
+        if piled is None:
+            notes.append(f"max range: {stated:g} m, CARMEN's default (no PARAM, no pile-up of readings)")
+            return scans
+        notes.append(f"max range: {piled:g} m, where readings pile up (the sensor's 'no return'; no PARAM)")
+        return _with_geometry(scans, lambda g: replace(g, max_range=piled))
+    if (
+        chosen in ("FLASER", "RLASER")
+        and params.max_range_param is not None
+        and "max_range" not in params.exact
+    ):
+        ranges = np.concatenate([s.ranges for s in scans])
+        top = _infer_max_range(scans) or float(ranges.max(initial=0.0))
+        # returns beyond the stated range, short of the sensor's own "no return" value
+        beyond = float(np.mean((ranges > stated * 1.001) & (ranges < top * 0.999))) if ranges.size else 0.0
+        if beyond > 0.01:
+            inferred = top
+            warnings.append(
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is below "
+                f"{100 * beyond:.0f} % of the readings (up to {top:g} m): read as a software cap, not "
+                f"the sensor's range; maximum range {inferred:g} m from the readings"
+            )
+            notes.append(
+                f"max range: {inferred:g} m from the readings (PARAM {stated:g} m is a cap they exceed)"
+            )
+            return _with_geometry(scans, lambda g: replace(g, max_range=inferred))
+        notes.append(f"max range: {stated:g} m (PARAM {params.max_range_param})")
+        return scans
+    notes.append(f"max range: {stated:g} m (on the laser lines)")
+    return scans
+
+
+def _deg(rad: float) -> str:
+    return f"{math.degrees(rad):+.2f}".rstrip("0").rstrip(".")
+
+
+def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str | Path) -> list[Scan]:
+    """Check the beam layout of an old-format laser against the data; refuse a log no layout fits."""
+    from tourbot.io.beam_geometry import AGREEMENT, candidate_layouts, check_layouts
+
+    scans = log.scans
+    geometries = {s.geometry for s in scans}
+    g = scans[0].geometry
+    span = f"{_deg(g.angle_min)} to {_deg(g.angles[-1])} deg"
+    if chosen not in ("FLASER", "RLASER"):
+        notes_line = f"beams: {span}, from the laser lines' own start angle and resolution"
+        log.notes.append(notes_line)
+        return scans
+    params = reader._params["front" if chosen == "FLASER" else "rear"]
+    if "angle_increment" in params.exact:
+        log.notes.append(f"beams: {span}, exactly as tourbot wrote them (PARAM tourbot_...)")
+        return scans
+    read = [r for r in (params.fov_read, params.resolution_read) if r is not None]
+    said = "; ".join(f"PARAM {n} {v:g} read as {u}" + (f" ({why})" if why else "") for n, v, u, why in read)
+    source = said or "CARMEN's convention for the beam count (no PARAM)"
+    if len(geometries) > 1:
+        log.notes.append(f"beams: {span} ({source}); not checked (the layout changes within the log)")
+        return scans
+    n = g.num_beams
+    alternatives: dict[str, LaserGeometry] = {}
+    if read:
+        carmen_inc = guess_angle_increment(n)
+        alternatives["CARMEN's convention (PARAM ignored)"] = replace(
+            g, angle_min=-0.5 * math.pi, angle_increment=carmen_inc
+        )
+    if params.fov_read is not None and params.fov_read[2] == "radians" and n > 1:
+        fov = math.radians(params.fov_read[1])
+        alternatives["PARAM field of view read as degrees"] = replace(
+            g, angle_min=-0.5 * fov, angle_increment=fov / (n - 1)
+        )
+    from_reference = log.has_reference
+    poses = log.reference_poses if from_reference else log.odom_poses
+    check = check_layouts(scans, poses, candidate_layouts(g, alternatives))
+    frame = "reference poses" if from_reference else "odometry poses"
+    if check is None:
+        log.notes.append(
+            f"beams: {span} ({source}); not checked (no two scans from known poses a little apart)"
+        )
+        return scans
+    scores = ", ".join(
+        f"{name}: {100 * v:.1f} cm"
+        for name, v in check.scores.items()
+        if name != check.chosen and not math.isnan(v)
+    )
+    best = check.scores[check.chosen]
+    if not check.agrees:
+        raise LogFormatError(
+            f"no beam layout makes consecutive scans agree at the {frame} (best: {check.chosen}, "
+            f"median {100 * best:.0f} cm apart, more than {100 * AGREEMENT:.0f} cm; {scores}); "
+            "the laser's field of view and direction cannot be told",
+            path=path,
+        )
+    layout = candidate_layouts(g, alternatives)[check.chosen]
+    fit = (
+        f"consecutive scans at the {frame} agree to {100 * best:.1f} cm median over {check.pairs} pairs "
+        f"({scores})"
+    )
+    if check.chosen == "stated":
+        log.notes.append(f"beams: {span} ({source}); {fit}")
+        return scans
+    new_span = f"{_deg(layout.angle_min)} to {_deg(layout.angles[-1])} deg"
+    log.warnings.append(
+        f"{path}: the beams read as {span} ({source}) do not fit the data; read as {new_span} "
+        f"({check.chosen}): {fit}"
+    )
+    log.notes.append(f"beams: {new_span} ({check.chosen}, not {span} from {source}); {fit}")
+    return _with_geometry(scans, lambda _g: layout)
 
 
 # --------------------------------------------------------------------------------------------------
