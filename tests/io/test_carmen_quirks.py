@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import gzip
 import math
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -120,12 +119,13 @@ def test_zero_stamped_odometry_beside_garbage_stamped_copies(
     garbage = ["3.46", "3.7e-86", "1e+300", "-7.2", "12345.678"]
     lines = []
     for k, line in enumerate(fhw_lines):
-        if line.startswith("ODOM"):
-            t = line.split()
-            stamp = garbage[k % len(garbage)] if _is_copy(fhw_lines, k) else "0"
-            t[7], t[9] = stamp, stamp
-            line = " ".join(t)
-        lines.append(line)
+        if not line.startswith("ODOM"):
+            lines.append(line)
+            continue
+        t = line.split()
+        stamp = garbage[k % len(garbage)] if _is_copy(fhw_lines, k) else "0"
+        t[7], t[9] = stamp, stamp
+        lines.append(" ".join(t))
     log = read_carmen(_variant(tmp_path, lines))
     assert len(log.odometry) == len(fhw.odometry)  # every real reading kept
     assert log.odometry_kind == "rebuilt"
@@ -189,12 +189,9 @@ def test_one_garbage_scan_stamp_gives_no_duration(tmp_path: Path, fhw_lines: lis
     assert "holds most of the log" in why
 
 
-@pytest.mark.parametrize("keep", [4])
-def test_sparse_odometry_is_read_and_counted(
-    tmp_path: Path, fhw_lines: list[str], keep: int, real_log: Callable[[str], RobotLog]
-) -> None:
+def test_sparse_odometry_is_read_and_counted(tmp_path: Path, fhw_lines: list[str]) -> None:
     """4 real odometry readings for hundreds of scans: read (the checks before the work refuse it)."""
-    _ = real_log
+    keep = 4
     odom = [k for k, line in enumerate(fhw_lines) if line.startswith("ODOM") and not _is_copy(fhw_lines, k)]
     drop = set(odom) - set(odom[:: max(1, len(odom) // keep)][:keep])
     log = read_carmen(_variant(tmp_path, [line for k, line in enumerate(fhw_lines) if k not in drop]))
