@@ -78,12 +78,21 @@ Record = Scan | Odometry
 
 @dataclass
 class RobotLog:
-    """A whole recording held in memory: its scans and raw odometry, in record order."""
+    """A whole recording held in memory: its scans and raw odometry, in record order.
+
+    ``odometry_kind`` says what the odometry is: ``"raw"`` (the source's stream, no re-anchoring
+    found), ``"rebuilt"`` (raw odometry rebuilt from the increments of a stream re-anchored to the
+    reference at every scan) or ``"re-anchored"`` (such a stream kept as recorded: it holds the
+    reference's corrections, so no localization or mapping figure may stand on it).
+    ``notes``: what the reader inferred and why (units, beam layout, maximum range, odometry).
+    """
 
     source: str
     scans: list[Scan] = field(default_factory=list)
     odometry: list[Odometry] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    odometry_kind: str = "raw"
+    notes: list[str] = field(default_factory=list)
 
     def __len__(self) -> int:
         return len(self.scans)
@@ -107,6 +116,31 @@ class RobotLog:
     def reference_poses(self) -> FloatArray:
         """Reference pose of each scan, ``(S, 3)``; NaN where a scan has none."""
         return _pose_array([s.reference for s in self.scans])
+
+    def duration(self) -> tuple[float | None, str]:
+        """The time the scans span (s), or None with the reason when their timestamps cannot tell.
+
+        Unknown when the timestamps are all zero, not finite, repeat or go backwards, or when one
+        gap holds most of the log (a garbage timestamp): a duration printed from such stamps is
+        wrong however precisely it is printed.
+        """
+        t = self.times
+        if t.size < 2:
+            return None, "fewer than two scans"
+        if not np.isfinite(t).all():
+            return None, "some scan timestamps are not numbers"
+        if not (t != 0.0).any():
+            return None, "the scan timestamps are all zero"
+        steps = np.diff(t)
+        if (steps <= 0.0).any():
+            k = int(np.argmax(steps <= 0.0))
+            what = "repeat" if steps[k] == 0.0 else "go backwards"
+            return None, f"the scan timestamps {what} (scan {k + 1}: {t[k]!r} then {t[k + 1]!r})"
+        span = float(t[-1] - t[0])
+        k = int(np.argmax(steps))
+        if t.size > 10 and steps[k] > 0.5 * span:
+            return None, f"one gap of {steps[k]:.6g} s (scan {k + 1}) holds most of the log"
+        return span, ""
 
     @property
     def has_reference(self) -> bool:

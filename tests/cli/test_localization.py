@@ -142,3 +142,112 @@ def test_localize_takes_a_profile_and_refuses_a_bad_one(
     assert len(err.splitlines()) == 1
     assert "p.yaml" in err
     assert "mcl.sampling.max_samples: must be an integer" in err
+
+
+def _localize(log: Path, room: Path, out: Path, *extra: str) -> None:
+    main(
+        [
+            "localize",
+            str(log),
+            "--map",
+            str(room),
+            "--start-from-reference",
+            "--particles",
+            "300",
+            "-o",
+            str(out),
+            *extra,
+        ]
+    )
+
+
+def test_localize_prints_progress_lines_when_stderr_is_not_a_terminal(
+    files: tuple[Path, Path, np.ndarray],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import tourbot.cli._progress
+
+    monkeypatch.setattr(tourbot.cli._progress, "LINE_EVERY", 0.0)
+    log, room, truth = files
+    _localize(log, room, tmp_path / "t.tum")
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.startswith("localize (mcl + novelty): ")]
+    assert f"localize (mcl + novelty): 1/{len(truth)} scans" in lines[0]
+    assert "scans/s" in lines[0]
+    assert " s left" in lines[0]
+    assert lines[-1].startswith(f"localize (mcl + novelty): done at {len(truth)}/{len(truth)} scans")
+
+
+def test_localize_keeps_the_partial_trajectory_on_ctrl_c(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tourbot.localization.mcl import MonteCarloLocalization
+
+    real = MonteCarloLocalization.update
+    calls = {"n": 0}
+
+    def interrupted(self: MonteCarloLocalization, *args: object, **kwargs: object) -> object:
+        calls["n"] += 1
+        if calls["n"] > 7:
+            raise KeyboardInterrupt
+        return real(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(MonteCarloLocalization, "update", interrupted)
+    log, room, _truth = files
+    kept, dropped = tmp_path / "kept.tum", tmp_path / "dropped.tum"
+    with pytest.raises(SystemExit) as exc:
+        _localize(log, room, kept, "--keep-partial")
+    assert exc.value.code == 130
+    times, _poses = read_tum(kept)
+    assert len(times) == 7
+    calls["n"] = 0
+    with pytest.raises(SystemExit):
+        _localize(log, room, dropped)
+    assert not dropped.exists()
+
+
+def test_localize_refuses_a_map_that_does_not_fit_unless_forced(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tourbot.maps.grid import OccupancyGrid
+
+    log, _room, _truth = files
+    prob = np.zeros((600, 600), np.float32)
+    prob[:3, :] = prob[-3:, :] = prob[:, :3] = prob[:, -3:] = 1.0
+    hall = tmp_path / "hall.yaml"
+    write_map(OccupancyGrid(prob, 0.05, origin=(-10.0, -10.0, 0.0)), hall)
+    with pytest.raises(SystemExit) as exc:
+        _localize(log, hall, tmp_path / "t.tum")
+    assert exc.value.code == 2
+    (error,) = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error:")]
+    assert "the map does not fit the log" in error
+    assert error.endswith("--force goes on anyway")
+    _localize(log, hall, tmp_path / "t.tum", "--force")
+    assert "going on: --force" in capsys.readouterr().err
+
+
+def test_localize_refuses_sparse_odometry_and_no_motion(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from dataclasses import replace
+
+    from tourbot.io import read_carmen
+    from tourbot.records import Odometry
+
+    log, room, _truth = files
+    drive = read_carmen(log)
+    sparse = replace(
+        drive, odometry=[Odometry(s.timestamp, s.odom or (0.0, 0.0, 0.0)) for s in drive.scans[:1]]
+    )
+    write_carmen(sparse, tmp_path / "sparse.log")
+    with pytest.raises(SystemExit) as exc:
+        _localize(tmp_path / "sparse.log", room, tmp_path / "t.tum")
+    assert exc.value.code == 2
+    assert f"only 1 odometry reading for {len(drive.scans)} scans" in capsys.readouterr().err
+    still = replace(drive, scans=[replace(s, odom=(0.0, 0.0, 0.0)) for s in drive.scans])
+    write_carmen(still, tmp_path / "still.log")
+    with pytest.raises(SystemExit):
+        _localize(tmp_path / "still.log", room, tmp_path / "t.tum")
+    assert "the odometry does not move" in capsys.readouterr().err

@@ -78,15 +78,15 @@ def test_reads_the_real_logs(real_log: Callable[[str], RobotLog], name: str) -> 
     assert g.fov == pytest.approx(math.pi, abs=math.radians(1.01))
 
 
-def test_fhw_odometry_matches_readme_angular_error(real_log: Callable[[str], RobotLog]) -> None:
-    """Mean per-scan odometry rotation error against the corrected poses: 1.7 deg (README)."""
+def test_fhw_rebuilt_odometry_increments_are_the_wheels(real_log: Callable[[str], RobotLog]) -> None:
+    """Per-scan rotation of the rebuilt odometry against the reference: wheel error, no corrections."""
     from tourbot.geometry import relative, wrap_angle
 
     log = real_log("fhw")
     o, r = log.odom_poses, log.reference_poses
     do, dr = relative(o[:-1], o[1:]), relative(r[:-1], r[1:])
     err = np.degrees(np.abs(wrap_angle(do[:, 2] - dr[:, 2])).mean())
-    assert err == pytest.approx(1.7, abs=0.15)
+    assert 0.8 < err < 1.8
 
 
 def test_max_range_inferred_or_from_param(real_log: Callable[[str], RobotLog]) -> None:
@@ -119,7 +119,8 @@ def test_odometry_interpolated_at_scan_time_and_reference_from_line(tmp_path: Pa
     # halfway from 3.0 to -3.0 the short way round (through pi), not through zero
     assert abs(th) == pytest.approx(math.pi, abs=1e-9)
     assert scan.geometry.angle_increment == pytest.approx(guess_angle_increment(3))
-    assert log.warnings == []
+    (warning,) = log.warnings
+    assert "copies are left out, the stream kept (too few readings to tell)" in warning
 
 
 def test_streaming_holds_a_scan_until_the_next_odometry(tmp_path: Path) -> None:

@@ -51,7 +51,12 @@ __all__ = ["RunResult", "register"]
 FloatArray = NDArray[np.float64]
 KIDNAP_SEED_OFFSET = 10_000
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
-LOGS = {"fhw": "fhw-corrected.log.gz", "intel": "intel-corrected.log.gz"}
+LOGS = {
+    "fhw": "fhw-corrected.log.gz",
+    "intel": "intel-corrected.log.gz",
+    "aces": "aces-corrected.log.gz",
+    "freiburg-079": "freiburg-079-corrected.log.gz",
+}
 _GRIDS: dict[int, Any] = {}
 
 
@@ -175,7 +180,7 @@ def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path
     from tourbot.io import read_carmen, write_carmen
     from tourbot.sim.overlay import OverlayConfig, overlay_crowd, read_truth, truth_path, write_truth
 
-    path = cache / f"{name}-{preset}-{seed}.log.gz"
+    path = cache / f"{name}-{preset}-{seed}-{log.odometry_kind}.log.gz"  # never an older odometry's
     if path.exists() and truth_path(path).exists():
         return read_carmen(path), read_truth(truth_path(path))
     result = overlay_crowd(log, grid, OverlayConfig.preset(preset), seed=seed, preset=preset)
@@ -192,7 +197,9 @@ def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path
 def register(bench: typer.Typer) -> None:
     @bench.command("localization")
     def localization(
-        logs: Annotated[str, typer.Option(help="Logs, comma-separated: fhw, intel.")] = "fhw",
+        logs: Annotated[
+            str, typer.Option(help="Logs, comma-separated: fhw, intel, aces, freiburg-079.")
+        ] = "fhw",
         methods: Annotated[str, typer.Option(help="Localizers, comma-separated.")] = ",".join(METHODS),
         seeds: Annotated[
             int, typer.Option(help="Seeds (crowds, kidnaps, filters); >= 5 for the report.")
@@ -229,7 +236,6 @@ def register(bench: typer.Typer) -> None:
         from tourbot.data import data_dir
         from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
-        from tourbot.records import RobotLog
         from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
 
         console = Console()
@@ -289,7 +295,7 @@ def register(bench: typer.Typer) -> None:
                 base = read_carmen(root / "carmen" / LOGS[name])
                 grid = _map(base, name, cache)  # the whole log's reference map
                 if limit:
-                    base = RobotLog(base.source, base.scans[:limit], base.odometry, base.warnings)
+                    base = replace(base, scans=base.scans[:limit])
                 duration = float(base.times[-1] - base.times[0])
                 ref = base.reference_poses
                 path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])

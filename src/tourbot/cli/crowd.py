@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from tourbot.cli.logs import LenientOpt, LogArg
+from tourbot.cli.logs import LenientOpt, LogArg, OdometryOpt, OdometryStream
 
 
 def register(app: typer.Typer) -> None:
@@ -26,6 +26,7 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option(help="Also kidnap the robot (0.005 per metre, Fox et al. 1998).")
         ] = False,
         lenient: LenientOpt = False,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Visitors walk through a corrected log; beams hitting them are shortened. Writes the new log
         and, beside it, NAME.truth.json (corrupted beams per scan, kidnaps)."""
@@ -41,7 +42,7 @@ def register(app: typer.Typer) -> None:
             raise OverlayError(f"unknown --preset {preset!r}; choose one of {', '.join(PRESETS)}")
         console = Console()
         with console.status(f"reading {log} and {map_yaml}"):
-            robot_log = load_log(log, lenient=lenient)
+            robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
             grid = read_map(map_yaml)
         for warning in robot_log.warnings:
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)

@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING, Annotated, Protocol
 
 import typer
 
+from tourbot.cli._checks import ForceOpt
+from tourbot.cli.logs import OdometryOpt, OdometryStream
+
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from rich.console import Console
@@ -99,6 +102,14 @@ def register(app: typer.Typer) -> None:
             bool,
             typer.Option(help="Grid: read / keep the expected-range table in --table-cache."),
         ] = True,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        force: ForceOpt = False,
+        keep_partial: Annotated[
+            bool,
+            typer.Option(
+                "--keep-partial", help="On Ctrl-C, write the trajectory of the scans localized so far."
+            ),
+        ] = False,
     ) -> None:
         """Localize a robot from its log's odometry and scans; write one pose per scan, in log order.
 
@@ -110,8 +121,9 @@ def register(app: typer.Typer) -> None:
 
         import numpy as np
         from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+        from tourbot.cli._checks import check_before_work, log_problems, map_problem
+        from tourbot.cli._progress import ScanProgress
         from tourbot.errors import InputError, TourbotError
         from tourbot.io import load_log
         from tourbot.io.mapserver import read_map
@@ -131,13 +143,22 @@ def register(app: typer.Typer) -> None:
         profile = LocalizationProfile.load(config)
         console = Console(stderr=True)
         with console.status(f"reading {log}"):
-            robot_log = load_log(log)
+            robot_log = load_log(log, odometry=odometry_stream.value)
             grid = read_map(map_yaml)
         if not robot_log.scans:
             raise InputError("the log has no laser scan", path=log)
         missing = [i for i, s in enumerate(robot_log.scans) if s.odom is None]
         if missing:
             raise InputError(f"scan {missing[0]} has no odometry pose (a localizer needs odometry)", path=log)
+        for warning in robot_log.warnings:
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False, soft_wrap=True)
+        problems = log_problems(robot_log)
+        with console.status(f"checking {map_yaml} against the log"):
+            misfit = map_problem(robot_log, grid)
+        if misfit is not None:
+            problems.append(misfit)
+        for warning in check_before_work(problems, path=log, force=force):
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False, soft_wrap=True)
         pose0: tuple[float, float, float] | None = None
         if start is not None:
             pose0 = _parse_pose(start)
@@ -162,27 +183,30 @@ def register(app: typer.Typer) -> None:
         poses = np.zeros((len(robot_log.scans), 3))
         used = np.zeros(len(robot_log.scans))
         start_time = time.perf_counter()
-        columns = (
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TimeRemainingColumn(),
-        )
-        with Progress(*columns, console=console, transient=True) as progress:
-            task = progress.add_task(f"{method.value} + {kind.value}", total=len(robot_log.scans))
-            for i, scan in enumerate(robot_log.scans):
-                assert scan.odom is not None
-                est = localizer.update(scan.odom, scan)
-                poses[i] = est.pose
-                used[i] = est.n_used_beams / max(1, scan.geometry.num_beams)
-                progress.advance(task)
-        took = time.perf_counter() - start_time
+        done = 0
         times = robot_log.times
+        try:
+            with ScanProgress(f"localize ({method.value} + {kind.value})", len(robot_log.scans)) as progress:
+                for i, scan in enumerate(robot_log.scans):
+                    assert scan.odom is not None
+                    est = localizer.update(scan.odom, scan)
+                    poses[i] = est.pose
+                    used[i] = est.n_used_beams / max(1, scan.geometry.num_beams)
+                    done = i + 1
+                    progress.advance()
+        except KeyboardInterrupt:
+            if keep_partial and done > 0:
+                write_tum(output, times[:done], poses[:done])
+                console.print(f"interrupted: wrote {output} with the {done} poses localized so far")
+            raise
+        took = time.perf_counter() - start_time
         write_tum(output, times, poses)
-        span = float(times[-1] - times[0]) if len(times) > 1 else 0.0
+        span, why = robot_log.duration()
+        speed = (
+            f"{span / took:.0f}x real time" if span is not None and took > 0 else f"real time unknown ({why})"
+        )
         console.print(
-            f"wrote {output}: {len(poses)} poses; {1000 * took / len(poses):.1f} ms per scan, "
-            f"{span / took if took > 0 else float('inf'):.0f}x real time; "
+            f"wrote {output}: {len(poses)} poses; {1000 * took / len(poses):.1f} ms per scan, {speed}; "
             f"{100 * used.mean():.0f}% of the beams integrated",
             highlight=False,
         )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
@@ -13,11 +14,30 @@ LenientOpt = Annotated[
 ]
 
 
+class OdometryStream(StrEnum):
+    """How a re-anchored odometry stream (corrected CARMEN logs) is read."""
+
+    rebuilt = "rebuilt"
+    as_recorded = "as-recorded"
+
+
+OdometryOpt = Annotated[
+    OdometryStream,
+    typer.Option(
+        "--odometry-stream",
+        help="A stream re-anchored to the corrected pose at every scan: rebuilt (raw odometry from its "
+        "increments) or as-recorded (kept; it holds the reference's corrections).",
+    ),
+]
+
+
 def register(app: typer.Typer) -> None:
     log_app = typer.Typer(help="Robot logs: summary, conversion to CARMEN and TUM.", no_args_is_help=True)
 
     @log_app.command("info")
-    def info(log: LogArg, lenient: LenientOpt = False) -> None:
+    def info(
+        log: LogArg, lenient: LenientOpt = False, odometry_stream: OdometryOpt = OdometryStream.rebuilt
+    ) -> None:
         """Summary of a log: scans, beams, duration, path length, warnings."""
         from rich.console import Console
         from rich.table import Table
@@ -27,7 +47,7 @@ def register(app: typer.Typer) -> None:
 
         console = Console()
         with console.status(f"reading {log}"):
-            robot_log = load_log(log, lenient=lenient)
+            robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         # the file above the table, not as its title: a title wraps to the table's narrow width
         console.print(str(log), style="bold", highlight=False, soft_wrap=True)
         table = Table(show_header=False)
@@ -37,14 +57,14 @@ def register(app: typer.Typer) -> None:
         sensors = sorted({s.sensor for s in scans})
         beams = sorted({s.geometry.num_beams for s in scans})
         g = scans[0].geometry
-        times = robot_log.times
         table.add_row("format", "ROS bag" if log_kind(log) == "rosbag" else "CARMEN log")
         table.add_row("laser", ", ".join(sensors))
         table.add_row("scans", str(len(scans)))
         table.add_row("beams per scan", ", ".join(map(str, beams)))
         table.add_row("field of view", f"{g.fov * 180 / 3.141592653589793:.1f} deg")
         table.add_row("max range", f"{g.max_range:.2f} m")
-        table.add_row("duration", f"{times[-1] - times[0]:.1f} s")
+        span, why = robot_log.duration()
+        table.add_row("duration", f"{span:.1f} s" if span is not None else f"unknown ({why})")
         table.add_row("odometry readings", str(len(robot_log.odometry)))
         if not all(s.odom is None for s in scans):
             table.add_row("path length (odometry)", f"{path_length(robot_log.odom_poses):.1f} m")
@@ -52,8 +72,11 @@ def register(app: typer.Typer) -> None:
             table.add_row("path length (reference)", f"{path_length(robot_log.reference_poses):.1f} m")
         else:
             table.add_row("reference poses", "none")
+        table.add_row("odometry", robot_log.odometry_kind)
         table.add_row("warnings", str(len(robot_log.warnings)))
         console.print(table)
+        for note in robot_log.notes:
+            console.print(f"[bold]inferred:[/] {note}", highlight=False)
         for warning in robot_log.warnings:
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)
 
@@ -64,11 +87,12 @@ def register(app: typer.Typer) -> None:
             Path, typer.Option("-o", "--output", help="CARMEN log to write (.log or .log.gz).")
         ],
         lenient: LenientOpt = False,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Write a log (CARMEN or ROS bag) as a CARMEN log that reads back identically."""
         from tourbot.io import load_log, write_carmen
 
-        robot_log = load_log(log, lenient=lenient)
+        robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         write_carmen(robot_log, output)
         typer.echo(f"wrote {output} ({len(robot_log)} scans, {len(robot_log.odometry)} odometry readings)")
 
@@ -80,6 +104,7 @@ def register(app: typer.Typer) -> None:
             str, typer.Option(help="Which pose of each scan: 'reference' or 'odometry'.")
         ] = "reference",
         lenient: LenientOpt = False,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Write the pose of each scan, in log order, as a TUM trajectory (for evo)."""
         import numpy as np
@@ -90,7 +115,7 @@ def register(app: typer.Typer) -> None:
 
         if poses not in ("reference", "odometry"):
             raise TourbotError(f"--poses must be 'reference' or 'odometry', got {poses!r}")
-        robot_log = load_log(log, lenient=lenient)
+        robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         values = robot_log.reference_poses if poses == "reference" else robot_log.odom_poses
         ok = ~np.isnan(values).any(axis=1)
         if not ok.any():

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from tourbot.cli.logs import OdometryOpt, OdometryStream
 from tourbot.cli.maps import MapModeOpt, check_map_mode
 from tourbot.cli.people import LegModelOpt, tracker_config
 
@@ -44,6 +45,7 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
         map_mode: MapModeOpt = "trinary",
         leg_model: LegModelOpt = None,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
 
@@ -75,7 +77,7 @@ def register(app: typer.Typer) -> None:
         check_map_output(output)  # before the mapping, which can take minutes
         if trajectory is not None:
             check_output(trajectory, "--trajectory")
-        robot_log = load_log(log, lenient=lenient)
+        robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         for warning in robot_log.warnings:
             typer.echo(f"warning: {warning}", err=True)
         if not robot_log.scans:

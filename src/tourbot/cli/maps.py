@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from tourbot.cli.logs import LenientOpt, LogArg
+from tourbot.cli.logs import LenientOpt, LogArg, OdometryOpt, OdometryStream
 
 MapModeOpt = Annotated[
     str,
@@ -47,6 +47,7 @@ def register(app: typer.Typer) -> None:
         ] = True,
         lenient: LenientOpt = False,
         map_mode: MapModeOpt = "trinary",
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """The reference map of a corrected log (log-odds occupancy, free space traced along beams)."""
         import time
@@ -66,7 +67,7 @@ def register(app: typer.Typer) -> None:
         check_map_output(output)
         console = Console()
         with console.status(f"reading {log}"):
-            robot_log = load_log(log, lenient=lenient)
+            robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         for warning in robot_log.warnings:
             console.print(f"[yellow]warning:[/] {warning}", highlight=False)
         if not any(s.reference is not None for s in robot_log.scans):
@@ -128,6 +129,7 @@ def register(app: typer.Typer) -> None:
             bool, typer.Option(help="Also draw the raw odometry, from the first pose.")
         ] = False,
         lenient: LenientOpt = False,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Picture of a log: the map, the reference path and any trajectories, labelled."""
         from tourbot.errors import TourbotError
@@ -138,7 +140,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.plotting import Trajectory, show_log
 
         output = _check_picture_format(output)
-        robot_log = load_log(log, lenient=lenient)
+        robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         trajectories = []
         for path in trajectory or []:
             times, poses = read_tum(path)

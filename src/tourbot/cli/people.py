@@ -8,6 +8,8 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from tourbot.cli.logs import OdometryOpt, OdometryStream
+
 if TYPE_CHECKING:
     from tourbot.people.sjpdaf import SJPDAFConfig
 
@@ -73,6 +75,7 @@ def register(app: typer.Typer) -> None:
         seed: Annotated[int, typer.Option(help="Seed of the particle filters.")] = 0,
         plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
         leg_model: LegModelOpt = None,
+        odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
         """Track people (SJPDAF, Burgard et al. Sec. 4); CSV: scan, time, id, x, y, vx, vy."""
         import csv
@@ -94,7 +97,7 @@ def register(app: typer.Typer) -> None:
         if log_kind(log) == "rosbag" and log.exists():
             robot_log = read_bag(log, scan_topic=scan_topic)
         else:
-            robot_log = load_log(log)
+            robot_log = load_log(log, odometry=odometry_stream.value)
         grid = read_map(map_path) if map_path is not None else None
         if pose is PoseSource.auto:
             has_odom = bool(robot_log.scans) and all(s.odom is not None for s in robot_log.scans)

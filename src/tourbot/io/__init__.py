@@ -35,8 +35,12 @@ def log_kind(path: str | Path) -> str:
     return "carmen"
 
 
-def load_log(path: str | Path, *, lenient: bool = False) -> RobotLog:
-    """Read a robot log of any supported kind: CARMEN (``.log``, ``.log.gz``, ``.clf``...) or ROS bag."""
+def load_log(path: str | Path, *, lenient: bool = False, odometry: str = "rebuilt") -> RobotLog:
+    """Read a robot log of any supported kind: CARMEN (``.log``, ``.log.gz``, ``.clf``...) or ROS bag.
+
+    ``odometry``: ``"rebuilt"`` rebuilds raw odometry from the increments of a stream re-anchored to
+    the reference at every scan (corrected CARMEN logs); ``"as-recorded"`` keeps the stream.
+    """
     p = Path(path)
     if not p.exists():
         raise LogFormatError("no such file", path=p)
@@ -44,4 +48,4 @@ def load_log(path: str | Path, *, lenient: bool = False) -> RobotLog:
         from tourbot.io.rosbag import read_bag
 
         return read_bag(p, lenient=lenient)
-    return read_carmen(p, lenient=lenient)
+    return read_carmen(p, lenient=lenient, odometry=odometry)

@@ -35,7 +35,7 @@ import math
 import re
 import zlib
 from collections import deque
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import IO, cast
@@ -51,11 +51,15 @@ from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
 __all__ = [
     "DEFAULT_MAX_RANGE",
     "LASER_TYPES",
+    "ODOMETRY_KINDS",
+    "ODOMETRY_MODES",
     "CarmenReader",
+    "OdometrySurvey",
     "guess_angle_increment",
     "guess_fov",
     "iter_carmen",
     "read_carmen",
+    "survey_odometry",
     "write_carmen",
 ]
 
@@ -64,6 +68,16 @@ DEFAULT_MAX_RANGE = 80.0
 
 #: The laser message types the reader turns into scans.
 LASER_TYPES = ("FLASER", "RLASER", "ROBOTLASER1", "RAWLASER1", "RAWLASER2", "RAWLASER3", "RAWLASER4")
+
+#: How a reader treats a re-anchored odometry stream: rebuild it from its increments, or keep it.
+ODOMETRY_MODES = ("rebuilt", "as-recorded")
+
+#: What a log's odometry is once read: the stream as it was (no re-anchoring found), rebuilt from
+#: the increments of a re-anchored stream, or a re-anchored stream kept as recorded.
+ODOMETRY_KINDS = ("raw", "rebuilt", "re-anchored")
+
+#: Timestamps wrap around at these (s): 32-bit unsigned and signed seconds, 32-bit milliseconds.
+_WRAPS = (2.0**32, 2.0**31, 2.0**32 / 1000.0)
 
 _IDENT = re.compile(r"^[A-Z][A-Z0-9_]*$")
 _ROBOTLASER = re.compile(r"^ROBOTLASER[1-9]$")
@@ -107,6 +121,10 @@ class _LaserParams:
     resolution: float | None = None  # radians
     max_range: float | None = None
     offset_x: float = 0.0
+    # how the angles were read: (PARAM name, value as written, "degrees" or "radians", why)
+    fov_read: tuple[str, float, str, str] | None = None
+    resolution_read: tuple[str, float, str, str] | None = None
+    max_range_param: str | None = None
     # tourbot's own exact (radian, unrounded) parameters, written by ``write_carmen``
     exact: dict[str, float] = field(default_factory=dict)
 
@@ -211,6 +229,140 @@ def _pose(tokens: list[str], start: int, names: Sequence[str]) -> Pose:
     return (x, y, th)
 
 
+# --------------------------------------------------------------------------------------------------
+# Re-anchored odometry
+
+#: Two poses are "the same" (a copy) within these (the logs print 6 significant digits).
+_COPY_TOL = 1e-4
+
+
+@dataclass
+class OdometrySurvey:
+    """What a first pass over a log found about its ``ODOM`` stream.
+
+    ``copies``: line numbers of ``ODOM`` lines that repeat the pose of the laser line next to them
+    (right after it, or right before it in a log that puts them there; whatever their timestamp):
+    copies of a scan's corrected pose, not odometry. ``real``: the other ``ODOM`` lines (``stamped``:
+    those with a non-zero timestamp).
+    ``misfit``: how far the step of the reading after each copy is from the step before it (wheel
+    steps change little from one reading to the next), summed (m, plus 0.3 m per radian), with the
+    step measured from the copy and from the reading before the copy. ``reanchored``: the stream
+    continues from the copies (measured from them the steps fit better: measured from the reading
+    before, each step would hold a correction); then raw odometry is the chain of increments that
+    skips each jump onto a copy.
+    """
+
+    copies: set[int] = field(default_factory=set)
+    real: int = 0
+    stamped: int = 0  # real readings with a non-zero timestamp
+    scans: int = 0
+    anchored_scans: int = 0
+    misfit: tuple[float, float] = (0.0, 0.0)
+    tourbot: bool = False  # written by tourbot (its PARAM lines say how to read the odometry)
+
+    @property
+    def reanchored(self) -> bool:
+        return bool(self.copies) and self.misfit[0] < self.misfit[1]
+
+
+def _same_pose(a: Pose, b: Pose) -> bool:
+    return (
+        abs(a[0] - b[0]) <= _COPY_TOL
+        and abs(a[1] - b[1]) <= _COPY_TOL
+        and abs(float(wrap_angle(a[2] - b[2]))) <= _COPY_TOL
+    )
+
+
+def _laser_pose(tokens: list[bytes]) -> Pose | None:
+    """The robot pose written on a FLASER/RLASER/ROBOTLASER line, None if it has none or is malformed."""
+    try:
+        kind = tokens[0]
+        if kind in (b"FLASER", b"RLASER"):
+            at = 2 + int(tokens[1])
+        elif kind.startswith(b"ROBOTLASER"):
+            n = int(tokens[8])
+            at = 10 + n + int(tokens[9 + n]) + 3
+        else:
+            return None
+        x, y, th = (float(t) for t in tokens[at : at + 3])
+    except (ValueError, IndexError):
+        return None
+    return (x, y, th)
+
+
+def survey_odometry(path: str | Path) -> OdometrySurvey:
+    """Find the copies of the scans' poses in a log's ``ODOM`` stream, and whether it continues from them.
+
+    The pattern is that of corrected logs (``../shared/data/README.md``): after each scan an ``ODOM``
+    line (timestamp zero, or garbage) repeats the scan's corrected pose, and the timestamped
+    readings continue from it. Copies are recognised by their pose alone, so real readings with
+    zero or garbage timestamps are kept. Malformed lines are left to the main pass.
+    """
+    survey = OdometrySurvey()
+    events: list[tuple[int, Pose, bool, bool]] = []  # (line, pose, is_laser, stamped)
+    try:
+        with _open_binary(Path(path)) as stream:
+            for lineno, raw in enumerate(stream, start=1):
+                head = raw[:12]
+                if head.startswith(b"ODOM "):
+                    tokens = raw.split()
+                    try:
+                        pose = (float(tokens[1]), float(tokens[2]), float(tokens[3]))
+                        stamped = any(float(t) != 0.0 for t in tokens[7:10:2])
+                    except (ValueError, IndexError):
+                        continue
+                    events.append((lineno, pose, False, stamped))
+                elif head.startswith((b"FLASER ", b"RLASER ", b"ROBOTLASER")):
+                    laser = _laser_pose(raw.split())
+                    survey.scans += 1
+                    if laser is not None:
+                        events.append((lineno, laser, True, False))
+                elif head.startswith(b"PARAM tourb"):
+                    survey.tourbot = True
+    except (OSError, EOFError, zlib.error, gzip.BadGzipFile):
+        pass  # the main pass reports it, with the line
+
+    # The copy of a scan's pose is the ODOM line right after its laser line (or, in a log that puts
+    # them there, right before it).
+    def neighbour(k: int, side: int) -> tuple[int, Pose, bool, bool] | None:
+        j = k + side
+        return events[j] if 0 <= j < len(events) and events[j][2] else None
+
+    def match(k: int, side: int) -> tuple[int, Pose, bool, bool] | None:
+        laser = neighbour(k, side)
+        return laser if laser is not None and _same_pose(events[k][1], laser[1]) else None
+
+    odoms = [k for k, e in enumerate(events) if not e[2]]
+    n_after = sum(match(k, -1) is not None for k in odoms)
+    n_before = sum(match(k, +1) is not None for k in odoms)
+    # after the scan is the pattern; before it only where most scans have one (never by chance)
+    side = +1 if n_before > n_after and n_before >= max(3, survey.scans // 2) else -1
+    anchored: set[int] = set()
+    recent: deque[Pose] = deque(maxlen=2)  # the last two real readings
+    pending: Pose | None = None  # the latest copy since the last real reading
+    misfit = [0.0, 0.0]  # how far the step after each copy is from the step before it, both ways
+    for k in odoms:
+        lineno, pose, _, stamped = events[k]
+        copied = match(k, side)
+        if copied is not None:
+            survey.copies.add(lineno)
+            anchored.add(copied[0])
+            pending = pose
+            continue
+        survey.real += 1
+        survey.stamped += stamped
+        if pending is not None and len(recent) == 2:
+            step_before = relative(recent[0], recent[1])
+            for which, base in enumerate((pending, recent[1])):
+                d = relative(base, pose) - step_before
+                misfit[which] += math.hypot(d[0], d[1]) + 0.3 * abs(float(wrap_angle(d[2])))
+        pending = None
+        recent.append(pose)
+    survey.anchored_scans = len(anchored)
+    survey.misfit = (misfit[0], misfit[1])
+    return survey
+
+
 class CarmenReader:
     """Streams the records of one CARMEN log; iterate it once.
 
@@ -219,7 +371,9 @@ class CarmenReader:
     the sensors whose maximum range no record or ``PARAM`` line gave (``DEFAULT_MAX_RANGE`` used).
     """
 
-    def __init__(self, path: str | Path, *, lenient: bool = False) -> None:
+    def __init__(self, path: str | Path, *, lenient: bool = False, odometry: str = "rebuilt") -> None:
+        if odometry not in ODOMETRY_MODES:
+            raise ValueError(f"odometry must be one of {', '.join(ODOMETRY_MODES)}, not {odometry!r}")
         self.path = Path(path)
         self.lenient = lenient
         self.warnings: list[str] = []
@@ -232,13 +386,23 @@ class CarmenReader:
         self._scan_reference: str | None = None  # tourbot's PARAM: "line" or "none"
         self._geometries: dict[tuple[object, ...], LaserGeometry] = {}
         self._has_stream = False
-        self._last_laser_pose: Pose | None = None  # pose of the laser line just read, if last
+        self.odometry = odometry
+        self.survey = OdometrySurvey()
+        self.odometry_kind = "raw"
+        self._rebuilding = False
+        self._lineno = 0
+        # the rebuild: the rebuilt pose of the latest reading, and the raw pose its next increment
+        # starts from (the latest reading, or the re-anchoring line after it)
+        self._rebuilt: Pose | None = None
+        self._chain_base: Pose | None = None
         # odometry matching
         self._record_order = False
         self._history: deque[Odometry] = deque(maxlen=512)
         self._queue: deque[Odometry | _RawScan] = deque()
         self._last_odom_time: float | None = None
         self._last_scan_time: dict[str, float] = {}
+        self._wrap_offset: dict[str, float] = {}
+        self._wrap_last: dict[str, float] = {}
 
     # -- public --------------------------------------------------------------------------------
 
@@ -247,8 +411,14 @@ class CarmenReader:
             raise LogFormatError("no such file", path=self.path)
         if self.path.is_dir():
             raise LogFormatError("is a folder, not a CARMEN log file", path=self.path)
-        self._has_stream = self._find_odometry_stream()
+        self.survey = survey_odometry(self.path)
+        # the laser lines' own odometry poses are used only in a log with neither a timestamped
+        # stream nor copies (in corrected logs, found by their copies, those poses are corrected)
+        sv = self.survey
+        self._has_stream = sv.real > 0 and (sv.stamped > 0 or bool(sv.copies))
+        self._note_survey()
         for lineno, tokens in self._lines():
+            self._lineno = lineno
             try:
                 item = self._parse(tokens)
             except _MalformedError as exc:
@@ -256,9 +426,6 @@ class CarmenReader:
                 continue
             if isinstance(item, _RawScan):
                 item.line = lineno
-                self._last_laser_pose = item.pose
-            elif tokens[0] not in ("ODOM", "NEFF"):
-                self._last_laser_pose = None
             if item is None:
                 continue
             yield from self._push(item, lineno)
@@ -321,25 +488,6 @@ class CarmenReader:
             return []
         return tokens
 
-    def _find_odometry_stream(self) -> bool:
-        """Whether some ``ODOM`` line carries a non-zero timestamp (stops at the first one)."""
-        try:
-            with _open_binary(self.path) as stream:
-                for raw in stream:
-                    if not raw.startswith(b"ODOM"):
-                        continue
-                    tokens = raw.split()
-                    for index in (7, 9):
-                        if len(tokens) > index:
-                            try:
-                                if float(tokens[index]) != 0.0:
-                                    return True
-                            except ValueError:
-                                pass
-        except (OSError, EOFError, zlib.error):
-            pass  # the main pass reports it, with the line
-        return False
-
     def _malformed(self, exc: _MalformedError, lineno: int) -> None:
         if not self.lenient:
             raise LogFormatError(exc.reason, path=self.path, line=lineno, field=exc.field)
@@ -371,17 +519,61 @@ class CarmenReader:
         pose = _pose(tokens, 1, ("x", "y", "theta"))
         tv = _number(tokens[4], "tv")
         rv = _number(tokens[5], "rv")
-        accel = _number(tokens[6], "accel")
+        _number(tokens[6], "accel")
         ts = _timestamp(tokens, 7, "ODOM")
-        after_scan, self._last_laser_pose = self._last_laser_pose, None
-        if self._has_stream and self._scan_odometry is None:
-            # Corrected logs repeat each scan's corrected pose on an ODOM line right after the
-            # scan, with a zero (sometimes garbage, earlier) timestamp: it is not odometry.
-            copy = pose == after_scan and tv == 0.0 and rv == 0.0 and accel == 0.0
-            earlier = self._last_odom_time is not None and ts <= self._last_odom_time
-            if ts == 0.0 or (copy and earlier):
-                return None
+        if self._scan_odometry is None and self._lineno in self.survey.copies:
+            # a copy of a scan's corrected pose (see survey_odometry): not odometry; in a re-anchored
+            # stream the next reading continues from it, so the next increment starts here
+            if self.survey.reanchored:
+                self._chain_base = pose
+            return None
+        if self._rebuilding:
+            pose = self._rebuild(pose)
         return Odometry(timestamp=ts, pose=pose, tv=tv, rv=rv)
+
+    def _rebuild(self, raw: Pose) -> Pose:
+        """Chain the increment since the last reading (or re-anchoring line) onto the rebuilt path."""
+        if self._rebuilt is None or self._chain_base is None:
+            rebuilt = raw
+        else:
+            # rebuilt (+) (base (-) raw), in scalars: numpy's per-call cost is 10x the arithmetic here
+            bx, by, bth = self._chain_base
+            c, s = math.cos(bth), math.sin(bth)
+            dx, dy = raw[0] - bx, raw[1] - by
+            fx, fy, dth = c * dx + s * dy, -s * dx + c * dy, raw[2] - bth
+            x, y, th = self._rebuilt
+            c, s = math.cos(th), math.sin(th)
+            heading = math.remainder(th + dth, 2.0 * math.pi)
+            rebuilt = (x + c * fx - s * fy, y + s * fx + c * fy, heading if heading > -math.pi else math.pi)
+        self._rebuilt = rebuilt
+        self._chain_base = raw
+        return rebuilt
+
+    def _note_survey(self) -> None:
+        """Decide how the odometry stream is read, and say so in one line."""
+        sv = self.survey
+        if sv.tourbot or not sv.copies:
+            return
+        found = (
+            f"{self.path}: the ODOM stream repeats the corrected pose of {sv.anchored_scans} of "
+            f"{sv.scans} scans on an extra line"
+        )
+        if not sv.reanchored:
+            why = "the stream does not continue from them" if any(sv.misfit) else "too few readings to tell"
+            self.warnings.append(f"{found}; the copies are left out, the stream kept ({why})")
+        elif self.odometry == "rebuilt":
+            self.odometry_kind = "rebuilt"
+            self._rebuilding = True
+            self.warnings.append(
+                f"{found} and continues from it (re-anchored to the reference); raw odometry rebuilt from "
+                "its increments, the jumps onto the copies dropped (--odometry-stream as-recorded keeps it)"
+            )
+        else:
+            self.odometry_kind = "re-anchored"
+            self.warnings.append(
+                f"{found} and continues from it: kept as recorded (--odometry-stream as-recorded), so the "
+                "odometry holds the reference's corrections and its error never grows"
+            )
 
     def _parse_old_laser(self, tokens: list[str]) -> _RawScan:
         kind = tokens[0]
@@ -512,13 +704,27 @@ class CarmenReader:
         if "offset" in key:
             p.offset_x = number
         elif "fov" in key and number > 0:
-            p.fov = math.radians(number)
+            # a laser scanner sees tens of degrees at least: 3.14159 is radians, 180 degrees
+            radians = number <= 2.0 * math.pi + 1e-6
+            why = "a field of view of at most 6.3 degrees is not a laser scanner's" if radians else ""
+            p.fov = number if radians else math.radians(number)
+            p.fov_read = (name, number, "radians" if radians else "degrees", why)
         elif "resolution" in key and number > 0:
-            p.resolution = math.radians(number)
+            # scanners step by 0.25 degrees at the finest: 0.0174 is radians, 1 or 0.5 degrees
+            radians = number < 0.1
+            why = "a step under 0.1 degree is not a laser scanner's" if radians else ""
+            p.resolution = number if radians else math.radians(number)
+            p.resolution_read = (name, number, "radians" if radians else "degrees", why)
         elif ("maxrange" in key or key.endswith("max")) and number > 0:
             p.max_range = number
+            p.max_range_param = name
 
     def _tourbot_param(self, name: str, value: str) -> None:
+        if name == "odometry_kind":
+            if value not in ODOMETRY_KINDS:
+                raise _MalformedError(f"unknown odometry kind {value!r} ({', '.join(ODOMETRY_KINDS)})", name)
+            self.odometry_kind = value
+            return
         if name == "scan_odometry":
             self._scan_odometry = value
             return
@@ -572,8 +778,33 @@ class CarmenReader:
             "(the latest odometry reading before each scan)"
         )
 
+    def _unwrap(self, stream: str, ts: float, lineno: int) -> float:
+        """A timestamp with the wrap-arounds of its stream (32-bit seconds or milliseconds) undone."""
+        offset = self._wrap_offset.get(stream, 0.0)
+        last = self._wrap_last.get(stream)
+        if ts == 0.0:
+            return ts  # zero means "no timestamp", handled by the caller
+        t = ts + offset
+        if last is not None:
+            for modulus in _WRAPS:
+                jump = t - last
+                if abs(abs(jump) - modulus) < 0.01 * modulus:
+                    offset -= math.copysign(modulus, jump)
+                    t = ts + offset
+                    self.warnings.append(
+                        f"{self.path}:{lineno}: timestamps of {stream} wrap around ({last!r} then {ts!r}, "
+                        f"a jump of {jump:+.6g} s); unwrapped by {modulus:g} s"
+                    )
+                    break
+        self._wrap_offset[stream] = offset
+        self._wrap_last[stream] = t
+        return t
+
     def _push(self, item: Odometry | _RawScan, lineno: int) -> Iterator[Record]:
         if isinstance(item, Odometry):
+            ts = self._unwrap("odometry", item.timestamp, lineno)
+            if ts != item.timestamp:
+                item = replace(item, timestamp=ts)
             last = self._last_odom_time
             if item.timestamp == 0.0:
                 self._fall_back(lineno, "of odometry are zero")
@@ -583,6 +814,7 @@ class CarmenReader:
             self._last_odom_time = item.timestamp
             self._history.append(item)
         else:
+            item.timestamp = self._unwrap(f"{item.sensor} scans", item.timestamp, lineno)
             last_scan = self._last_scan_time.get(item.sensor)
             if item.timestamp == 0.0:
                 self._fall_back(lineno, f"of {item.sensor} scans are zero")
@@ -646,14 +878,20 @@ def _interpolate(history: deque[Odometry], t: float) -> Pose:
 
 
 def iter_carmen(
-    path: str | Path, *, lenient: bool = False, warnings: list[str] | None = None
+    path: str | Path,
+    *,
+    lenient: bool = False,
+    warnings: list[str] | None = None,
+    odometry: str = "rebuilt",
 ) -> Iterator[Record]:
     """Stream the records (odometry readings and scans of every laser) of a CARMEN log in order.
 
     Malformed records raise :class:`LogFormatError` naming the file, line and field, or with
     ``lenient=True`` are skipped and counted. Warnings are appended to ``warnings`` when given.
+    ``odometry``: ``"rebuilt"`` (raw odometry rebuilt from the increments of a re-anchored stream)
+    or ``"as-recorded"``.
     """
-    reader = CarmenReader(path, lenient=lenient)
+    reader = CarmenReader(path, lenient=lenient, odometry=odometry)
     try:
         yield from reader
     finally:
@@ -675,7 +913,9 @@ def _infer_max_range(scans: list[Scan]) -> float | None:
     return float(piled.min()) if piled.size else None
 
 
-def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = None) -> RobotLog:
+def read_carmen(
+    path: str | Path, *, lenient: bool = False, laser: str | None = None, odometry: str = "rebuilt"
+) -> RobotLog:
     """Read a whole CARMEN log (plain or gzip) into a :class:`RobotLog`.
 
     ``laser`` picks the laser (``FLASER``, ``RLASER``, ``ROBOTLASER1``, ``RAWLASER1``...); by
@@ -683,13 +923,17 @@ def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = 
     time) and, in corrected logs, ``reference`` (the corrected pose). When no record or ``PARAM``
     line gives the laser's maximum range it is inferred from the readings (see
     :func:`_infer_max_range`).
+
+    A re-anchored odometry stream (corrected logs: the stream continues from a copy of each scan's
+    corrected pose) is rebuilt from its increments unless ``odometry="as-recorded"``; the log's
+    ``odometry_kind`` says which, and a warning says what was found.
     """
-    reader = CarmenReader(path, lenient=lenient)
+    reader = CarmenReader(path, lenient=lenient, odometry=odometry)
     scans: list[Scan] = []
-    odometry: list[Odometry] = []
+    readings: list[Odometry] = []
     for record in reader:
         if isinstance(record, Odometry):
-            odometry.append(record)
+            readings.append(record)
         else:
             scans.append(record)
     warnings = list(reader.warnings)
@@ -707,16 +951,150 @@ def read_carmen(path: str | Path, *, lenient: bool = False, laser: str | None = 
         others = ", ".join(f"{sum(s.sensor == o for s in scans)} {o}" for o in sensors if o != chosen)
         warnings.append(f"{path}: read the {chosen} scans; also holds {others} scans (choose with laser=)")
     scans = [s for s in scans if s.sensor == chosen]
+    notes: list[str] = []
+    scans = _settle_max_range(reader, chosen, scans, warnings, notes)
+    log = RobotLog(
+        source=str(path),
+        scans=scans,
+        odometry=readings,
+        warnings=warnings,
+        odometry_kind=reader.odometry_kind,
+        notes=notes,
+    )
+    if reader.odometry_kind != "raw":
+        notes.append(
+            f"odometry: {reader.odometry_kind} (copies of the scan poses after "
+            f"{reader.survey.anchored_scans} of {reader.survey.scans} scans, the stream continuing from them)"
+        )
+    log.scans = _settle_layout(reader, chosen, log, path)
+    return log
+
+
+def _with_geometry(scans: list[Scan], make: Callable[[LaserGeometry], LaserGeometry]) -> list[Scan]:
+    cache: dict[LaserGeometry, LaserGeometry] = {}
+    out = []
+    for s in scans:
+        g = cache.get(s.geometry)
+        if g is None:
+            g = cache[s.geometry] = make(s.geometry)
+        out.append(s if g is s.geometry else replace(s, geometry=g))
+    return out
+
+
+def _settle_max_range(
+    reader: CarmenReader, chosen: str, scans: list[Scan], warnings: list[str], notes: list[str]
+) -> list[Scan]:
+    """The laser's maximum range: stated, inferred from the readings, or a stated cap seen through."""
+    params = reader._params["front" if chosen == "FLASER" else "rear"]
+    stated = scans[0].geometry.max_range
     if chosen in reader.defaulted_max_range:
-        inferred = _infer_max_range(scans)
-        if inferred is not None:
-            cache: dict[LaserGeometry, LaserGeometry] = {}
-            fixed = []
-            for s in scans:
-                g = cache.setdefault(s.geometry, replace(s.geometry, max_range=inferred))
-                fixed.append(replace(s, geometry=g))
-            scans = fixed
-    return RobotLog(source=str(path), scans=scans, odometry=odometry, warnings=warnings)
+        piled = _infer_max_range(scans)
+        if piled is None:
+            notes.append(f"max range: {stated:g} m, CARMEN's default (no PARAM, no pile-up of readings)")
+            return scans
+        notes.append(f"max range: {piled:g} m, where readings pile up (the sensor's 'no return'; no PARAM)")
+        return _with_geometry(scans, lambda g: replace(g, max_range=piled))
+    if (
+        chosen in ("FLASER", "RLASER")
+        and params.max_range_param is not None
+        and "max_range" not in params.exact
+    ):
+        ranges = np.concatenate([s.ranges for s in scans])
+        top = _infer_max_range(scans) or float(ranges.max(initial=0.0))
+        # returns beyond the stated range, short of the sensor's own "no return" value
+        beyond = float(np.mean((ranges > stated * 1.001) & (ranges < top * 0.999))) if ranges.size else 0.0
+        if beyond > 0.01:
+            inferred = top
+            warnings.append(
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is below "
+                f"{100 * beyond:.0f} % of the readings (up to {top:g} m): read as a software cap, not "
+                f"the sensor's range; maximum range {inferred:g} m from the readings"
+            )
+            notes.append(
+                f"max range: {inferred:g} m from the readings (PARAM {stated:g} m is a cap they exceed)"
+            )
+            return _with_geometry(scans, lambda g: replace(g, max_range=inferred))
+        notes.append(f"max range: {stated:g} m (PARAM {params.max_range_param})")
+        return scans
+    notes.append(f"max range: {stated:g} m (on the laser lines)")
+    return scans
+
+
+def _deg(rad: float) -> str:
+    return f"{math.degrees(rad):+.2f}".rstrip("0").rstrip(".")
+
+
+def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str | Path) -> list[Scan]:
+    """Check the beam layout of an old-format laser against the data; refuse a log no layout fits."""
+    from tourbot.io.beam_geometry import AGREEMENT, candidate_layouts, check_layouts
+
+    scans = log.scans
+    geometries = {s.geometry for s in scans}
+    g = scans[0].geometry
+    span = f"{_deg(g.angle_min)} to {_deg(g.angles[-1])} deg"
+    if chosen not in ("FLASER", "RLASER"):
+        notes_line = f"beams: {span}, from the laser lines' own start angle and resolution"
+        log.notes.append(notes_line)
+        return scans
+    params = reader._params["front" if chosen == "FLASER" else "rear"]
+    if "angle_increment" in params.exact:
+        log.notes.append(f"beams: {span}, exactly as tourbot wrote them (PARAM tourbot_...)")
+        return scans
+    read = [r for r in (params.fov_read, params.resolution_read) if r is not None]
+    said = "; ".join(f"PARAM {n} {v:g} read as {u}" + (f" ({why})" if why else "") for n, v, u, why in read)
+    source = said or "CARMEN's convention for the beam count (no PARAM)"
+    if len(geometries) > 1:
+        log.notes.append(f"beams: {span} ({source}); not checked (the layout changes within the log)")
+        return scans
+    n = g.num_beams
+    alternatives: dict[str, LaserGeometry] = {}
+    if read:
+        carmen_inc = guess_angle_increment(n)
+        alternatives["CARMEN's convention (PARAM ignored)"] = replace(
+            g, angle_min=-0.5 * math.pi, angle_increment=carmen_inc
+        )
+    if params.fov_read is not None and params.fov_read[2] == "radians" and n > 1:
+        fov = math.radians(params.fov_read[1])
+        alternatives["PARAM field of view read as degrees"] = replace(
+            g, angle_min=-0.5 * fov, angle_increment=fov / (n - 1)
+        )
+    from_reference = log.has_reference
+    poses = log.reference_poses if from_reference else log.odom_poses
+    check = check_layouts(scans, poses, candidate_layouts(g, alternatives))
+    frame = "reference poses" if from_reference else "odometry poses"
+    if check is None:
+        log.notes.append(
+            f"beams: {span} ({source}); not checked (no two scans from known poses a little apart)"
+        )
+        return scans
+    scores = ", ".join(
+        f"{name}: {100 * v:.1f} cm"
+        for name, v in check.scores.items()
+        if name != check.chosen and not math.isnan(v)
+    )
+    best = check.scores[check.chosen]
+    if not check.agrees:
+        raise LogFormatError(
+            f"no beam layout makes consecutive scans agree at the {frame} (best: {check.chosen}, "
+            f"median {100 * best:.0f} cm apart, more than {100 * AGREEMENT:.0f} cm; {scores}); "
+            "the laser's field of view and direction cannot be told",
+            path=path,
+        )
+    layout = candidate_layouts(g, alternatives)[check.chosen]
+    fit = (
+        f"consecutive scans at the {frame} agree to {100 * best:.1f} cm median over {check.pairs} pairs "
+        f"({scores})"
+    )
+    if check.chosen == "stated":
+        log.notes.append(f"beams: {span} ({source}); {fit}")
+        return scans
+    new_span = f"{_deg(layout.angle_min)} to {_deg(layout.angles[-1])} deg"
+    log.warnings.append(
+        f"{path}: the beams read as {span} ({source}) do not fit the data; read as {new_span} "
+        f"({check.chosen}): {fit}"
+    )
+    log.notes.append(f"beams: {new_span} ({check.chosen}, not {span} from {source}); {fit}")
+    return _with_geometry(scans, lambda _g: layout)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -762,6 +1140,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         out.write("# message formats defined: PARAM ODOM FLASER RLASER\n")
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
         out.write(f"PARAM tourbot_scan_reference {ref_policy} nohost 0\n")
+        out.write(f"PARAM tourbot_odometry_kind {log.odometry_kind} nohost 0\n")
         current: dict[str, LaserGeometry] = {}
         odometry = log.odometry
         k = 0

@@ -28,11 +28,11 @@ class LogSource:
         self._time = log.scans[0].timestamp if log.scans else 0.0
 
     @classmethod
-    def from_path(cls, path: str | Path, *, lenient: bool = False) -> LogSource:
+    def from_path(cls, path: str | Path, *, lenient: bool = False, odometry: str = "rebuilt") -> LogSource:
         """A source over any log ``tourbot.io.load_log`` reads: CARMEN logs, ROS 1 and ROS 2 bags."""
         from tourbot.io import load_log
 
-        return cls(load_log(path, lenient=lenient), name=str(path))
+        return cls(load_log(path, lenient=lenient, odometry=odometry), name=str(path))
 
     @property
     def time(self) -> float:

@@ -190,7 +190,13 @@ def overlay_crowd(
         if progress is not None:
             progress(i + 1, len(log.scans))
 
-    out = RobotLog(source=log.source, scans=scans, odometry=list(log.odometry), warnings=warnings)
+    out = RobotLog(
+        source=log.source,
+        scans=scans,
+        odometry=list(log.odometry),
+        warnings=warnings,
+        odometry_kind=log.odometry_kind,
+    )
     kidnaps: list[Kidnap] = []
     if cfg.kidnap is not None:
         kidnaps = plan_kidnaps(ref, times, kidnap_rng, cfg.kidnap)
