@@ -26,8 +26,6 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import wrap_angle
-
 __all__ = [
     "MatchParams",
     "hill_climb",
@@ -257,5 +255,7 @@ def hill_climb(
         params.halvings if halvings is None else halvings,
         params.max_iterations,
     )
-    best[2] = float(wrap_angle(best[2]))
+    # wrapped as the numba objective wraps (atan2 of sin and cos); tourbot.geometry.wrap_angle
+    # rounds differently in the last bit, which moved the mapping figures by 1e-15 (issue 14)
+    best[2] = math.atan2(math.sin(best[2]), math.cos(best[2]))
     return best, float(val)
