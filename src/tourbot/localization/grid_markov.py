@@ -273,7 +273,9 @@ def _cast_table(
     centres = lattice.grid_poses(np.arange(lattice.n_free))
     centres[:, 2] = 0.0
     world = lattice.grid.grid_to_world(centres)
-    return ExpectedRangeTable.cast(world, np.arange(n_angles) * step, caster, max_range, range_bin, progress)
+    return ExpectedRangeTable.cast(
+        world, np.arange(n_angles, dtype=np.float64) * step, caster, max_range, range_bin, progress
+    )
 
 
 def default_table_cache() -> Path:

@@ -165,16 +165,17 @@ class MonteCarloLocalization:
         t0 = time.perf_counter()
         reading = self._read(scan)
         self.recovery.match(self.weights.shape[0])
-        self._predict(np.asarray(odom_pose, dtype=np.float64).reshape(3))
+        self._predict(np.asarray(odom_pose, dtype=np.float64).reshape(3))  # 1. motion model
         if self._global_start is not None and reading.valid.any():
-            used, inject = reading.valid, self._localize_globally(reading)
+            used, inject = reading.valid, 0.0
+            self._localize_globally(reading)  # the first scan of a global localization
         else:
-            used = self._select_beams(reading)
-            inject = self._weight(reading, used)
-        track, inject, reset_poses = self._recover(reading, used, inject)
-        injected = self._resample(reading, used, track.pose, inject, reset_poses)
+            used = self._select_beams(reading)  # 2. entropy or novelty filter
+            inject = self._weight(reading, used)  # 3. sensor model
+        track, inject, reset_poses = self._recover(reading, used, inject)  # 4. recovery
+        injected = self._resample(reading, used, track.pose, inject, reset_poses)  # 5. resampling
         reading.info["injected"] = float(injected)
-        return self._estimate(reading, used, track, time.perf_counter() - t0)
+        return self._estimate(reading, used, track, time.perf_counter() - t0)  # 6. estimate
 
     # ------------------------------------------------------------------ steps
 
@@ -291,7 +292,7 @@ class MonteCarloLocalization:
         w = np.exp(logw)
         self.weights = w / w.sum()
 
-    def _localize_globally(self, r: _Reading) -> float:
+    def _localize_globally(self, r: _Reading) -> None:
         """The first scan of a global localization, by annealed importance sampling over
         ``global.candidates`` poses uniform over the free space (:class:`ResetSearch`)."""
         glob = self.config.global_
@@ -310,7 +311,6 @@ class MonteCarloLocalization:
         self.recovery.clear_guesses(samples.shape[0])
         r.info["global_stages"] = float(stages)
         r.global_start = True
-        return 0.0
 
     def _track(self) -> _Track:
         """The heaviest cluster of the established samples (no state changes)."""
