@@ -1081,6 +1081,7 @@ def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str |
             path=path,
         )
     layout = candidate_layouts(g, alternatives)[check.chosen]
+    mirrored = layout.angle_increment < 0  # kept as the stated layout with each scan's ranges reversed
     fit = (
         f"consecutive scans at the {frame} agree to {100 * best:.1f} cm median over {check.pairs} pairs "
         f"({scores})"
@@ -1089,12 +1090,16 @@ def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str |
         log.notes.append(f"beams: {span} ({source}); {fit}")
         return scans
     new_span = f"{_deg(layout.angle_min)} to {_deg(layout.angles[-1])} deg"
+    if layout.angle_increment < 0:
+        new_span += ", left to right: each scan's ranges reversed"
     log.warnings.append(
         f"{path}: the beams read as {span} ({source}) do not fit the data; read as {new_span} "
         f"({check.chosen}): {fit}"
     )
     log.notes.append(f"beams: {new_span} ({check.chosen}, not {span} from {source}); {fit}")
-    return _with_geometry(scans, lambda _g: layout)
+    if mirrored:
+        scans = [replace(s, ranges=s.ranges[::-1].copy()) for s in scans]
+    return scans if mirrored else _with_geometry(scans, lambda _g: layout)
 
 
 # --------------------------------------------------------------------------------------------------
