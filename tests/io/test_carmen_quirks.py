@@ -108,6 +108,14 @@ def test_a_10_m_range_cap_is_seen_through(tmp_path: Path, fhw_lines: list[str], 
     assert any("read as a software cap" in w for w in log.warnings)
 
 
+def test_a_range_param_in_centimetres_is_seen_through(
+    tmp_path: Path, fhw_lines: list[str], fhw: RobotLog
+) -> None:
+    log = read_carmen(_variant(tmp_path, ["PARAM robot_front_laser_max 5105 nohost 0", *fhw_lines]))
+    assert log.scans[0].geometry.max_range == pytest.approx(fhw.scans[0].geometry.max_range)
+    assert any("beyond every reading" in w for w in log.warnings)
+
+
 def test_a_range_param_the_data_respects_is_kept(tmp_path: Path, fhw_lines: list[str]) -> None:
     log = read_carmen(_variant(tmp_path, ["PARAM robot_front_laser_max 60 nohost 0", *fhw_lines]))
     assert log.scans[0].geometry.max_range == 60.0

@@ -1003,6 +1003,14 @@ def _settle_max_range(
         top = _infer_max_range(scans) or float(ranges.max(initial=0.0))
         # returns beyond the stated range, short of the sensor's own "no return" value
         beyond = float(np.mean((ranges > stated * 1.001) & (ranges < top * 0.999))) if ranges.size else 0.0
+        if stated > 2.0 * top and _infer_max_range(scans) is not None:
+            warnings.append(
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is beyond every reading, which "
+                f"pile up at {top:g} m (the sensor's 'no return'; the PARAM is in another unit or wrong); "
+                f"maximum range {top:g} m from the readings"
+            )
+            notes.append(f"max range: {top:g} m where the readings pile up (PARAM {stated:g} is implausible)")
+            return _with_geometry(scans, lambda g: replace(g, max_range=top))
         if beyond > 0.01:
             inferred = top
             warnings.append(
