@@ -237,3 +237,25 @@ def test_slam_refuses_an_odometry_that_does_not_move(
     assert not (tmp_path / "m.yaml").exists()
     main(["slam", str(path), "-o", str(tmp_path / "m.yaml"), "--force"])
     assert (tmp_path / "m.yaml").exists()
+
+
+def test_slam_refuses_four_odometry_readings_for_hundreds_of_scans(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The FHW log with all but 4 real odometry readings removed: refused before mapping, one line."""
+    import gzip
+
+    with gzip.open(shared_data / "carmen" / "fhw-corrected.log.gz", "rt") as f:
+        lines = f.read().splitlines()
+    real = [
+        k for k, line in enumerate(lines) if line.startswith("ODOM") and not lines[k - 1].startswith("FLASER")
+    ]
+    keep = set(real[:: len(real) // 4][:4])
+    variant = tmp_path / "sparse.log"
+    variant.write_text("\n".join(ln for k, ln in enumerate(lines) if k not in set(real) - keep) + "\n")
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(variant), "-o", str(tmp_path / "m.yaml")])
+    assert exc.value.code == 2
+    (error,) = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert "only 4 odometry readings for 488 scans" in error
+    assert not (tmp_path / "m.yaml").exists()
