@@ -11,18 +11,32 @@ A CARMEN log is one message per line, the message type first. The reader underst
 - ``PARAM name value ...``: sensor parameters (field of view, resolution, maximum range, offset);
 - ``#`` comments; other message types (``NEFF``, ``SYNC``, ``TRUEPOS``...) are skipped.
 
-"Corrected" logs (a SLAM back end aligned every scan; see ``../shared/data/README.md``) keep the raw
-odometry as the timestamped ``ODOM`` stream and put the corrected pose on each laser line, with an
-extra ``ODOM ... 0 host 0`` line (timestamp zero) per scan. The reader therefore gives each scan:
+"Corrected" logs (a SLAM back end aligned every scan; see ``../shared/data/README.md``) put the
+corrected pose on each laser line, and after each scan an extra ``ODOM`` line (timestamp zero, in
+other logs garbage) repeats it; the timestamped readings that follow continue from that copy, so
+the stream is re-anchored to the corrected trajectory at every scan and its error never grows.
+A first pass (:func:`survey_odometry`) finds the copies by their pose (equal to the laser line's
+beside them, whatever their timestamp) and whether the stream continues from them. By default
+the reader then rebuilds raw odometry from the increments: it chains the motion between
+consecutive readings and skips the jump onto each copy, so the wheel increments are kept and the
+corrections dropped (``odometry="as-recorded"`` keeps the stream; one warning says which). Each
+scan then has:
 
-- ``odom``: the raw odometry interpolated at the scan's time from the timestamped ``ODOM`` stream
-  (or, when the log has no such stream, the odometry pose written on the laser line itself);
+- ``odom``: that odometry interpolated at the scan's time (or, when the log has neither a
+  timestamped stream nor copies, the odometry pose written on the laser line itself);
 - ``reference``: the pose on the laser line, when the log has a separate odometry stream (or that
   pose differs from the line's own odometry pose); ``None`` otherwise.
 
 Timestamps that are zero, repeated or going backwards make time interpolation meaningless: the
 reader then matches each scan with the latest odometry reading before it in the file ("record
-order") and says so in one warning.
+order") and says so in one warning. Timestamps that wrap around (32-bit seconds or milliseconds)
+are unwrapped, stream by stream.
+
+After reading, :func:`read_carmen` settles what the file leaves open and says why in the log's
+``notes``: the unit of angle ``PARAM`` values (a field of view of 3.14159 is radians), the beam
+layout (checked against the data: consecutive scans at the reference poses must agree, see
+:mod:`tourbot.io.beam_geometry`; a log no layout explains is refused) and the maximum range (a
+``PARAM`` cap the readings exceed, or one beyond every reading, gives way to the readings).
 
 Lines are parsed one at a time (``iter_carmen`` streams); a scan is held back only until the
 odometry reading that follows it in time has been read.
