@@ -57,3 +57,15 @@ def test_a_negative_first_seed_is_a_one_line_error(capsys: pytest.CaptureFixture
     err = capsys.readouterr().err.strip()
     assert "--first-seed" in err
     assert len(err.splitlines()) == 1
+
+
+def test_jumps_count_steps_away_from_the_reference_not_fast_driving() -> None:
+    from tourbot.bench.localization import jumps
+
+    ref = np.zeros((6, 3))
+    ref[:, 0] = np.arange(6) * 1.5  # the robot itself moves 1.5 m a scan: no jump
+    est = ref.copy()
+    assert jumps(est, ref) == 0
+    est[3, 1] = 30.0  # away for one scan and back: two jumps of 30 m
+    assert jumps(est, ref) == 2
+    assert jumps(est, ref, threshold=40.0) == 0

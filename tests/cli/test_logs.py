@@ -151,3 +151,29 @@ def test_convert_creates_the_output_folder(fhw_log_path: Path, tmp_path: Path) -
     out = tmp_path / "new" / "deeper" / "fhw.log"
     assert _run(["log", "convert", str(fhw_log_path), "-o", str(out)]) == 0
     assert len(read_carmen(out)) == 488
+
+
+def test_log_info_says_what_it_inferred_and_how_the_odometry_was_read(
+    fhw_log_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    main(["log", "info", str(fhw_log_path)])
+    out = capsys.readouterr().out
+    assert "rebuilt" in out
+    assert "inferred: beams: -90 to +89 deg" in " ".join(out.split())
+    assert "inferred: max range: 51.05 m" in " ".join(out.split())
+    main(["log", "info", str(fhw_log_path), "--odometry-stream", "as-recorded"])
+    assert "re-anchored" in capsys.readouterr().out
+
+
+def test_log_info_never_prints_a_duration_it_cannot_know(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "zero.log"
+    lines = [
+        f"ODOM {0.1 * k} 0 0 0 0 0 0 host 0\nFLASER 3 1 2 3 {0.1 * k} 0 0 {0.1 * k} 0 0 0 host 0"
+        for k in range(5)
+    ]
+    path.write_text("\n".join(lines) + "\n")
+    main(["log", "info", str(path)])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "duration │ unknown (the scan timestamps are all zero)" in out

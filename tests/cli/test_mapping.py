@@ -188,3 +188,77 @@ def test_slam_bad_leg_model_is_one_clear_line_before_mapping(
     assert expected in err
     assert "nope.log" not in err  # refused before the log is read
     assert not out.exists()
+
+
+def test_slam_progress_lines_and_partial_map_on_ctrl_c(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import tourbot.cli._progress
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    monkeypatch.setattr(tourbot.cli._progress, "LINE_EVERY", 0.0)
+    log = drive(building(), n=20)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    real = IncrementalMapper.add_scan
+    calls = {"n": 0}
+
+    def interrupted(self: IncrementalMapper, *args: object, **kwargs: object) -> object:
+        calls["n"] += 1
+        if calls["n"] > 12:
+            raise KeyboardInterrupt
+        return real(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(IncrementalMapper, "add_scan", interrupted)
+    out, traj = tmp_path / "map.yaml", tmp_path / "path.tum"
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(path), "-o", str(out), "--trajectory", str(traj), "--keep-partial"])
+    assert exc.value.code == 130
+    err = capsys.readouterr().err
+    assert "mapping hall.log: 12/20 scans" in err
+    assert "mapping hall.log: stopped at 12/20 scans" in err
+    assert read_map(out).occupied().sum() > 50
+    times, _poses = read_tum(traj)
+    assert len(times) == 12
+
+
+def test_slam_refuses_an_odometry_that_does_not_move(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from dataclasses import replace
+
+    log = drive(building(), n=20)
+    log.odometry = []
+    log.scans = [replace(s, odom=(1.0, 2.0, 0.5)) for s in log.scans]
+    path = tmp_path / "still.log"
+    write_carmen(log, path)
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(path), "-o", str(tmp_path / "m.yaml")])
+    assert exc.value.code == 2
+    assert "the odometry does not move" in capsys.readouterr().err
+    assert not (tmp_path / "m.yaml").exists()
+    main(["slam", str(path), "-o", str(tmp_path / "m.yaml"), "--force"])
+    assert (tmp_path / "m.yaml").exists()
+
+
+def test_slam_refuses_four_odometry_readings_for_hundreds_of_scans(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The FHW log with all but 4 real odometry readings removed: refused before mapping, one line."""
+    import gzip
+
+    with gzip.open(shared_data / "carmen" / "fhw-corrected.log.gz", "rt") as f:
+        lines = f.read().splitlines()
+    real = [
+        k for k, line in enumerate(lines) if line.startswith("ODOM") and not lines[k - 1].startswith("FLASER")
+    ]
+    keep = set(real[:: len(real) // 4][:4])
+    variant = tmp_path / "sparse.log"
+    variant.write_text("\n".join(ln for k, ln in enumerate(lines) if k not in set(real) - keep) + "\n")
+    with pytest.raises(SystemExit) as exc:
+        main(["slam", str(variant), "-o", str(tmp_path / "m.yaml")])
+    assert exc.value.code == 2
+    (error,) = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+    assert "only 4 odometry readings for 488 scans" in error
+    assert not (tmp_path / "m.yaml").exists()

@@ -76,13 +76,15 @@ def _mirror(line: str) -> str:
     return " ".join(tokens)
 
 
-def test_beams_swept_left_to_right_are_found_mirrored(tmp_path: Path, fhw_lines: list[str]) -> None:
+def test_beams_swept_left_to_right_are_found_mirrored(
+    tmp_path: Path, fhw_lines: list[str], fhw: RobotLog
+) -> None:
     lines = [_mirror(line) if line.startswith("FLASER") else line for line in fhw_lines]
     log = read_carmen(_variant(tmp_path, lines))
-    g = log.scans[0].geometry
-    assert g.angle_increment < 0
-    assert g.angles[-1] == pytest.approx(-math.pi / 2)
-    assert any("mirrored" in w for w in log.warnings)
+    assert log.scans[0].geometry == fhw.scans[0].geometry
+    for k in (0, 100, 487):
+        np.testing.assert_array_equal(log.scans[k].ranges, fhw.scans[k].ranges)
+    assert any("mirrored" in w and "ranges reversed" in w for w in log.warnings)
 
 
 def test_scans_no_layout_explains_are_refused_in_one_line(tmp_path: Path, fhw_lines: list[str]) -> None:
@@ -104,6 +106,14 @@ def test_a_10_m_range_cap_is_seen_through(tmp_path: Path, fhw_lines: list[str], 
     log = read_carmen(_variant(tmp_path, ["PARAM robot_front_laser_max 10 nohost 0", *fhw_lines]))
     assert log.scans[0].geometry.max_range == pytest.approx(fhw.scans[0].geometry.max_range)
     assert any("read as a software cap" in w for w in log.warnings)
+
+
+def test_a_range_param_in_centimetres_is_seen_through(
+    tmp_path: Path, fhw_lines: list[str], fhw: RobotLog
+) -> None:
+    log = read_carmen(_variant(tmp_path, ["PARAM robot_front_laser_max 5105 nohost 0", *fhw_lines]))
+    assert log.scans[0].geometry.max_range == pytest.approx(fhw.scans[0].geometry.max_range)
+    assert any("beyond every reading" in w for w in log.warnings)
 
 
 def test_a_range_param_the_data_respects_is_kept(tmp_path: Path, fhw_lines: list[str]) -> None:

@@ -77,6 +77,14 @@ class RunResult:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
+def jumps(est: ArrayLike, ref: ArrayLike, threshold: float = 2.0) -> int:
+    """Scans where the estimate moved more than ``threshold`` metres away from the reference's own step."""
+    e = np.asarray(est, dtype=np.float64)
+    r = np.asarray(ref, dtype=np.float64)[: len(e)]
+    step = np.diff(e[:, :2], axis=0) - np.diff(r[:, :2], axis=0)
+    return int(np.sum(np.hypot(step[:, 0], step[:, 1]) > threshold))
+
+
 def _run(loc: Localizer, log: Any, scans: int | None = None) -> RunResult:
     chosen = log.scans[:scans] if scans else log.scans
     est = np.zeros((len(chosen), 3))
@@ -268,6 +276,7 @@ def register(bench: typer.Typer) -> None:
                 "fail sparse %",
                 "fail peak %",
                 "err peak cm",
+                "jumps>2m peak",
                 "head peak deg",
                 "recovered %",
                 "t rec s",
@@ -333,6 +342,7 @@ def register(bench: typer.Typer) -> None:
                 for method in chosen:
                     task = progress.add_task(f"{name}: {method}", total=n_seeds)
                     fails_s, fails_p, errs, heads, secs, rtf = [], [], [], [], [], []
+                    leaps: list[int] = []
                     rec_ok: list[float] = []
                     rec_t: list[float] = []
                     rec_d: list[float] = []
@@ -350,6 +360,7 @@ def register(bench: typer.Typer) -> None:
                         e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
                         fails_p.append(100.0 * failure_rate(e_p))
                         errs.append(100.0 * float(e_p.mean()))
+                        leaps.append(jumps(r_p.est, ref))
                         heads.append(float(np.degrees(h_p.mean())))
                         secs.append(1000.0 * float(np.mean(r_p.seconds)))
                         rtf.append(duration / max(float(r_p.seconds.sum()), 1e-12))
@@ -391,6 +402,7 @@ def register(bench: typer.Typer) -> None:
                             "fail sparse %": fmt(fails_s),
                             "fail peak %": fmt(fails_p),
                             "err peak cm": fmt(errs),
+                            "jumps>2m peak": f"{sum(leaps)} (max {max(leaps, default=0)} a seed)",
                             "head peak deg": fmt(heads, 2),
                             "recovered %": fmt(rec_ok, 0)
                             + f" (n={len(rec_ok)}"
@@ -405,6 +417,7 @@ def register(bench: typer.Typer) -> None:
                                 "fail_sparse": fails_s,
                                 "fail_peak": fails_p,
                                 "err_peak_cm": errs,
+                                "jumps_2m_peak": leaps,
                                 "heading_peak_deg": heads,
                                 "recovered": rec_ok,
                                 "kidnaps_censored": censored,

@@ -41,6 +41,8 @@ class LogChecks:
     min_turn_rad: float = math.radians(5.0)  # ... or turn this much
     map_median_error_m: float = 0.3  # a building's own map explains its ranges to a few cm
     map_scans: int = 60  # scans the map is measured on, spread over the log
+    shorter_ignored_m: float = 0.2  # beams shorter than the cast by more may be visitors: left out
+    min_kept: float = 0.2  # ... but a map where most beams end before its walls is another building
 
 
 def log_problems(log: RobotLog, checks: LogChecks = LogChecks()) -> list[str]:
@@ -75,12 +77,19 @@ def map_problem(log: RobotLog, grid: OccupancyGrid, checks: LogChecks = LogCheck
 
     if not log.scans or not any(s.reference is not None for s in log.scans):
         return None
-    quality = map_quality(grid, log, max_scans=checks.map_scans)
+    # visitors only shorten beams: those shorter than the cast are no evidence against the map
+    quality = map_quality(grid, log, max_scans=checks.map_scans, shorter_ignored=checks.shorter_ignored_m)
     median = quality["median_abs_error"]
-    if median > checks.map_median_error_m:
+    if quality["kept"] < checks.min_kept:
+        return (
+            f"the map does not fit the log: {100 * (1 - quality['kept']):.0f} % of the beams end before the "
+            "map's walls at the reference poses (a crowd shortens about half of them at most)"
+        )
+    if not median <= checks.map_median_error_m:
         return (
             f"the map does not fit the log: ray casts from the reference poses miss the ranges by "
-            f"{100 * median:.0f} cm (median; a building's own map: a few cm)"
+            f"{100 * median:.0f} cm (median over the beams not shortened, as by a visitor; a building's "
+            "own map: a few cm)"
         )
     return None
 

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from tourbot.cli._checks import ForceOpt
 from tourbot.cli.logs import LenientOpt, LogArg, OdometryOpt, OdometryStream
 
 
@@ -27,12 +28,14 @@ def register(app: typer.Typer) -> None:
         ] = False,
         lenient: LenientOpt = False,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        force: ForceOpt = False,
     ) -> None:
         """Visitors walk through a corrected log; beams hitting them are shortened. Writes the new log
         and, beside it, NAME.truth.json (corrupted beams per scan, kidnaps)."""
         from rich.console import Console
-        from rich.progress import Progress
 
+        from tourbot.cli._checks import check_before_work, map_problem
+        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log, write_carmen
         from tourbot.io.mapserver import read_map
         from tourbot.sim.crowd import PRESETS
@@ -44,18 +47,22 @@ def register(app: typer.Typer) -> None:
         with console.status(f"reading {log} and {map_yaml}"):
             robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
             grid = read_map(map_yaml)
-        for warning in robot_log.warnings:
-            console.print(f"[yellow]warning:[/] {warning}", highlight=False)
+        misfit = map_problem(robot_log, grid)
+        warnings = [
+            *robot_log.warnings,
+            *check_before_work([misfit] if misfit else [], path=log, force=force),
+        ]
+        for warning in warnings:
+            console.print(f"[yellow]warning:[/] {warning}", highlight=False, soft_wrap=True)
         config = OverlayConfig.preset(preset, kidnap=kidnap)
-        with Progress(console=console) as progress:
-            task = progress.add_task(f"{preset} crowd over {log.name}", total=len(robot_log.scans))
+        with ScanProgress(f"{preset} crowd over {log.name}", len(robot_log.scans)) as progress:
             result = overlay_crowd(
                 robot_log,
                 grid,
                 config,
                 seed=seed,
                 preset=preset,
-                progress=lambda done, _total: progress.update(task, completed=done),
+                progress=lambda done, _total: progress.advance(done - progress.done),
             )
         write_carmen(result.log, output)
         truth = truth_path(output)

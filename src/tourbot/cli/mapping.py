@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from tourbot.cli._checks import ForceOpt
 from tourbot.cli.logs import OdometryOpt, OdometryStream
 from tourbot.cli.maps import MapModeOpt, check_map_mode
 from tourbot.cli.people import LegModelOpt, tracker_config
@@ -46,14 +47,22 @@ def register(app: typer.Typer) -> None:
         map_mode: MapModeOpt = "trinary",
         leg_model: LegModelOpt = None,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        force: ForceOpt = False,
+        keep_partial: Annotated[
+            bool,
+            typer.Option(
+                "--keep-partial", help="On Ctrl-C, write the map and trajectory of the scans mapped so far."
+            ),
+        ] = False,
     ) -> None:
         """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
 
         Uses only the raw odometry and the scans; the path starts at the first odometry pose.
         """
         import numpy as np
-        from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+        from tourbot.cli._checks import check_before_work, log_problems
+        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log
         from tourbot.io.mapserver import check_map_output, write_map
         from tourbot.io.output import check_output
@@ -88,6 +97,8 @@ def register(app: typer.Typer) -> None:
                 f"{log}: {missing} of {len(robot_log.scans)} scans have no odometry pose; mapping needs "
                 "the odometry of every scan"
             )
+        for warning in check_before_work(log_problems(robot_log), path=log, force=force):
+            typer.echo(f"warning: {warning}", err=True)
         params = MapperParams(resolution=resolution)
         filtered = (
             PeopleFilteredMapper.create(
@@ -100,15 +111,25 @@ def register(app: typer.Typer) -> None:
             else None
         )
         mapper = filtered.mapper if filtered is not None else IncrementalMapper(params)
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
-        with Progress(*columns, TimeRemainingColumn()) as progress:
-            task = progress.add_task(f"mapping {log.name}", total=len(robot_log.scans))
-            for scan in robot_log.scans:
-                if filtered is not None:
-                    filtered.add_scan(scan)
-                else:
-                    mapper.add_scan(scan)
-                progress.advance(task)
+        done = 0
+        try:
+            with ScanProgress(f"mapping {log.name}", len(robot_log.scans)) as progress:
+                for scan in robot_log.scans:
+                    if filtered is not None:
+                        filtered.add_scan(scan)
+                    else:
+                        mapper.add_scan(scan)
+                    done += 1
+                    progress.advance()
+        except KeyboardInterrupt:
+            if keep_partial and done > 0:
+                write_map(mapper.grid(), output, mode=map_mode)  # type: ignore[arg-type]
+                if trajectory is not None:
+                    write_tum(trajectory, robot_log.times[:done], np.asarray(mapper.poses)[:done])
+                typer.echo(
+                    f"interrupted: wrote the map of the {done} scans mapped so far: {output}", err=True
+                )
+            raise
         if filtered is not None:
             filtered.finish()
         grid = filtered.grid() if filtered is not None else mapper.grid()

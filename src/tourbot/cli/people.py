@@ -81,8 +81,8 @@ def register(app: typer.Typer) -> None:
         import csv
 
         import numpy as np
-        from rich.progress import Progress
 
+        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
         from tourbot.io.output import check_output, output_file
@@ -109,10 +109,13 @@ def register(app: typer.Typer) -> None:
         ids: set[int] = set()
         paths: dict[int, list[tuple[float, float]]] = {}
         # written whole or not at all: an error or Ctrl-C mid-log keeps any previous CSV
-        with output_file(output) as tmp, tmp.open("w", newline="") as fh, Progress() as progress:
+        with (
+            output_file(output) as tmp,
+            tmp.open("w", newline="") as fh,
+            ScanProgress(f"tracking {log.name}", len(robot_log.scans)) as progress,
+        ):
             writer = csv.writer(fh)
             writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
-            task = progress.add_task(f"tracking {log.name}", total=len(robot_log.scans))
             for k, scan in enumerate(robot_log.scans):
                 robot = None
                 if ego is None:
@@ -129,7 +132,7 @@ def register(app: typer.Typer) -> None:
                         rows += 1
                         ids.add(tr.id)
                         paths.setdefault(tr.id, []).append(tr.position)
-                progress.advance(task)
+                progress.advance()
         typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")
         if plot is not None:
             _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")

@@ -11,18 +11,32 @@ A CARMEN log is one message per line, the message type first. The reader underst
 - ``PARAM name value ...``: sensor parameters (field of view, resolution, maximum range, offset);
 - ``#`` comments; other message types (``NEFF``, ``SYNC``, ``TRUEPOS``...) are skipped.
 
-"Corrected" logs (a SLAM back end aligned every scan; see ``../shared/data/README.md``) keep the raw
-odometry as the timestamped ``ODOM`` stream and put the corrected pose on each laser line, with an
-extra ``ODOM ... 0 host 0`` line (timestamp zero) per scan. The reader therefore gives each scan:
+"Corrected" logs (a SLAM back end aligned every scan; see ``../shared/data/README.md``) put the
+corrected pose on each laser line, and after each scan an extra ``ODOM`` line (timestamp zero, in
+other logs garbage) repeats it; the timestamped readings that follow continue from that copy, so
+the stream is re-anchored to the corrected trajectory at every scan and its error never grows.
+A first pass (:func:`survey_odometry`) finds the copies by their pose (equal to the laser line's
+beside them, whatever their timestamp) and whether the stream continues from them. By default
+the reader then rebuilds raw odometry from the increments: it chains the motion between
+consecutive readings and skips the jump onto each copy, so the wheel increments are kept and the
+corrections dropped (``odometry="as-recorded"`` keeps the stream; one warning says which). Each
+scan then has:
 
-- ``odom``: the raw odometry interpolated at the scan's time from the timestamped ``ODOM`` stream
-  (or, when the log has no such stream, the odometry pose written on the laser line itself);
+- ``odom``: that odometry interpolated at the scan's time (or, when the log has neither a
+  timestamped stream nor copies, the odometry pose written on the laser line itself);
 - ``reference``: the pose on the laser line, when the log has a separate odometry stream (or that
   pose differs from the line's own odometry pose); ``None`` otherwise.
 
 Timestamps that are zero, repeated or going backwards make time interpolation meaningless: the
 reader then matches each scan with the latest odometry reading before it in the file ("record
-order") and says so in one warning.
+order") and says so in one warning. Timestamps that wrap around (32-bit seconds or milliseconds)
+are unwrapped, stream by stream.
+
+After reading, :func:`read_carmen` settles what the file leaves open and says why in the log's
+``notes``: the unit of angle ``PARAM`` values (a field of view of 3.14159 is radians), the beam
+layout (checked against the data: consecutive scans at the reference poses must agree, see
+:mod:`tourbot.io.beam_geometry`; a log no layout explains is refused) and the maximum range (a
+``PARAM`` cap the readings exceed, or one beyond every reading, gives way to the readings).
 
 Lines are parsed one at a time (``iter_carmen`` streams); a scan is held back only until the
 odometry reading that follows it in time has been read.
@@ -1003,6 +1017,14 @@ def _settle_max_range(
         top = _infer_max_range(scans) or float(ranges.max(initial=0.0))
         # returns beyond the stated range, short of the sensor's own "no return" value
         beyond = float(np.mean((ranges > stated * 1.001) & (ranges < top * 0.999))) if ranges.size else 0.0
+        if stated > 2.0 * top and _infer_max_range(scans) is not None:
+            warnings.append(
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is beyond every reading, which "
+                f"pile up at {top:g} m (the sensor's 'no return'; the PARAM is in another unit or wrong); "
+                f"maximum range {top:g} m from the readings"
+            )
+            notes.append(f"max range: {top:g} m where the readings pile up (PARAM {stated:g} is implausible)")
+            return _with_geometry(scans, lambda g: replace(g, max_range=top))
         if beyond > 0.01:
             inferred = top
             warnings.append(
@@ -1081,6 +1103,7 @@ def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str |
             path=path,
         )
     layout = candidate_layouts(g, alternatives)[check.chosen]
+    mirrored = layout.angle_increment < 0  # kept as the stated layout with each scan's ranges reversed
     fit = (
         f"consecutive scans at the {frame} agree to {100 * best:.1f} cm median over {check.pairs} pairs "
         f"({scores})"
@@ -1089,12 +1112,16 @@ def _settle_layout(reader: CarmenReader, chosen: str, log: RobotLog, path: str |
         log.notes.append(f"beams: {span} ({source}); {fit}")
         return scans
     new_span = f"{_deg(layout.angle_min)} to {_deg(layout.angles[-1])} deg"
+    if layout.angle_increment < 0:
+        new_span += ", left to right: each scan's ranges reversed"
     log.warnings.append(
         f"{path}: the beams read as {span} ({source}) do not fit the data; read as {new_span} "
         f"({check.chosen}): {fit}"
     )
     log.notes.append(f"beams: {new_span} ({check.chosen}, not {span} from {source}); {fit}")
-    return _with_geometry(scans, lambda _g: layout)
+    if mirrored:
+        scans = [replace(s, ranges=s.ranges[::-1].copy()) for s in scans]
+    return scans if mirrored else _with_geometry(scans, lambda _g: layout)
 
 
 # --------------------------------------------------------------------------------------------------

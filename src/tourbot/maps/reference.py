@@ -361,12 +361,15 @@ def grid_from_counts(
     )
 
 
-def map_quality(grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = None) -> dict[str, float]:
+def map_quality(
+    grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = None, shorter_ignored: float | None = None
+) -> dict[str, float]:
     """How well ``grid`` explains ``log``: ray casts from the reference poses against the ranges.
 
     Over every beam with a return (``min_range < r < max_range``): the median, mean and 90th
     percentile of ``|cast - measured|`` in metres, and the fraction within 5 and 10 cm. Casting uses
-    the project's ray caster (:class:`tourbot.maps.raycast.DistanceCaster`).
+    the project's ray caster (:class:`tourbot.maps.raycast.DistanceCaster`). ``shorter_ignored``:
+    beams shorter than the cast by more than this (m) are left out (a crowd only shortens beams).
     """
     from tourbot.maps.raycast import DistanceCaster
 
@@ -376,6 +379,7 @@ def map_quality(grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = N
     if max_scans is not None and len(scans) > max_scans:
         scans = [scans[i] for i in np.linspace(0, len(scans) - 1, max_scans).round().astype(int)]
     errors = []
+    returns = 0
     by_geometry: dict[LaserGeometry, list[Scan]] = {}
     for scan in scans:
         by_geometry.setdefault(scan.geometry, []).append(scan)
@@ -386,8 +390,15 @@ def map_quality(grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = N
         cast = np.asarray(caster.cast(lasers, g.angles), dtype=np.float64)
         ranges = np.stack([s.ranges for s in group])
         valid = (ranges < g.max_range) & (ranges > g.min_range)
+        returns += int(valid.sum())
+        if shorter_ignored is not None:
+            valid &= ranges >= cast - shorter_ignored
         errors.append(np.abs(cast[valid] - ranges[valid]))
     err = np.concatenate(errors)
+    if not err.size:
+        nan = float("nan")
+        stats = dict.fromkeys(("median_abs_error", "mean_abs_error", "p90_abs_error"), nan)
+        return stats | {"within_5cm": 0.0, "within_10cm": 0.0, "beams": 0.0, "kept": 0.0}
     return {
         "median_abs_error": float(np.median(err)),
         "mean_abs_error": float(err.mean()),
@@ -395,4 +406,5 @@ def map_quality(grid: OccupancyGrid, log: RobotLog, *, max_scans: int | None = N
         "within_5cm": float(np.mean(err <= 0.05)),
         "within_10cm": float(np.mean(err <= 0.10)),
         "beams": float(err.size),
+        "kept": err.size / max(returns, 1),  # of the beams with a return, those measured
     }
