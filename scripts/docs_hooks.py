@@ -35,7 +35,7 @@ DOCS = ROOT / "docs"
 CONFIG_MARKER = "<!-- tourbot:config-reference -->"
 RESULTS_MARKER = "<!-- tourbot:results-pages -->"
 RESULTS_SECTION = "Results"
-API_MARKER = re.compile(r"<!-- tourbot:api ([\w.]+) -->")
+API_MARKER = re.compile(r"^<!-- tourbot:api ([\w.]+) -->$", re.MULTILINE)
 _ROLE = re.compile(r":(?:class|meth|func|attr|mod|data|obj):`~?([^`]+)`")
 
 

@@ -123,7 +123,7 @@ def test_slam_writes_a_raw_map(tmp_path: Path) -> None:
 def test_slam_people_filter_defaults_to_the_joint_mode(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The default mode is the one docs/benchmarks.md (people filtering, run 11) recommends."""
+    """The default mode is the one docs/results.md (mapping with people filtered out) measures."""
     monkeypatch.setenv("COLUMNS", "400")
     with contextlib.suppress(SystemExit):  # click ends --help with exit status 0
         main(["slam", "--help"])

@@ -462,7 +462,7 @@ def _guess_scene(
     (turned around and moved by a metre when ``lost_track``, else moved 1.5 m along the robot's
     way), fresh guesses at the true pose with almost no weight, and fresh guesses at a decoy
     2.6 m away holding most of the weight, as the likelihood field gives it to a look-alike place
-    in a crowd (FHW, docs/benchmarks.md). Returns the localizer, the three
+    in a crowd (FHW, docs/design-notes.md). Returns the localizer, the three
     groups' masks, and the too-long and crowd-model judges of that scan as ``update`` makes them."""
     truth = waypoints_path(10)
     rng = np.random.default_rng(27)
@@ -576,7 +576,7 @@ def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: Oc
 def test_a_scan_that_is_no_evidence_neither_confirms_nor_contradicts(room: OccupancyGrid) -> None:
     # Too few returns to judge (NaN) says nothing about the track nor about the guesses: none
     # wins such a scan, even against a track contradicted on the scans before (a guess drawn
-    # for a replaced track would otherwise displace the one just found: FHW, docs/benchmarks.md
+    # for a replaced track would otherwise displace the one just found: FHW, docs/design-notes.md
     # "Run 7b"), and the lost count is neither raised nor reset.
     mcl, _, near, far, judge, score = _guess_scene(room, lost_track=True)
     truth = waypoints_path(10)[4]
@@ -637,7 +637,7 @@ def test_a_track_from_global_localization_is_searched_for_everywhere_until_confi
     room: OccupancyGrid,
 ) -> None:
     # Global localization may settle on a look-alike far from the robot (FHW seed 3, docs/
-    # benchmarks.md "Run 7d"). Such a track was never right, so on its first contradicted scan
+    # design-notes.md "Run 7d"). Such a track was never right, so on its first contradicted scan
     # the reset guesses are drawn over the whole free space (and the cast table), not only
     # around it: some land at the true pose, 5 m away.
     truth = waypoints_path(10)

@@ -38,7 +38,7 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    free space (at once, and with the cast table's screening, :mod:`tourbot.localization.
    cast_table`, while the track is one that global localization settled on and that has not yet
    passed the too-long test on ``global_after`` judged scans in a row: such a track was never
-   right, and a look-alike may lie anywhere; FHW, docs/benchmarks.md "Run 7d"), annealed on
+   right, and a look-alike may lie anywhere; FHW, docs/design-notes.md "Run 7d"), annealed on
    the scan's likelihood under a beam model with ray-cast expected ranges whose "short"
    component is the crowd (``recovery_model``): unlike the likelihood field, which scores a
    beam by its endpoint, it sees a look-alike place's beams cross walls.
@@ -52,13 +52,13 @@ held as weighted samples (Dellaert, Fox, Burgard & Thrun 1999, "Monte Carlo loca
    replace it, so that it must win the next scan itself. The guesses are judged by the beam
    model and not by their weights, which carry the likelihood field: in a crowd the field may
    rate a look-alike place turned around above the true one, whose readings the beam model sees
-   pass through walls (FHW, docs/benchmarks.md "Run 7"). Guesses that lie in the track's own
+   pass through walls (FHW, docs/design-notes.md "Run 7"). Guesses that lie in the track's own
    cluster on a scan that does not contradict it join the track. A scan that is no evidence
    (fewer than ``lost_min_beams`` returns to judge, or none integrated) neither confirms nor
    contradicts anything: no guess wins it, the held guess stays held, and the count of
    contradicted scans is neither raised nor reset (else a guess drawn while the track it has
    just replaced was contradicted could displace the found one on such a scan, FHW,
-   docs/benchmarks.md "Run 7b"); a failed verification (below) still contradicts the track
+   docs/design-notes.md "Run 7b"); a failed verification (below) still contradicts the track
    on such a scan. The novelty filter averages
    Eq. 6 over the established samples only (a two-peaked belief would let a crowd's short beams
    through), the estimate is the heaviest cluster of the established samples, resampling keeps
@@ -210,14 +210,14 @@ class MCLConfig:
         return and ``verify_distance`` (1 m, 30 deg): the verification of the track (module
         docstring, step 4; :meth:`MonteCarloLocalization._verify`). Each costs one reset search
         (about 30 ms at 90 returns on the FHW site). The figures behind the margin are in
-        docs/benchmarks.md (section sim); not tuned beyond them. The verification's search
+        docs/design-notes.md ("Simulated runtime"); not tuned beyond them. The verification's search
         screens its far candidates on the cast table (:class:`tourbot.localization.cast_table.
         CastTable`: ``table_spacing`` 0.25 m lattice over the free space, ``table_directions`` 90
         headings, the crowd beam model of ``table_beams`` 12 returns spread over the scan, the
         ``table_survivors`` 500 best) instead of the likelihood field of the longest returns
         (``verify_candidates`` 0 of those; 200000 as sensor resetting's): in a nook with short
         walls all round and the crowd in its opening the field ranks the true place below
-        thousands of others, the beam model among the first ten (FHW, docs/benchmarks.md).
+        thousands of others, the beam model among the first ten (FHW, docs/design-notes.md).
         Its candidates around the estimate are ``verify_local_candidates`` 3000 (sensor
         resetting's ``injection_local_candidates`` 10000): only places more than
         ``verify_distance`` away count, and the table covers the whole free space.
@@ -757,7 +757,7 @@ class MonteCarloLocalization:
         not, only a guess at another place can win, by the verification's margin. The guess is
         chosen by that model and not by the weights: the weights carry the likelihood field,
         which scores a beam by its endpoint alone and, in a crowd, may rate a look-alike place
-        turned around above the true one (FHW, docs/benchmarks.md) while the beam model sees the
+        turned around above the true one (FHW, docs/design-notes.md) while the beam model sees the
         look-alike's readings pass through walls. The guess that wins a scan is *held*: the
         other fresh samples lose their weight, new guesses do not replace it
         (:meth:`_resample`), and it is judged first on the next scan, where it must win again.
@@ -973,7 +973,7 @@ class MonteCarloLocalization:
                 # A track that global localization found and that has not yet passed the too-long
                 # test on global_after scans in a row may be a look-alike anywhere: it is searched
                 # for over the whole free space at once, with the cast table's screening too
-                # (docs/benchmarks.md "Run 7d").
+                # (docs/design-notes.md "Run 7d").
                 wide = self._unconfirmed
                 far = wide or self._lost_scans == 0 or self._lost_scans >= cfg.global_after
                 drawn_poses = self._scan_drawn_poses(
