@@ -133,7 +133,8 @@ def _cell(text: str) -> str:
 
 def _is_heading(line: str, following: str) -> bool:
     """A section heading of a class docstring: a short unindented line above an indented body."""
-    return bool(line) and not line[0].isspace() and following.startswith((" ", "\t")) and len(line.split()) <= 3
+    indented = following.startswith((" ", "\t"))
+    return bool(line) and not line[0].isspace() and indented and len(line.split()) <= 3
 
 
 def _prose(docstring: str | None) -> str:
@@ -165,15 +166,15 @@ def _mentioned(docstring: str, name: str) -> str:
     """The first sentence of the class docstring that names the field (``name``), else ""."""
     lines = inspect.cleandoc(docstring).splitlines()
     body = [
-        line
-        for i, line in enumerate(lines)
-        if not (i + 1 < len(lines) and _is_heading(line, lines[i + 1]))
+        line for i, line in enumerate(lines) if not (i + 1 < len(lines) and _is_heading(line, lines[i + 1]))
     ]
-    text = " ".join(" ".join(body).split())
-    for sentence in re.split(r"(?<=[.;])\s+(?=[A-Z`(])", text):
+    # A bullet ("- ``name``: ...") is a sentence of its own.
+    text = " ".join("\x00" + line.strip()[2:] if line.strip().startswith("- ") else line for line in body)
+    pieces = [" ".join(item.split()) for item in text.split("\x00")]
+    for sentence in (s for item in pieces for s in re.split(r"(?<=\.)\s+(?=[A-Z`(])", item)):
         if f"``{name}``" in sentence:
-            sentence = _ROLE.sub(r"`\1`", sentence)
-            return sentence if len(sentence) <= 300 else sentence[:297] + "..."
+            found = _ROLE.sub(r"`\1`", sentence)
+            return found if len(found) <= 300 else found[:297] + "..."
     return ""
 
 
@@ -232,16 +233,33 @@ def config_reference() -> str:
     paths = _config_classes()
     if not paths:
         raise RuntimeError("no configuration dataclass (*Config) found under src/tourbot")
-    out: list[str] = []
+    classes = {path: _import(path) for path in paths}
+    nested = {group for cls in classes.values() for group in _groups(cls)}
+    out: list[str] = [
+        "Groups nested in another configuration are listed under it "
+        f"({len(classes) - sum(c in nested for c in classes.values())} top-level configurations).",
+        "",
+    ]
     package = ""
-    for path in paths:
+    for path, cls in classes.items():
+        if cls in nested:
+            continue
         top = ".".join(path.split(".")[:2])
         if top != package:
             package = top
             out += [f"## `{package}`", ""]
-        cls = _import(path)
         out += _table(path, cls, cls.__name__, 3, set())
     return "\n".join(out)
+
+
+def _groups(cls: type, seen: frozenset[type] = frozenset()) -> set[type]:
+    """The configuration groups nested in ``cls``, at any depth."""
+    found: set[type] = set()
+    for field in dataclasses.fields(cls):
+        group = _nested(cls, field, _default(field)[1])
+        if group is not None and group not in seen:
+            found |= {group} | _groups(group, seen | {cls})
+    return found
 
 
 # ---------------------------------------------------------------------------------------------
@@ -264,7 +282,7 @@ def api_directives(package: str) -> str:
     return "\n\n".join(f"::: {package}.{name}" for name in modules)
 
 
-def on_page_markdown(markdown: str, page: Any, config: Any, files: Any) -> str:
+def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
     """Fill the markers of the configuration reference, the results page and the API pages."""
     markdown = API_MARKER.sub(lambda m: api_directives(m.group(1)), markdown)
     if CONFIG_MARKER in markdown:
