@@ -44,6 +44,12 @@ if [[ -n "${TOURBOT_TEST_DATABASE_URL:-}" ]]; then
   exit 0
 fi
 
+# Already started (by an earlier run as root, or by hand): use it.
+if PGPASSWORD=tourbot psql -qtAX -h 127.0.0.1 -p 5432 -U tourbot -d tourbot_test -c "SELECT 1" >/dev/null 2>&1; then
+  echo "$URL_DEFAULT"
+  exit 0
+fi
+
 if [[ $(id -u) -ne 0 ]]; then
   say "PostgreSQL is installed but this user cannot start its cluster; start it and create the"
   say "test database with:"
