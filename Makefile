@@ -1,6 +1,8 @@
 # tourbot: `make demo` serves the simulated crowded museum on the web (Ctrl-C stops it), `make test`
-# runs lint, type check and all tests.
+# runs lint, type check, the documentation build and every test (none skipped: the browser,
+# PostgreSQL and speech tests get what they need from scripts/test-services.sh).
 # Both create the virtual environment and install everything they need themselves.
+# `make test-fast`: the same checks without the slow, browser and PostgreSQL tests (skips allowed).
 
 PYTHON ?= python3
 VENV ?= .venv
@@ -10,12 +12,12 @@ NODE_STAMP := node_modules/.tourbot-installed
 PEERS_STAMP := $(VENV)/.tourbot-peers-installed
 KERNELS_STAMP := $(VENV)/.tourbot-kernels-compiled
 
-.PHONY: setup demo test lint typecheck pytest bench-setup clean
+.PHONY: setup demo test test-fast lint typecheck pytest pytest-fast docs docs-serve bench-setup clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs]'
 	touch $(STAMP)
 
 $(NODE_STAMP): package.json package-lock.json
@@ -25,7 +27,7 @@ $(NODE_STAMP): package.json package-lock.json
 # The peers tourbot is compared with (Nav2 AMCL's core, Stone Soup): benchmark extras, also
 # installed for the tests so that the adapters are tested.
 $(PEERS_STAMP): $(STAMP)
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,peers]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs,peers]'
 	touch $(PEERS_STAMP)
 
 setup: $(STAMP) $(NODE_STAMP)
@@ -48,12 +50,29 @@ lint: setup
 typecheck: setup
 	$(BIN)/mypy
 
+# Every test, none skipped (TOURBOT_NO_SKIPS=1 makes a skip fail the run): the script installs
+# chromium, postgresql and espeak-ng when root with apt-get, or fails naming the command that does,
+# and prints the URL of the PostgreSQL test database it started.
 pytest: setup $(PEERS_STAMP)
-	$(BIN)/python -m pytest -q
+	url=$$(bash scripts/test-services.sh) && \
+	TOURBOT_TEST_DATABASE_URL="$$url" TOURBOT_NO_SKIPS=1 $(BIN)/python -m pytest -q
 
-test: lint typecheck pytest
+pytest-fast: setup
+	$(BIN)/python -m pytest -q -m "not slow and not browser and not postgres"
+
+# The documentation site, strict: a broken link, a missing page or a docstring mkdocstrings cannot
+# read fails the build. Written to site/ (ignored by git); `make docs-serve` serves it live.
+docs: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
+
+docs-serve: setup
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs serve
+
+test: lint typecheck docs pytest
+
+test-fast: lint typecheck docs pytest-fast
 
 bench-setup: setup $(PEERS_STAMP)
 
 clean:
-	rm -rf $(VENV) node_modules .mypy_cache .ruff_cache .pytest_cache
+	rm -rf $(VENV) node_modules .mypy_cache .ruff_cache .pytest_cache site

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,3 +39,27 @@ def real_log(shared_data: Path) -> Callable[[str], RobotLog]:
         return cache[name]
 
     return get
+
+
+# `make test` sets TOURBOT_NO_SKIPS=1: there every test must run (the browser, PostgreSQL and speech
+# tests included, scripts/test-services.sh provides what they need), so a skip fails the run.
+_SKIPPED: list[str] = []
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    if report.skipped and not hasattr(report, "wasxfail"):
+        _SKIPPED.append(report.nodeid)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    if os.environ.get("TOURBOT_NO_SKIPS") == "1" and _SKIPPED and exitstatus == pytest.ExitCode.OK:
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    if os.environ.get("TOURBOT_NO_SKIPS") == "1" and _SKIPPED:
+        terminalreporter.write_line(
+            f"TOURBOT_NO_SKIPS: {len(_SKIPPED)} test(s) skipped, and `make test` runs every test "
+            "(see the reasons above; `make test-fast` allows skips)",
+            red=True,
+        )

@@ -158,8 +158,8 @@ class CrowdConfig:
 # The paper's two datasets (Fox et al. 1998, Sec. "Experimental results", Fig. 4): "sparse" is the
 # museum closed (a few % of the beams corrupted), "peak" the most crowded day at peak hours (on
 # average >= 40 % corrupted, stretches above 50 % lasting minutes). Densities and interest were
-# calibrated with `tourbot crowd` on the FHW log over its reference map (docs/benchmarks.md,
-# "localization"): sparse gives ~2-3 % of the beams corrupted, peak ~45 %.
+# calibrated with `tourbot crowd` on the FHW log over its reference map (docs/results.md,
+# "Crowd presets"): sparse gives ~2-3 % of the beams corrupted, peak ~45 %.
 PRESETS: dict[str, CrowdConfig] = {
     "empty": CrowdConfig(num_people=0, robot_interest=0.0),
     "sparse": CrowdConfig(density=0.015, robot_interest=0.1, interest_duration=30.0),
