@@ -36,6 +36,9 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+RADIAL_PAJDLA_BAKSTEIN = 0
+RADIAL_KANNALA_BRANDT = 1
+
 
 class CameraModel(Protocol):
     """What the renderer, the detector and the localizer need of a camera's intrinsics."""
@@ -115,6 +118,11 @@ class PajdlaBakstein:
     def centre(self) -> tuple[float, float]:
         return self.u0, self.v0
 
+    def radial(self) -> tuple[int, FloatArray, float]:
+        """For compiled kernels: the radial law's code (0: Eq. 1), its parameters and the v/u
+        pixel aspect."""
+        return RADIAL_PAJDLA_BAKSTEIN, np.array([self.a, self.b, self.c, self.d, 0.0]), self.beta
+
     def radius_of_theta(self, theta: ArrayLike) -> FloatArray:
         """Eq. 1."""
         t = np.asarray(theta, dtype=np.float64)
@@ -166,6 +174,11 @@ class KannalaBrandt:
 
     def centre(self) -> tuple[float, float]:
         return self.cx, self.cy
+
+    def radial(self) -> tuple[int, FloatArray, float]:
+        """For compiled kernels: the radial law's code (1: Kannala-Brandt), its parameters
+        ``(fx, k1..k4)`` and the v/u pixel aspect ``fy / fx``."""
+        return RADIAL_KANNALA_BRANDT, np.array([self.fx, self.k1, self.k2, self.k3, self.k4]), self.fy / self.fx
 
     def _theta_d(self, theta: ArrayLike) -> FloatArray:
         t = np.asarray(theta, dtype=np.float64)

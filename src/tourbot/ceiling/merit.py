@@ -19,12 +19,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import math
+
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.ceiling.rig import CeilingCamera
 
-__all__ = ["Merit", "associate", "merit"]
+__all__ = ["Merit", "associate", "merit", "merit_fast", "merit_kernel"]
 
 FloatArray = NDArray[np.float64]
 
@@ -77,3 +80,120 @@ def merit(
     with np.errstate(divide="ignore", invalid="ignore"):
         value = np.where(n > 0, err / np.maximum(n, 1), np.inf)
     return Merit(n=n, error=err, value=value, match=match)
+
+
+def merit_fast(
+    camera: CeilingCamera, lights: ArrayLike, detected: ArrayLike, poses: ArrayLike, threshold: float
+) -> tuple[NDArray[np.int64], FloatArray, FloatArray]:
+    """``(N_P, epsilon_P, M(P))`` of :func:`merit` (no swing) by the compiled :func:`merit_kernel`."""
+    kind, params, aspect = camera.model.radial()
+    rot, t = camera.mount()
+    cu, cv = camera.model.centre()
+    return merit_kernel(  # type: ignore[no-any-return]
+        np.ascontiguousarray(poses, dtype=np.float64).reshape(-1, 3),
+        np.ascontiguousarray(lights, dtype=np.float64).reshape(-1, 3),
+        np.ascontiguousarray(detected, dtype=np.float64).reshape(-1, 2),
+        np.ascontiguousarray(rot),
+        np.ascontiguousarray(t),
+        kind,
+        params,
+        cu,
+        cv,
+        aspect,
+        camera.model.max_theta,
+        camera.rim_theta,
+        float(camera.width),
+        float(camera.height),
+        float(threshold),
+    )
+
+
+@numba.njit(cache=True)
+def _radius(kind: int, p: FloatArray, theta: float) -> float:
+    if kind == 0:  # Eq. 1
+        return p[0] * math.tan(theta / p[1]) + p[2] * math.sin(theta / p[3])
+    t2 = theta * theta
+    return p[0] * theta * (1.0 + t2 * (p[1] + t2 * (p[2] + t2 * (p[3] + t2 * p[4]))))
+
+
+@numba.njit(cache=True)
+def merit_kernel(
+    poses: FloatArray,
+    lights: FloatArray,
+    det: FloatArray,
+    rot: FloatArray,
+    t: FloatArray,
+    kind: int,
+    params: FloatArray,
+    cu: float,
+    cv: float,
+    aspect: float,
+    max_theta: float,
+    rim_theta: float,
+    width: float,
+    height: float,
+    threshold: float,
+) -> tuple[NDArray[np.int64], FloatArray, FloatArray]:
+    """Alg. 1, Alg. 2 and Eq. 5 pose by pose; the numpy reference is :func:`merit`."""
+    n_p, n_i, n_j = poses.shape[0], lights.shape[0], det.shape[0]
+    count = np.zeros(n_p, dtype=np.int64)
+    error = np.zeros(n_p)
+    value = np.full(n_p, np.inf)
+    pu = np.empty(n_i)
+    pv = np.empty(n_i)
+    seen = np.zeros(n_i, dtype=np.bool_)
+    dist = np.empty((n_i, n_j))
+    cos_rim = math.cos(rim_theta)
+    for p in range(n_p):
+        c, s = math.cos(poses[p, 2]), math.sin(poses[p, 2])
+        for i in range(n_i):
+            dx = lights[i, 0] - poses[p, 0]
+            dy = lights[i, 1] - poses[p, 1]
+            v0 = c * dx + s * dy - t[0]
+            v1 = -s * dx + c * dy - t[1]
+            v2 = lights[i, 2] - t[2]
+            norm = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            x = v0 * rot[0, 0] + v1 * rot[1, 0] + v2 * rot[2, 0]
+            y = v0 * rot[0, 1] + v1 * rot[1, 1] + v2 * rot[2, 1]
+            z = v0 * rot[0, 2] + v1 * rot[1, 2] + v2 * rot[2, 2]
+            theta = math.atan2(math.sqrt(x * x + y * y), z)
+            seen[i] = False
+            if norm <= 0.0 or theta > max_theta or v2 / norm < cos_rim:
+                continue
+            r = _radius(kind, params, theta)
+            phi = math.atan2(y, x)
+            u = cu + r * math.cos(phi)
+            w = cv + aspect * r * math.sin(phi)
+            if u < 0.0 or u > width - 1 or w < 0.0 or w > height - 1:
+                continue
+            pu[i], pv[i], seen[i] = u, w, True
+        for i in range(n_i):
+            for j in range(n_j):
+                if seen[i]:
+                    du, dv = pu[i] - det[j, 0], pv[i] - det[j, 1]
+                    dist[i, j] = math.sqrt(du * du + dv * dv)
+                else:
+                    dist[i, j] = np.inf
+        n = 0
+        err = 0.0
+        for j in range(n_j):
+            best_i, best = -1, np.inf
+            for i in range(n_i):
+                if dist[i, j] < best:
+                    best, best_i = dist[i, j], i
+            ok = best_i >= 0 and best <= threshold
+            if ok:
+                for jj in range(n_j):  # condition 2: j is the nearest detection of light best_i
+                    if dist[best_i, jj] < best or (dist[best_i, jj] == best and jj < j):
+                        ok = False
+                        break
+            if ok:
+                err += best
+                n += 1
+            else:
+                err += threshold
+        count[p] = n
+        error[p] = err
+        if n > 0:
+            value[p] = err / n
+    return count, error, value

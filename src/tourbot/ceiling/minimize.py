@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.ceiling.merit import associate, merit
+from tourbot.ceiling.merit import associate, merit, merit_fast
 from tourbot.ceiling.rig import CeilingCamera
 from tourbot.maps.grid import OccupancyGrid
 
@@ -60,7 +60,8 @@ class LocalizerConfig:
     proposal_tolerance: float = 0.15
     max_proposals: int = 600
     refine: bool = True
-    refine_steps: int = 6
+    refine_steps: int = 8
+    swing_prior_deg: float = 10.0
     separation_m: float = 1.0
     separation_rad: float = 0.5
     ambiguity_ratio: float = 1.5
@@ -77,11 +78,13 @@ class LocalizerConfig:
 
 @dataclass(frozen=True)
 class Hypothesis:
-    """A pose (x, y, theta), its merit M(P) and its number of associated lights N_P."""
+    """A pose (x, y, theta), its merit M(P), its number of associated lights N_P and the base's
+    estimated (roll, pitch) swing."""
 
     pose: tuple[float, float, float]
     merit: float
     matched: int
+    swing: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -157,17 +160,18 @@ class CeilingLocalizer:
         if cfg.refine:
             refined = []
             for h in hyps:
-                pose = self.refine(det, np.array(h.pose))
-                rm = self._merit(det, pose[None])
-                evaluations += 1 + 4 * cfg.refine_steps
-                if rm.value[0] <= h.merit or rm.n[0] > h.matched:
-                    h = Hypothesis(_tuple(pose), float(rm.value[0]), int(rm.n[0]))
+                x = self.refine(det, np.array(h.pose))
+                rm = merit(self.camera, self.lights, det, x[None, :3], cfg.threshold, (x[3], x[4]))
+                evaluations += 1 + 6 * cfg.refine_steps
+                if rm.n[0] >= h.matched and rm.value[0] <= h.merit:
+                    h = Hypothesis(_tuple(x), float(rm.value[0]), int(rm.n[0]), (float(x[3]), float(x[4])))
                 refined.append(h)
-            hyps = self._keep(sorted(refined, key=lambda h: (-h.matched, h.merit)))
+            hyps = self._keep(sorted(refined, key=lambda h: h.merit))
         return Localization(tuple(hyps), evaluations, len(det))
 
-    def _merit(self, det: FloatArray, poses: FloatArray):  # type: ignore[no-untyped-def]
-        return merit(self.camera, self.lights, det, poses, self.config.threshold)
+    def _merit(self, det: FloatArray, poses: FloatArray) -> _Scores:
+        n, _, value = merit_fast(self.camera, self.lights, det, poses, self.config.threshold)
+        return _Scores(n, value)
 
     def _uniform(self, n: int, rng: np.random.Generator) -> FloatArray:
         """Sec. IV-B.1: particles spread uniformly over the free space."""
@@ -244,26 +248,42 @@ class CeilingLocalizer:
         return free
 
     def refine(self, det: FloatArray, pose: FloatArray) -> FloatArray:
-        """Gauss-Newton on the pixel errors of the associated lights (numeric Jacobian)."""
+        """``(x, y, theta, roll, pitch)`` from ``pose`` by Gauss-Newton on the pixel errors of the associated lights (numeric Jacobian).
+
+        Beyond the paper, whose main complaint is the camera's swing on floor bumps (Sec. VI): the
+        base's roll and pitch are estimated with the pose (a Gaussian prior of ``swing_prior_deg``
+        on each), so that a tilted camera does not pull the position by (light height) x tilt.
+        """
         cfg = self.config
-        p = pose.astype(np.float64).copy()
-        steps = np.array([1e-3, 1e-3, 1e-4])
+        x = np.concatenate([pose.astype(np.float64), [0.0, 0.0]])
+        steps = np.array([1e-3, 1e-3, 1e-4, 1e-4, 1e-4])
+        prior = 1.0 / math.radians(cfg.swing_prior_deg) if cfg.swing_prior_deg > 0 else 0.0
         for _ in range(cfg.refine_steps):
-            probe = np.vstack([p, p + np.diag(steps)])
-            proj, seen = self.camera.project_lights(probe, self.lights)
-            match, _ = associate(proj[:1], seen[:1], det, cfg.threshold)
+            proj0, seen0 = self.camera.project_lights(x[None, :3], self.lights, (x[3], x[4]))
+            match, _ = associate(proj0, seen0, det, cfg.threshold)
             j = np.flatnonzero(match[0] >= 0)
-            if len(j) < 2:
+            if len(j) < 3:
                 break
             i = match[0, j]
-            r0 = (proj[0, i] - det[j]).reshape(-1)
-            jac = np.stack([((proj[k + 1, i] - proj[0, i]).reshape(-1)) / steps[k] for k in range(3)], axis=1)
+            r0 = (proj0[0, i] - det[j]).reshape(-1)
+            cols = []
+            for k in range(5):
+                xk = x.copy()
+                xk[k] += steps[k]
+                pk, _ = self.camera.project_lights(xk[None, :3], self.lights[i], (xk[3], xk[4]))
+                cols.append((pk[0] - proj0[0, i]).reshape(-1) / steps[k])
+            jac = np.stack(cols, axis=1)
+            if prior > 0:
+                jac = np.vstack([jac, np.array([[0, 0, 0, prior, 0], [0, 0, 0, 0, prior]], dtype=np.float64)])
+                r0 = np.concatenate([r0, prior * x[3:5]])
+            else:
+                jac[:, 3:] = 0.0
             delta, *_ = np.linalg.lstsq(jac, -r0, rcond=None)
-            p = p + delta
-            if np.abs(delta[:2]).max() < 1e-4 and abs(delta[2]) < 1e-5:
+            x = x + delta
+            if np.abs(delta[:2]).max() < 1e-4 and np.abs(delta[2:]).max() < 1e-5:
                 break
-        p[2] = (p[2] + math.pi) % (2 * math.pi) - math.pi
-        return p
+        x[2] = (x[2] + math.pi) % (2 * math.pi) - math.pi
+        return x
 
     # -- hypotheses -----------------------------------------------------------------------------
 
@@ -297,6 +317,12 @@ class CeilingLocalizer:
             if not any(_near(np.array(h.pose), np.array(g.pose), cfg.separation_m, cfg.separation_rad) for g in merged):
                 merged.append(h)
         return merged[: cfg.max_hypotheses]
+
+
+@dataclass(frozen=True)
+class _Scores:
+    n: NDArray[np.int64]
+    value: FloatArray
 
 
 def _rank(value: FloatArray, n: NDArray[np.int64]) -> NDArray[np.int64]:
