@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from tourbot.ceiling.rig import CeilingCamera
 
-__all__ = ["DetectionConfig", "Detections", "detect_lights"]
+__all__ = ["DetectionConfig", "Detections", "detect_lights", "frame_stability"]
 
 FloatArray = NDArray[np.float64]
 
@@ -117,3 +117,17 @@ def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
             break
         level += cfg.rethreshold_step
     return best
+
+
+def frame_stability(frames: list[Detections], tolerance: float) -> float:
+    """The fraction of a frame's detections with a detection of the next frame within
+    ``tolerance`` pixels, over consecutive frames with detections in both."""
+    found = 0
+    total = 0
+    for a, b in zip(frames[:-1], frames[1:], strict=True):
+        if len(a) == 0 or len(b) == 0:
+            continue
+        d = np.linalg.norm(a.centroids[:, None, :] - b.centroids[None, :, :], axis=2).min(axis=1)
+        found += int((d <= tolerance).sum())
+        total += len(a)
+    return found / total if total else float("nan")

@@ -15,7 +15,9 @@ benchmark measures the paper's algorithm too):
   of the same separation fix (x, y, heading) exactly. These poses join the uniform ones at the
   start, so the search starts next to the answer instead of 0.8 m (702 particles over a hall)
   away from it.
-- ``refine``: Gauss-Newton on the pixel errors of the associated lights, from the best particles.
+- ``refine``: Gauss-Newton on the pixel errors of the associated lights, from the best particles,
+  with the base's swing (roll, pitch) estimated too when it explains the image clearly better
+  (merit below ``swing_gain`` times the merit without it).
 
 Symmetric layouts (Sec. IV-B, Fig. 10(j)): the final particles are grouped into hypotheses (poses
 farther apart than ``separation_m`` or ``separation_rad``); every hypothesis whose N_P equals the
@@ -62,6 +64,7 @@ class LocalizerConfig:
     refine: bool = True
     refine_steps: int = 8
     swing_prior_deg: float = 10.0
+    swing_gain: float = 0.8
     separation_m: float = 1.0
     separation_rad: float = 0.5
     ambiguity_ratio: float = 1.5
@@ -160,9 +163,15 @@ class CeilingLocalizer:
         if cfg.refine:
             refined = []
             for h in hyps:
-                x = self.refine(det, np.array(h.pose))
-                rm = merit(self.camera, self.lights, det, x[None, :3], cfg.threshold, (x[3], x[4]))
-                evaluations += 1 + 6 * cfg.refine_steps
+                # the swing is kept only when it explains the image clearly better (model selection)
+                flat = self.refine(det, np.array(h.pose), swing=False)
+                fm = merit(self.camera, self.lights, det, flat[None, :3], cfg.threshold)
+                tilted = self.refine(det, flat[:3], swing=True)
+                tm = merit(self.camera, self.lights, det, tilted[None, :3], cfg.threshold, (tilted[3], tilted[4]))
+                evaluations += 2 + 8 * cfg.refine_steps
+                x, rm = flat, fm
+                if tm.n[0] >= fm.n[0] and tm.value[0] < cfg.swing_gain * fm.value[0]:
+                    x, rm = tilted, tm
                 if rm.n[0] >= h.matched and rm.value[0] <= h.merit:
                     h = Hypothesis(_tuple(x), float(rm.value[0]), int(rm.n[0]), (float(x[3]), float(x[4])))
                 refined.append(h)
@@ -247,8 +256,9 @@ class CeilingLocalizer:
         free[inside] = self._grid.free()[cells[inside, 0], cells[inside, 1]]
         return free
 
-    def refine(self, det: FloatArray, pose: FloatArray) -> FloatArray:
-        """``(x, y, theta, roll, pitch)`` from ``pose`` by Gauss-Newton on the pixel errors of the associated lights (numeric Jacobian).
+    def refine(self, det: FloatArray, pose: FloatArray, swing: bool = True) -> FloatArray:
+        """``(x, y, theta, roll, pitch)`` from ``pose`` by Gauss-Newton on the pixel errors of the
+        associated lights (numeric Jacobian); with ``swing=False`` roll and pitch stay 0.
 
         Beyond the paper, whose main complaint is the camera's swing on floor bumps (Sec. VI): the
         base's roll and pitch are estimated with the pose (a Gaussian prior of ``swing_prior_deg``
@@ -257,7 +267,7 @@ class CeilingLocalizer:
         cfg = self.config
         x = np.concatenate([pose.astype(np.float64), [0.0, 0.0]])
         steps = np.array([1e-3, 1e-3, 1e-4, 1e-4, 1e-4])
-        prior = 1.0 / math.radians(cfg.swing_prior_deg) if cfg.swing_prior_deg > 0 else 0.0
+        prior = 1.0 / math.radians(cfg.swing_prior_deg) if swing and cfg.swing_prior_deg > 0 else 0.0
         for _ in range(cfg.refine_steps):
             proj0, seen0 = self.camera.project_lights(x[None, :3], self.lights, (x[3], x[4]))
             match, _ = associate(proj0, seen0, det, cfg.threshold)
@@ -273,7 +283,7 @@ class CeilingLocalizer:
                 pk, _ = self.camera.project_lights(xk[None, :3], self.lights[i], (xk[3], xk[4]))
                 cols.append((pk[0] - proj0[0, i]).reshape(-1) / steps[k])
             jac = np.stack(cols, axis=1)
-            if prior > 0:
+            if swing and prior > 0:
                 jac = np.vstack([jac, np.array([[0, 0, 0, prior, 0], [0, 0, 0, 0, prior]], dtype=np.float64)])
                 r0 = np.concatenate([r0, prior * x[3:5]])
             else:
