@@ -59,7 +59,9 @@ def test_kernel_matches_the_numpy_reference(
     rng = np.random.default_rng(seed)
     truth = np.array([[x, y, th]])
     uv, seen = cam.project_lights(truth, LIGHTS)
-    det = np.vstack([uv[0][seen[0]] + rng.normal(0.0, noise, (int(seen.sum()), 2)), rng.uniform(0, 480, (2, 2))])
+    det = np.vstack(
+        [uv[0][seen[0]] + rng.normal(0.0, noise, (int(seen.sum()), 2)), rng.uniform(0, 480, (2, 2))]
+    )
     poses = np.vstack([truth, truth + rng.normal(0.0, 0.5, (20, 3))])
     ref = merit(cam, LIGHTS, det, poses, threshold=25.0)
     n, err, value = merit_fast(cam, LIGHTS, det, poses, threshold=25.0)

@@ -19,7 +19,9 @@ def domus() -> tuple[np.ndarray, object]:
     return np.array([light.position for light in site.ceiling_lights]), site.grid
 
 
-def _detections(cam: CeilingCamera, lights: np.ndarray, pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _detections(
+    cam: CeilingCamera, lights: np.ndarray, pose: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
     uv, seen = cam.project_lights(pose[None], lights)
     return uv[0][seen[0]] + rng.normal(0.0, 0.5, (int(seen.sum()), 2))
 

@@ -50,7 +50,9 @@ def test_image_of_the_wrong_size_names_the_field() -> None:
 
 def test_camera_file(tmp_path: Path) -> None:
     f = tmp_path / "cam.yaml"
-    f.write_text("model: kannala-brandt\nfx: 193.26\nfy: 192.68\ncx: 347.8\ncy: 245.5\nk1: 0.00925\npitch_deg: 22\n")
+    f.write_text(
+        "model: kannala-brandt\nfx: 193.26\nfy: 192.68\ncx: 347.8\ncy: 245.5\nk1: 0.00925\npitch_deg: 22\n"
+    )
     cam = load_camera(f)
     assert cam.pitch == pytest.approx(math.radians(22.0))
     f.write_text("model: kannala-brandt\nfx: 193.26\nfy: 192.68\ncx: 900\ncy: 245.5\n")

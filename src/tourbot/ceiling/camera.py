@@ -178,7 +178,11 @@ class KannalaBrandt:
     def radial(self) -> tuple[int, FloatArray, float]:
         """For compiled kernels: the radial law's code (1: Kannala-Brandt), its parameters
         ``(fx, k1..k4)`` and the v/u pixel aspect ``fy / fx``."""
-        return RADIAL_KANNALA_BRANDT, np.array([self.fx, self.k1, self.k2, self.k3, self.k4]), self.fy / self.fx
+        return (
+            RADIAL_KANNALA_BRANDT,
+            np.array([self.fx, self.k1, self.k2, self.k3, self.k4]),
+            self.fy / self.fx,
+        )
 
     def _theta_d(self, theta: ArrayLike) -> FloatArray:
         t = np.asarray(theta, dtype=np.float64)
@@ -244,7 +248,9 @@ class Pinhole:
 
     def unproject(self, pixels: ArrayLike) -> FloatArray:
         px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
-        d = np.stack([(px[:, 0] - self.cx) / self.fx, (px[:, 1] - self.cy) / self.fy, np.ones(len(px))], axis=-1)
+        d = np.stack(
+            [(px[:, 0] - self.cx) / self.fx, (px[:, 1] - self.cy) / self.fy, np.ones(len(px))], axis=-1
+        )
         return np.asarray(d / np.linalg.norm(d, axis=1, keepdims=True))
 
 

@@ -33,7 +33,7 @@ class DetectionConfig:
     threshold: int = 200
     min_area: int = 4
     saturated_level: int = 250
-    saturated_area: int = 300
+    saturated_area: int = 150
     rethreshold_step: int = 3
     border: int = 1
 
@@ -56,7 +56,9 @@ class Detections:
         return len(self.centroids)
 
 
-def detect_lights(image: NDArray[np.uint8], camera: CeilingCamera, config: DetectionConfig | None = None) -> Detections:
+def detect_lights(
+    image: NDArray[np.uint8], camera: CeilingCamera, config: DetectionConfig | None = None
+) -> Detections:
     """The lights of an 8-bit grayscale image (threshold, connected components, centroids)."""
     import cv2
 
@@ -98,7 +100,9 @@ def detect_lights(image: NDArray[np.uint8], camera: CeilingCamera, config: Detec
     )
 
 
-def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig) -> list[tuple[float, float, int]]:
+def _cores(
+    box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
+) -> list[tuple[float, float, int]]:
     """A saturated blob processed again (Fig. 9): the threshold is raised until the blob splits into
     cores or shrinks below a third of its area; the centroids of those cores."""
     import cv2
@@ -109,7 +113,11 @@ def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
     while level <= 255:
         sub = ((box >= level) & mask).astype(np.uint8)
         n, _, stats, cents = cv2.connectedComponentsWithStats(sub, connectivity=8)
-        found = [(float(cents[k][0]), float(cents[k][1]), int(stats[k][4])) for k in range(1, n) if stats[k][4] >= cfg.min_area]
+        found = [
+            (float(cents[k][0]), float(cents[k][1]), int(stats[k][4]))
+            for k in range(1, n)
+            if stats[k][4] >= cfg.min_area
+        ]
         if not found:
             break
         best = found

@@ -43,7 +43,9 @@ class Merit:
     match: NDArray[np.int64]
 
 
-def associate(proj: FloatArray, seen: NDArray[np.bool_], detected: FloatArray, threshold: float) -> tuple[NDArray[np.int64], FloatArray]:
+def associate(
+    proj: FloatArray, seen: NDArray[np.bool_], detected: FloatArray, threshold: float
+) -> tuple[NDArray[np.int64], FloatArray]:
     """The associations of Sec. IV-A's conditions 1-3 for projections ``(P, I, 2)`` (``seen``
     ``(P, I)``) and detections ``(J, 2)``: per pose and detection, the map light (or -1) and the
     pixel distance to it."""

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.ceiling.merit import associate, merit, merit_fast
+from tourbot.ceiling.merit import Merit, associate, merit, merit_fast
 from tourbot.ceiling.rig import CeilingCamera
 from tourbot.maps.grid import OccupancyGrid
 
@@ -163,15 +163,8 @@ class CeilingLocalizer:
         if cfg.refine:
             refined = []
             for h in hyps:
-                # the swing is kept only when it explains the image clearly better (model selection)
-                flat = self.refine(det, np.array(h.pose), swing=False)
-                fm = merit(self.camera, self.lights, det, flat[None, :3], cfg.threshold)
-                tilted = self.refine(det, flat[:3], swing=True)
-                tm = merit(self.camera, self.lights, det, tilted[None, :3], cfg.threshold, (tilted[3], tilted[4]))
+                x, rm = self.polish(det, np.array(h.pose))
                 evaluations += 2 + 8 * cfg.refine_steps
-                x, rm = flat, fm
-                if tm.n[0] >= fm.n[0] and tm.value[0] < cfg.swing_gain * fm.value[0]:
-                    x, rm = tilted, tm
                 if rm.n[0] >= h.matched and rm.value[0] <= h.merit:
                     h = Hypothesis(_tuple(x), float(rm.value[0]), int(rm.n[0]), (float(x[3]), float(x[4])))
                 refined.append(h)
@@ -194,7 +187,10 @@ class CeilingLocalizer:
         k1 = max(1, round(cfg.best_fraction * len(parts)))
         k2 = round(cfg.next_fraction * len(parts))
         parents = np.concatenate(
-            [np.repeat(parts[:k1], cfg.best_offspring, axis=0), np.repeat(parts[k1 : k1 + k2], cfg.next_offspring, axis=0)]
+            [
+                np.repeat(parts[:k1], cfg.best_offspring, axis=0),
+                np.repeat(parts[k1 : k1 + k2], cfg.next_offspring, axis=0),
+            ]
         )
         noise = rng.standard_normal(parents.shape) * np.array([sx, sx, st])
         kids = parents + noise
@@ -256,6 +252,19 @@ class CeilingLocalizer:
         free[inside] = self._grid.free()[cells[inside, 0], cells[inside, 1]]
         return free
 
+    def polish(self, det: FloatArray, pose: FloatArray) -> tuple[FloatArray, Merit]:
+        """:meth:`refine` without and with the swing; the swing is kept only when it explains the
+        image clearly better (merit below ``swing_gain`` times; a model selection). Returns
+        ``(x, y, theta, roll, pitch)`` and its merit."""
+        cfg = self.config
+        flat = self.refine(det, pose, swing=False)
+        fm = merit(self.camera, self.lights, det, flat[None, :3], cfg.threshold)
+        tilted = self.refine(det, flat[:3], swing=True)
+        tm = merit(self.camera, self.lights, det, tilted[None, :3], cfg.threshold, (tilted[3], tilted[4]))
+        if tm.n[0] >= fm.n[0] and tm.value[0] < cfg.swing_gain * fm.value[0]:
+            return tilted, tm
+        return flat, fm
+
     def refine(self, det: FloatArray, pose: FloatArray, swing: bool = True) -> FloatArray:
         """``(x, y, theta, roll, pitch)`` from ``pose`` by Gauss-Newton on the pixel errors of the
         associated lights (numeric Jacobian); with ``swing=False`` roll and pitch stay 0.
@@ -297,7 +306,9 @@ class CeilingLocalizer:
 
     # -- hypotheses -----------------------------------------------------------------------------
 
-    def _hypotheses(self, det: FloatArray, parts: FloatArray, value: FloatArray, n: NDArray[np.int64]) -> list[Hypothesis]:
+    def _hypotheses(
+        self, det: FloatArray, parts: FloatArray, value: FloatArray, n: NDArray[np.int64]
+    ) -> list[Hypothesis]:
         """Final particles grouped into separate poses, best first."""
         cfg = self.config
         out: list[Hypothesis] = []
@@ -318,13 +329,14 @@ class CeilingLocalizer:
         cfg = self.config
         best = hyps[0]
         kept = [
-            h
-            for h in hyps
-            if h.matched >= best.matched and h.merit <= cfg.ambiguity_ratio * best.merit + 1.0
+            h for h in hyps if h.matched >= best.matched and h.merit <= cfg.ambiguity_ratio * best.merit + 1.0
         ]
         merged: list[Hypothesis] = []
         for h in kept:
-            if not any(_near(np.array(h.pose), np.array(g.pose), cfg.separation_m, cfg.separation_rad) for g in merged):
+            if not any(
+                _near(np.array(h.pose), np.array(g.pose), cfg.separation_m, cfg.separation_rad)
+                for g in merged
+            ):
                 merged.append(h)
         return merged[: cfg.max_hypotheses]
 

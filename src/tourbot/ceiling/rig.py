@@ -121,7 +121,9 @@ class CeilingCamera:
     def check_image(self, shape: tuple[int, ...], path: str | Path | None = None) -> None:
         """An image that does not fit this calibration is one clear error naming file and field."""
         if len(shape) != 2:
-            raise InputError(f"expected a grayscale image, got shape {shape}", path=path, field="image.channels")
+            raise InputError(
+                f"expected a grayscale image, got shape {shape}", path=path, field="image.channels"
+            )
         h, w = shape
         if (w, h) != (self.width, self.height):
             raise InputError(
@@ -164,7 +166,17 @@ def load_camera(path: str | Path) -> CeilingCamera:
 
 
 def camera_from_dict(data: dict[str, Any], path: str | Path | None = None) -> CeilingCamera:
-    known = {"model", "fov_deg", "width", "height", "mount_height", "roll_deg", "pitch_deg", "yaw_deg", "rim_deg"}
+    known = {
+        "model",
+        "fov_deg",
+        "width",
+        "height",
+        "mount_height",
+        "roll_deg",
+        "pitch_deg",
+        "yaw_deg",
+        "rim_deg",
+    }
     for key in data:
         if key not in known and key not in _PB_KEYS + _KB_KEYS:
             raise InputError("unknown key", path=path, field=str(key))
@@ -181,7 +193,9 @@ def camera_from_dict(data: dict[str, Any], path: str | Path | None = None) -> Ce
                 raise InputError("missing", path=path, field=missing[0])
             model = KannalaBrandt(**{k: float(data[k]) for k in _KB_KEYS if k in data}, fov=fov)
         else:
-            raise InputError(f"unknown model {kind!r} (pajdla-bakstein, kannala-brandt)", path=path, field="model")
+            raise InputError(
+                f"unknown model {kind!r} (pajdla-bakstein, kannala-brandt)", path=path, field="model"
+            )
         width, height = int(data.get("width", 640)), int(data.get("height", 480))
         why = _fits_image(model, width, height)
         if why is not None:

@@ -23,7 +23,9 @@ def read_raw_frames(path: str | Path, width: int, height: int) -> NDArray[np.uin
         raise InputError(f"cannot read the frames: {exc.strerror or exc}", path=p) from exc
     size = width * height
     if len(raw) == 0 or len(raw) % size:
-        raise InputError(f"{len(raw)} bytes is not a whole number of {width}x{height} frames", path=p, field="size")
+        raise InputError(
+            f"{len(raw)} bytes is not a whole number of {width}x{height} frames", path=p, field="size"
+        )
     return np.frombuffer(raw, dtype=np.uint8).reshape(-1, height, width)
 
 

@@ -68,7 +68,7 @@ class RenderConfig:
     brightness lost at the horizon's radius), ``noise_std`` (counts) and ``edge_samples`` per edge."""
 
     ambient: float = 6.0
-    bloom_sigma: float = 3.0
+    bloom_sigma: float = 4.0
     bloom_gain: float = 1.2
     vignetting: float = 0.35
     noise_std: float = 2.0
@@ -139,10 +139,16 @@ def _vignette(model: CameraModel, width: int, height: int, strength: float) -> N
     return (1.0 - strength * np.clip(rr, 0.0, 1.2) ** 2).astype(np.float32)
 
 
-def _densify(points: FloatArray, samples: int) -> FloatArray:
+def _densify(points: FloatArray, samples: int, step: float = 0.02) -> FloatArray:
+    """The outline with ``samples`` points per edge at least, and one every ``step`` metres (a patch
+    cut by the edge of the field of view keeps its shape)."""
     nxt = np.roll(points, -1, axis=0)
-    s = np.linspace(0.0, 1.0, samples, endpoint=False)[None, :, None]
-    return np.asarray((points[:, None, :] + s * (nxt - points)[:, None, :]).reshape(-1, 3))
+    out = []
+    for a, b in zip(points, nxt, strict=True):
+        n = max(samples, math.ceil(float(np.linalg.norm(b - a)) / step))
+        s = np.linspace(0.0, 1.0, n, endpoint=False)[:, None]
+        out.append(a + s * (b - a))
+    return np.concatenate(out)
 
 
 # -- the upward infrared camera ------------------------------------------------------------------
@@ -203,7 +209,9 @@ class CameraFrame:
 class CeilingCameraSim:
     """The robot's upward camera over a site, deterministic for a seed."""
 
-    def __init__(self, site: Site, rig: CeilingCamera, config: CameraSimConfig | None = None, *, seed: int = 0) -> None:
+    def __init__(
+        self, site: Site, rig: CeilingCamera, config: CameraSimConfig | None = None, *, seed: int = 0
+    ) -> None:
         if not site.ceiling_lights:
             raise CameraSimError(f"site {site.name!r} has no ceiling lights (field ceiling_lights)")
         self.site = site
@@ -222,7 +230,9 @@ class CeilingCameraSim:
                     f"site {site.name!r}: unknown fixture type {kind!r} (field ceiling_lights.{k}.type)"
                 )
             if self.on[k]:
-                self._lights.append(_fixture_patch(np.asarray(light.position, dtype=np.float64), FIXTURES[kind]))
+                self._lights.append(
+                    _fixture_patch(np.asarray(light.position, dtype=np.float64), FIXTURES[kind])
+                )
         self._spurious = _spurious(site, cfg, rng_static)
         self._heights = rng_static.normal(1.72, 0.08, 4096)
         self._next = 0.0
@@ -240,8 +250,12 @@ class CeilingCameraSim:
         rot, pos = camera_in_world(self.rig, pose, swing)
         patches = self._lights + self._spurious
         if cfg.occlusion and people is not None:
-            patches = patches + _visitors(np.asarray(people, dtype=np.float64).reshape(-1, 2), pos, self._heights)
-        image = render(self.rig.model, self.rig.width, self.rig.height, rot, pos, patches, self._rng, cfg.render)
+            patches = patches + _visitors(
+                np.asarray(people, dtype=np.float64).reshape(-1, 2), pos, self._heights
+            )
+        image = render(
+            self.rig.model, self.rig.width, self.rig.height, rot, pos, patches, self._rng, cfg.render
+        )
         return CameraFrame(time, image, swing)
 
 
@@ -275,12 +289,16 @@ def _spurious(site: Site, cfg: CameraSimConfig, rng: np.random.Generator) -> lis
         if k < cfg.spotlights:
             z = rng.uniform(2.5, 3.5)
             a = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
-            pts = np.column_stack([x + 0.1 * np.cos(a) * side[0], y + 0.1 * np.cos(a) * side[1], z + 0.1 * np.sin(a)])
+            pts = np.column_stack(
+                [x + 0.1 * np.cos(a) * side[0], y + 0.1 * np.cos(a) * side[1], z + 0.1 * np.sin(a)]
+            )
             out.append(Patch(pts, 500.0, (float(inward[0]), float(inward[1]), 0.0), 2.0))
         else:
             w = rng.uniform(1.0, 2.5) / 2
             p0, p1 = np.array([x, y]) - w * side, np.array([x, y]) + w * side
-            pts = np.array([[p0[0], p0[1], 1.0], [p1[0], p1[1], 1.0], [p1[0], p1[1], 3.0], [p0[0], p0[1], 3.0]])
+            pts = np.array(
+                [[p0[0], p0[1], 1.0], [p1[0], p1[1], 1.0], [p1[0], p1[1], 3.0], [p0[0], p0[1], 3.0]]
+            )
             out.append(Patch(pts, 280.0))
     return out
 
@@ -297,7 +315,12 @@ def _visitors(people: FloatArray, camera: FloatArray, heights: FloatArray) -> li
             continue
         side = np.array([-d[1], d[0]]) / dist * 0.25
         pts = np.array(
-            [[x - side[0], y - side[1], 0.0], [x + side[0], y + side[1], 0.0], [x + side[0], y + side[1], h], [x - side[0], y - side[1], h]]
+            [
+                [x - side[0], y - side[1], 0.0],
+                [x + side[0], y + side[1], 0.0],
+                [x + side[0], y + side[1], h],
+                [x - side[0], y - side[1], h],
+            ]
         )
         out.append(Patch(pts, 0.0))
     return out
