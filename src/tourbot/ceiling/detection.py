@@ -34,7 +34,7 @@ class DetectionConfig:
     min_area: int = 4
     saturated_level: int = 250
     saturated_area: int = 150
-    rethreshold_step: int = 3
+    max_levels: int = 12
     border: int = 1
 
     def __post_init__(self) -> None:
@@ -100,30 +100,29 @@ def detect_lights(
     )
 
 
-def _cores(
-    box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
-) -> list[tuple[float, float, int]]:
-    """A saturated blob processed again (Fig. 9): the threshold is raised until the blob splits into
-    cores or shrinks below a third of its area; the centroids of those cores."""
+def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig) -> list[tuple[float, float, int]]:
+    """A saturated blob processed again (Fig. 9): the threshold is raised through the blob's own
+    intensity levels (at most ``max_levels`` of them) until it splits into cores or shrinks below a
+    third of its area; the centroids of those cores. A flat blob (already binary) has no core."""
     import cv2
 
     total = int(mask.sum())
-    level = cfg.threshold + cfg.rethreshold_step
+    values = np.unique(box[mask])
+    levels = values[values > cfg.threshold]
+    if len(levels) > cfg.max_levels:
+        levels = levels[np.linspace(0, len(levels) - 1, cfg.max_levels).round().astype(np.int64)]
     best: list[tuple[float, float, int]] = []
-    while level <= 255:
+    for level in levels[1:] if len(levels) and levels[0] == values.min() else levels:
         sub = ((box >= level) & mask).astype(np.uint8)
         n, _, stats, cents = cv2.connectedComponentsWithStats(sub, connectivity=8)
         found = [
-            (float(cents[k][0]), float(cents[k][1]), int(stats[k][4]))
-            for k in range(1, n)
-            if stats[k][4] >= cfg.min_area
+            (float(cents[k][0]), float(cents[k][1]), int(stats[k][4])) for k in range(1, n) if stats[k][4] >= cfg.min_area
         ]
         if not found:
             break
         best = found
         if len(found) > 1 or sum(a for *_, a in found) < total / 3:
             break
-        level += cfg.rethreshold_step
     return best
 
 

@@ -158,14 +158,17 @@ def merit_kernel(
             x = v0 * rot[0, 0] + v1 * rot[1, 0] + v2 * rot[2, 0]
             y = v0 * rot[0, 1] + v1 * rot[1, 1] + v2 * rot[2, 1]
             z = v0 * rot[0, 2] + v1 * rot[1, 2] + v2 * rot[2, 2]
-            theta = math.atan2(math.sqrt(x * x + y * y), z)
             seen[i] = False
-            if norm <= 0.0 or theta > max_theta or v2 / norm < cos_rim:
+            if norm <= 0.0 or v2 / norm < cos_rim:
+                continue
+            rho = math.sqrt(x * x + y * y)
+            theta = math.atan2(rho, z)
+            if theta > max_theta:
                 continue
             r = _radius(kind, params, theta)
-            phi = math.atan2(y, x)
-            u = cu + r * math.cos(phi)
-            w = cv + aspect * r * math.sin(phi)
+            cphi, sphi = (x / rho, y / rho) if rho > 0.0 else (1.0, 0.0)
+            u = cu + r * cphi
+            w = cv + aspect * r * sphi
             if u < 0.0 or u > width - 1 or w < 0.0 or w > height - 1:
                 continue
             pu[i], pv[i], seen[i] = u, w, True

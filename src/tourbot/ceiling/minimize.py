@@ -285,18 +285,21 @@ class CeilingLocalizer:
                 break
             i = match[0, j]
             r0 = (proj0[0, i] - det[j]).reshape(-1)
-            cols = []
-            for k in range(5):
-                xk = x.copy()
-                xk[k] += steps[k]
-                pk, _ = self.camera.project_lights(xk[None, :3], self.lights[i], (xk[3], xk[4]))
-                cols.append((pk[0] - proj0[0, i]).reshape(-1) / steps[k])
+            # x, y and heading perturbed in one call; roll and pitch (a swing each) only when estimated
+            probe = x[None, :3] + np.diag(steps[:3])
+            pk, _ = self.camera.project_lights(probe, self.lights[i], (x[3], x[4]))
+            cols = [(pk[k] - proj0[0, i]).reshape(-1) / steps[k] for k in range(3)]
+            for k in (3, 4) if swing else ():
+                xs = x.copy()
+                xs[k] += steps[k]
+                ps, _ = self.camera.project_lights(x[None, :3], self.lights[i], (xs[3], xs[4]))
+                cols.append((ps[0] - proj0[0, i]).reshape(-1) / steps[k])
+            if not swing:
+                cols += [np.zeros(len(r0)), np.zeros(len(r0))]
             jac = np.stack(cols, axis=1)
             if swing and prior > 0:
                 jac = np.vstack([jac, np.array([[0, 0, 0, prior, 0], [0, 0, 0, 0, prior]], dtype=np.float64)])
                 r0 = np.concatenate([r0, prior * x[3:5]])
-            else:
-                jac[:, 3:] = 0.0
             delta, *_ = np.linalg.lstsq(jac, -r0, rcond=None)
             x = x + delta
             if np.abs(delta[:2]).max() < 1e-4 and np.abs(delta[2:]).max() < 1e-5:
