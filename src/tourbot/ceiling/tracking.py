@@ -7,8 +7,9 @@ the lights are associated from the predicted pose and the pose is refined on the
 (:meth:`CeilingLocalizer.refine`); that measurement and its covariance (``pixel_std`` squared times
 the inverse of the Gauss-Newton information) are fused with the prediction in a Kalman update.
 
-An image that the predicted pose does not explain (fewer than ``min_matched`` lights associated, or
-a merit above ``max_merit`` pixels) and every ``check_every``-th image trigger global localization
+An image that the predicted pose does not explain (a measurement beyond the chi-square gate
+``gate`` of the prediction, 99.9 % for three degrees of freedom; fewer than ``min_matched`` lights or than
+``min_fraction`` of the detections associated, or a merit above ``max_merit`` pixels) and every ``check_every``-th image trigger global localization
 (Alg. 3). A global result is taken when it is unambiguous and explains the image better than the
 track: a kidnapped robot is found again from the next image.
 """
@@ -38,9 +39,11 @@ class TrackerConfig:
     motion: OdometryMotionModel = field(default_factory=OdometryMotionModel)
     pixel_std: float = 1.5
     min_matched: int = 3
+    min_fraction: float = 0.7
     max_merit: float = 6.0
     check_every: int = 5
     better_by: float = 0.5
+    gate: float = 16.3
 
     def __post_init__(self) -> None:
         if self.pixel_std <= 0 or self.min_matched < 2 or self.check_every < 1:
@@ -104,7 +107,13 @@ class CeilingTracker:
         tracked = None
         if self._pose is not None and len(det):
             tracked = self._measure(det, self._pose)
-        good = tracked is not None and tracked[2] >= cfg.min_matched and tracked[3] <= cfg.max_merit
+        good = (
+            tracked is not None
+            and tracked[2] >= max(cfg.min_matched, cfg.min_fraction * len(det))
+            and tracked[3] <= cfg.max_merit
+            and self._pose is not None
+            and self._mahalanobis(tracked[0], tracked[1]) <= cfg.gate
+        )
         if not good or self._images % cfg.check_every == 0 or self._pose is None:
             glob = self.localizer.locate(det, self._rng) if len(det) else Localization((), 0, 0)
             best = glob.best
@@ -135,6 +144,13 @@ class CeilingTracker:
         self._cov = (np.eye(3) - gain) @ self._cov
         self.state = TrackState(time, _t(self._pose), self._cov.copy(), "tracked")
         return self.state
+
+    def _mahalanobis(self, z: FloatArray, r: FloatArray) -> float:
+        """The squared Mahalanobis distance of a measurement from the prediction."""
+        assert self._pose is not None
+        innov = z - self._pose
+        innov[2] = float(wrap_angle(innov[2]))
+        return float(innov @ np.linalg.solve(self._cov + r, innov))
 
     def _measure(self, det: FloatArray, start: FloatArray) -> tuple[FloatArray, FloatArray, int, float]:
         """The refined pose from ``start``, its covariance, N_P and M(P)."""
