@@ -15,7 +15,8 @@ from tourbot.site.model import load_site
 def test_domus_path_is_24_m_with_headings_along_it() -> None:
     p = path_poses(DOMUS_PATH, 0.4)
     assert len(p) == 61  # 60 images a second apart at 0.4 m/s, and the end
-    assert p[0, 2] == 0.0 and p[-1, 2] == math.pi / 2
+    assert p[0, 2] == 0.0
+    assert p[-1, 2] == math.pi / 2
     assert abs(float(np.hypot(*np.diff(p[:, :2], axis=0).T).sum()) - 24.0) < 1e-9
 
 
@@ -25,7 +26,8 @@ def test_errors_wrap_the_heading_and_count_no_answer_as_infinite() -> None:
     pos, ang = _errors(est, truth)
     assert abs(pos[0] - 0.5) < 1e-12
     assert abs(ang[0] - math.degrees(0.02)) < 1e-9
-    assert math.isinf(pos[1]) and math.isinf(ang[1])
+    assert math.isinf(pos[1])
+    assert math.isinf(ang[1])
 
 
 def test_a_short_run_localizes_with_all_three_methods() -> None:

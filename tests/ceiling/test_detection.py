@@ -63,5 +63,6 @@ def test_small_and_border_blobs_are_not_lights() -> None:
     img[0:10, 300:310] = 255  # cut by the border
     img[240:246, 320:326] = 255
     d = detect_lights(img, cam)
-    assert len(d) == 1 and d.rejected == 1
+    assert len(d) == 1
+    assert d.rejected == 1
     assert d.centroids[0] == pytest.approx([322.5, 242.5])

@@ -45,14 +45,15 @@ def test_ceiling_likelihood_weighs_the_true_pose_highest_and_injects_hypotheses(
     lik.set_detections(det)
     rng = np.random.default_rng(0)
     samples = np.column_stack([rng.uniform(-8, 28, 500), rng.uniform(-12, 4, 500), rng.uniform(-3, 3, 500)])
-    samples[17] = truth + [0.05, -0.03, 0.01]
+    samples[17] = [*truth, 0.05, -0.03, 0.01]
     mcl = _TinyMCL(samples.copy(), [lik])
     w = mcl.weigh()
     assert int(np.argmax(w)) == 17
     # a kidnapped filter (no sample near the truth) gets the camera's hypotheses injected
     result = CeilingLocalizer(cam, lights, site.grid).locate(det, rng)
     poses = recovery_poses(result)
-    assert poses.shape[1] == 3 and len(poses) >= 1
+    assert poses.shape[1] == 3
+    assert len(poses) >= 1
     far = _TinyMCL(samples[np.hypot(samples[:, 0] - 8.0, samples[:, 1] + 7.0) > 3.0].copy(), [lik])
     far.inject(poses)
     best = far.samples[int(np.argmax(far.weigh()))]

@@ -38,7 +38,8 @@ def test_merit_is_eq_5_with_the_threshold_for_unmatched_detections() -> None:
     assert m.error[0] == pytest.approx(n * 1.0 + 20.0)
     assert m.value[0] == pytest.approx((n + 20.0) / n)
     far = merit(cam, LIGHTS, det, np.array([[40.0, 40.0, 0.0]]), threshold=20.0)
-    assert far.n[0] == 0 and math.isinf(far.value[0])
+    assert far.n[0] == 0
+    assert math.isinf(far.value[0])
 
 
 @given(

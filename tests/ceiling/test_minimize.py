@@ -73,4 +73,5 @@ def test_symmetric_ceiling_gives_several_hypotheses() -> None:
 def test_no_detections_no_hypothesis(domus: tuple[np.ndarray, object]) -> None:
     lights, grid = domus
     res = CeilingLocalizer(CeilingCamera(), lights, grid).locate(np.zeros((0, 2)), np.random.default_rng(0))  # type: ignore[arg-type]
-    assert res.best is None and res.evaluations == 0
+    assert res.best is None
+    assert res.evaluations == 0

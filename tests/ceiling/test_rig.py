@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tourbot.ceiling.camera import KannalaBrandt
 from tourbot.ceiling.rig import CYCLOID_CAMERA, CeilingCamera, load_camera
 from tourbot.errors import InputError
 
@@ -22,9 +23,11 @@ def test_light_straight_above_is_at_the_image_centre() -> None:
 def test_light_ahead_is_along_plus_u_and_turning_moves_it() -> None:
     cam = CeilingCamera()
     uv, _ = cam.project_lights([[0.0, 0.0, 0.0], [0.0, 0.0, math.pi / 2]], [[2.0, 0.0, 5.0]])
-    assert uv[0, 0, 0] > 320.0 and uv[0, 0, 1] == pytest.approx(240.0)
+    assert uv[0, 0, 0] > 320.0
+    assert uv[0, 0, 1] == pytest.approx(240.0)
     # facing +y, the light at +x is to the robot's right: -v
-    assert uv[1, 0, 0] == pytest.approx(320.0) and uv[1, 0, 1] < 240.0
+    assert uv[1, 0, 0] == pytest.approx(320.0)
+    assert uv[1, 0, 1] < 240.0
 
 
 def test_tilt_shifts_the_zenith() -> None:
@@ -67,6 +70,7 @@ def test_camera_file(tmp_path: Path) -> None:
 
 
 def test_published_calibration_sees_the_zenith_ahead_of_the_centre() -> None:
+    assert isinstance(CYCLOID_CAMERA.model, KannalaBrandt)
     uv, seen = CYCLOID_CAMERA.project_lights([[0.0, 0.0, 0.0]], [[0.0, 0.0, 8.0]])
     assert seen[0, 0]
     assert uv[0, 0, 0] < CYCLOID_CAMERA.model.cx - 50  # 22 degrees of tilt, about 75 px

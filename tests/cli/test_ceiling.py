@@ -37,7 +37,8 @@ def test_locate_prints_the_pose_and_draws_the_lights(
     assert rgb.shape == (480, 640, 3)
     red = (rgb[..., 0] > 200) & (rgb[..., 1] < 50) & (rgb[..., 2] < 50)
     green = (rgb[..., 1] > 200) & (rgb[..., 2] < 50) & (rgb[..., 0] < 50)
-    assert red.sum() > 50 and green.sum() > 50
+    assert red.sum() > 50
+    assert green.sum() > 50
 
 
 def _error_line(capsys: pytest.CaptureFixture[str]) -> str:
@@ -52,7 +53,8 @@ def test_wrong_image_size_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixt
     write_png(small, np.zeros((240, 320), dtype=np.uint8))
     assert _run(["ceiling", "locate", str(small), "--picture", str(tmp_path / "p.png")]) == 2
     err = _error_line(capsys)
-    assert "small.png" in err and "image.size" in err
+    assert "small.png" in err
+    assert "image.size" in err
 
 
 def test_calibration_not_fitting_the_image_is_one_line(
@@ -60,17 +62,39 @@ def test_calibration_not_fitting_the_image_is_one_line(
 ) -> None:
     cam = tmp_path / "cam.yaml"
     cam.write_text("model: pajdla-bakstein\nu0: 1500\nv0: 240\n")
-    assert _run(["ceiling", "locate", str(domus_image), "--camera", str(cam), "--picture", str(tmp_path / "p.png")]) == 2
+    assert (
+        _run(
+            [
+                "ceiling",
+                "locate",
+                str(domus_image),
+                "--camera",
+                str(cam),
+                "--picture",
+                str(tmp_path / "p.png"),
+            ]
+        )
+        == 2
+    )
     err = _error_line(capsys)
-    assert "cam.yaml" in err and "field model" in err
+    assert "cam.yaml" in err
+    assert "field model" in err
 
 
-def test_site_without_lights_is_one_line(domus_image: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_site_without_lights_is_one_line(
+    domus_image: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     site = tmp_path / "bare.yaml"
     site.write_text("name: bare\nmap:\n  walls:\n  - [[0, 0], [5, 0], [5, 5]]\n")
-    assert _run(["ceiling", "locate", str(domus_image), "--site", str(site), "--picture", str(tmp_path / "p.png")]) == 2
+    assert (
+        _run(
+            ["ceiling", "locate", str(domus_image), "--site", str(site), "--picture", str(tmp_path / "p.png")]
+        )
+        == 2
+    )
     err = _error_line(capsys)
-    assert "bare.yaml" in err and "ceiling_lights" in err
+    assert "bare.yaml" in err
+    assert "ceiling_lights" in err
 
 
 def test_missing_image_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

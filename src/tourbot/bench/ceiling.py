@@ -21,6 +21,7 @@ detected lights alone.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, replace
@@ -60,7 +61,7 @@ def mean_ci(values: Any) -> tuple[float, float]:
 def path_poses(points: tuple[tuple[float, float], ...], step: float) -> FloatArray:
     """Poses every ``step`` metres along a polyline, heading along each leg."""
     out = []
-    for (x0, y0), (x1, y1) in zip(points[:-1], points[1:], strict=True):
+    for (x0, y0), (x1, y1) in itertools.pairwise(points):
         length = math.hypot(x1 - x0, y1 - y0)
         th = math.atan2(y1 - y0, x1 - x0)
         for s in np.arange(0.0, length, step):
@@ -115,11 +116,18 @@ def run_path(
         "paper": CeilingLocalizer(loc_rig, lights, site.grid, LocalizerConfig(proposals=False, refine=False)),
         "tourbot": CeilingLocalizer(loc_rig, lights, site.grid),
     }
-    tracker = CeilingTracker(CeilingLocalizer(loc_rig, lights, site.grid), seed=seed) if "tracking" in methods else None
+    tracker = (
+        CeilingTracker(CeilingLocalizer(loc_rig, lights, site.grid), seed=seed)
+        if "tracking" in methods
+        else None
+    )
     odo = OdometryError(OdometryErrorConfig(), (0.0, 0.0, 0.0))
     odom_rng = np.random.default_rng(seed + 2000)
-    truth, est, ms, amb = [], {m: [] for m in methods}, {m: [] for m in methods}, {m: [] for m in methods}
-    evals = []
+    truth: list[FloatArray] = []
+    est: dict[str, list[FloatArray]] = {m: [] for m in methods}
+    ms: dict[str, list[float]] = {m: [] for m in methods}
+    amb: dict[str, list[float]] = {m: [] for m in methods}
+    evals: list[int] = []
     offset = np.zeros(3)  # kidnaps: the true pose is the path carried by the accumulated jumps
     prev = None
     for k, p in enumerate(path):
@@ -167,7 +175,9 @@ def register(bench: typer.Typer) -> None:
     @bench.command("ceiling")
     def ceiling(
         seeds: Annotated[int, typer.Option(help="Seeds (>= 5 for the intervals).")] = 5,
-        output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file (default bench-results/).")] = None,
+        output: Annotated[
+            Path | None, typer.Option("-o", "--output", help="JSON file (default bench-results/).")
+        ] = None,
         figure: Annotated[Path, typer.Option(help="Picture of Fig. 14 and the sensitivity.")] = Path(
             "docs/results/ceiling.png"
         ),
@@ -179,7 +189,20 @@ def register(bench: typer.Typer) -> None:
         if seeds < 1:
             raise InputError(f"must be at least 1, got {seeds}", field="--seeds")
         report = BenchReport(
-            "ceiling", ["experiment", "setting", "method", "mean m", "±", "max m", "mean deg", "±", "max deg", "ms", "other"]
+            "ceiling",
+            [
+                "experiment",
+                "setting",
+                "method",
+                "mean m",
+                "±",
+                "max m",
+                "mean deg",
+                "±",
+                "max deg",
+                "ms",
+                "other",
+            ],
         )
         _run_all(report, list(range(seeds)), quick, figure)
         report.finish(output)
@@ -199,7 +222,7 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
     path = path_poses(DOMUS_PATH, 0.04)
     methods = ("paper", "tourbot", "tracking")
     runs = [run_path(domus, s, path[: 200 if quick else None], 10, methods, base) for s in seeds]
-    fig14 = {}
+    fig14: dict[str, dict[str, Any]] = {}
     for m in methods:
         per_seed = [_errors(r.est[m], r.truth) for r in runs]
         mean_m = mean_ci([float(np.mean(p)) for p, _ in per_seed])
@@ -208,25 +231,35 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
         max_d = float(max(np.max(a) for _, a in per_seed))
         ms_all = np.concatenate([r.ms[m] for r in runs])
         amb = float(np.mean(np.concatenate([r.ambiguous[m] for r in runs])))
-        fig14[m] = {"mean_m": mean_m, "mean_deg": mean_d, "max_m": max_m, "max_deg": max_d, "ms_mean": float(ms_all.mean()), "ms_median": float(np.median(ms_all))}
+        fig14[m] = {
+            "mean_m": mean_m,
+            "mean_deg": mean_d,
+            "max_m": max_m,
+            "max_deg": max_d,
+            "ms_mean": float(ms_all.mean()),
+            "ms_median": float(np.median(ms_all)),
+        }
         report.add(
             experiment="Fig. 14 global (Domus path)",
             setting=f"{len(runs[0].truth)} images, swing {DEFAULT_SWING_DEG} deg",
             method=m,
             **{"mean m": mean_m[0], "±": mean_m[1], "max m": max_m, "mean deg": mean_d[0], "max deg": max_d},
             ms=float(np.median(ms_all)),
-            other=f"ambiguous {amb:.0%}" + (f", {runs[0].evaluations:.0f} merit evals" if m == "tourbot" else ""),
+            other=f"ambiguous {amb:.0%}"
+            + (f", {runs[0].evaluations:.0f} merit evals" if m == "tourbot" else ""),
         )
         report.rows[-1]["± deg"] = mean_d[1]
     report.meta["fig14"] = fig14
     report.meta["paper"] = PAPER
     t = fig14["tourbot"]
+    track_m = fig14["tracking"]["mean_m"][0]
     report.notes.append(
-        f"Fig. 14 targets: mean <= {TARGET_MEAN_M} m: {'met' if t['mean_m'][0] <= TARGET_MEAN_M else 'MISSED'} "
-        f"({t['mean_m'][0]:.3f}); mean <= {TARGET_MEAN_DEG} deg: {'met' if t['mean_deg'][0] <= TARGET_MEAN_DEG else 'MISSED'} "
+        f"Fig. 14 targets: mean <= {TARGET_MEAN_M} m: {_verdict(t['mean_m'][0] <= TARGET_MEAN_M)} "
+        f"({t['mean_m'][0]:.3f}); "
+        f"mean <= {TARGET_MEAN_DEG} deg: {_verdict(t['mean_deg'][0] <= TARGET_MEAN_DEG)} "
         f"({t['mean_deg'][0]:.2f}); <= {TARGET_MS} ms per image (median, detection included): "
-        f"{'met' if t['ms_median'] <= TARGET_MS else 'MISSED'} ({t['ms_median']:.1f}); tracking <= {TARGET_TRACK_M} m: "
-        f"{'met' if fig14['tracking']['mean_m'][0] <= TARGET_TRACK_M else 'MISSED'} ({fig14['tracking']['mean_m'][0]:.3f})"
+        f"{_verdict(t['ms_median'] <= TARGET_MS)} ({t['ms_median']:.1f}); "
+        f"tracking <= {TARGET_TRACK_M} m: {_verdict(track_m <= TARGET_TRACK_M)} ({track_m:.3f})"
     )
 
     # -- Fig. 15 kidnapping ------------------------------------------------------------------------
@@ -247,7 +280,9 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
                     acc = cand
                     kid[k0] = (float(acc[0]), float(acc[1]), 0.0)
                     break
-        run = run_path(domus, s, kpath[: 200 if quick else None], 10, ("paper", "tracking"), base, kidnaps=kid)
+        run = run_path(
+            domus, s, kpath[: 200 if quick else None], 10, ("paper", "tracking"), base, kidnaps=kid
+        )
         pos, _ = _errors(run.est["tracking"], run.truth)
         pp, _ = _errors(run.est["paper"], run.truth)
         paper_err.append(float(np.mean(pp)))
@@ -265,10 +300,20 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
                 worst = max(worst, 99)
     km = mean_ci(k_err)
     pm = mean_ci(paper_err)
-    report.add(experiment="Fig. 15 kidnapping (Domus, 40 m)", setting="jumps of 4 m every 8 images", method="tracking",
-               **{"mean m": km[0], "±": km[1]}, other=f"{recovered}/{jumps} jumps recovered within {TARGET_KIDNAP_IMAGES} images")
-    report.add(experiment="Fig. 15 kidnapping (Domus, 40 m)", setting="jumps of 4 m every 8 images", method="paper",
-               **{"mean m": pm[0], "±": pm[1]}, other="per image, no memory")
+    report.add(
+        experiment="Fig. 15 kidnapping (Domus, 40 m)",
+        setting="jumps of 4 m every 8 images",
+        method="tracking",
+        **{"mean m": km[0], "±": km[1]},
+        other=f"{recovered}/{jumps} jumps recovered within {TARGET_KIDNAP_IMAGES} images",
+    )
+    report.add(
+        experiment="Fig. 15 kidnapping (Domus, 40 m)",
+        setting="jumps of 4 m every 8 images",
+        method="paper",
+        **{"mean m": pm[0], "±": pm[1]},
+        other="per image, no memory",
+    )
     report.meta["fig15"] = {"jumps": jumps, "recovered": recovered, "mean_m": km}
     report.notes.append(
         f"Fig. 15 target: every jump recovered within {TARGET_KIDNAP_IMAGES} images: "
@@ -289,21 +334,37 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
                 errs.append(float(np.mean(np.minimum(_errors(r.est["tourbot"], r.truth)[0], 10.0))))
             m, h = mean_ci(errs)
             curve.append((v, m, h))
-            report.add(experiment=f"sensitivity: {name}", setting=f"{v:g}", method="tourbot", **{"mean m": m, "±": h})
+            report.add(
+                experiment=f"sensitivity: {name}", setting=f"{v:g}", method="tourbot", **{"mean m": m, "±": h}
+            )
         sens[name] = curve
 
+    from tourbot.ceiling.camera import PajdlaBakstein
     from tourbot.ceiling.rig import CeilingCamera
 
     rig = CeilingCamera()
+    pb = rig.model
+    assert isinstance(pb, PajdlaBakstein)
     swings = [0.0, 2.0, 5.0] if quick else [0.0, 1.0, 2.0, 3.0, 5.0]
     sweep("swing deg", swings, lambda v: (replace(base, swing_std_deg=v), None))
-    sweep("lights off %", [0.0, 30.0] if quick else [0.0, 10.0, 20.0, 30.0], lambda v: (replace(base, lights_off=v / 100), None))
+    sweep(
+        "lights off %",
+        [0.0, 30.0] if quick else [0.0, 10.0, 20.0, 30.0],
+        lambda v: (replace(base, lights_off=v / 100), None),
+    )
     sweep(
         "calibration error %",
         [0.0, 2.0] if quick else [0.0, 1.0, 2.0, 5.0],
-        lambda v: (base, replace(rig, model=replace(rig.model, a=rig.model.a * (1 + v / 100), c=rig.model.c * (1 + v / 100)))),
+        lambda v: (
+            base,
+            replace(rig, model=replace(pb, a=pb.a * (1 + v / 100), c=pb.c * (1 + v / 100))),
+        ),
     )
-    sweep("spurious blobs", [0.0, 8.0] if quick else [0.0, 4.0, 8.0, 16.0], lambda v: (replace(base, spotlights=int(v) // 2, windows=int(v) - int(v) // 2), None))
+    sweep(
+        "spurious blobs",
+        [0.0, 8.0] if quick else [0.0, 4.0, 8.0, 16.0],
+        lambda v: (replace(base, spotlights=int(v) // 2, windows=int(v) - int(v) // 2), None),
+    )
     report.meta["sensitivity"] = sens
 
     # -- real frames -----------------------------------------------------------------------------
@@ -316,13 +377,22 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
     report.meta["figure"] = str(figure)
 
 
+def _verdict(ok: bool) -> str:
+    return "met" if ok else "MISSED"
+
+
 def _inside(site: Any, p: FloatArray, offset: tuple[float, float, float]) -> bool:
     from tourbot.geometry import compose
 
     q = compose(np.asarray(offset), p)
     grid = site.grid
     cell = grid.world_to_cell(q[None, :2])
-    return bool(grid.inside(cell)[0] and grid.free()[cell[0, 0], cell[0, 1]] and -8.5 < q[0] < 29.5 and -12.5 < q[1] < 4.5)
+    return bool(
+        grid.inside(cell)[0]
+        and grid.free()[cell[0, 0], cell[0, 1]]
+        and -8.5 < q[0] < 29.5
+        and -12.5 < q[1] < 4.5
+    )
 
 
 def _real_frames(report: BenchReport) -> None:
@@ -354,7 +424,8 @@ def _real_frames(report: BenchReport) -> None:
         setting=f"{len(frames)} frames 640x480",
         method="threshold + components",
         ms=float(np.median(times)),
-        other=f"{counts.mean():.1f} lights/frame (min {counts.min()}), {rejected.mean():.1f} rim/border blobs rejected/frame, "
+        other=f"{counts.mean():.1f} lights/frame (min {counts.min()}), "
+        f"{rejected.mean():.1f} rim/border blobs rejected/frame, "
         f"stable {stab:.0%} (without rim rejection {stab_all:.0%}) within 10 px",
     )
     report.meta["real_frames"] = {
@@ -403,14 +474,16 @@ def _fhw(report: BenchReport, seeds: list[int], base: Any) -> None:
     wrong = float(np.mean(np.array(errs_unamb) > 1.0)) if errs_unamb else math.nan
     report.add(
         experiment="FHW ceiling lights",
-        setting=f"{len(lights)} lights at {lights[:, 2].min():g}-{lights[:, 2].max():g} m, spacing {d.min():.1f} m",
+        setting=f"{len(lights)} lights at {lights[:, 2].min():g}-{lights[:, 2].max():g} m, "
+        f"spacing {d.min():.1f} m",
         method="tourbot",
-        other=f"{np.mean(counts >= 3):.0%} of the free space sees >= 3 lights; {np.mean(amb):.0%} of images ambiguous; "
-        f"{wrong:.0%} of unambiguous answers > 1 m off",
+        other=f"{np.mean(counts >= 3):.0%} of the free space sees >= 3 lights; "
+        f"{np.mean(amb):.0%} of images ambiguous; {wrong:.0%} of unambiguous answers > 1 m off",
     )
     report.notes.append(
-        "FHW's lights are a regular 4 m grid at one height: plausible for a museum hall, but translation-symmetric, so "
-        "the ceiling alone cannot tell grid cells apart (global answers are ambiguous); tracking and the laser must."
+        "FHW's lights are a regular 4 m grid at one height: plausible for a museum hall, but "
+        "translation-symmetric, so the ceiling alone cannot tell grid cells apart (global answers are "
+        "ambiguous); tracking and the laser must."
     )
 
 

@@ -14,6 +14,7 @@ OpenCV's threshold and connected components (8-connected), whose centroids are t
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,7 +101,9 @@ def detect_lights(
     )
 
 
-def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig) -> list[tuple[float, float, int]]:
+def _cores(
+    box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
+) -> list[tuple[float, float, int]]:
     """A saturated blob processed again (Fig. 9): the threshold is raised through the blob's own
     intensity levels (at most ``max_levels`` of them) until it splits into cores or shrinks below a
     third of its area; the centroids of those cores. A flat blob (already binary) has no core."""
@@ -116,7 +119,9 @@ def _cores(box: NDArray[np.uint8], mask: NDArray[np.bool_], cfg: DetectionConfig
         sub = ((box >= level) & mask).astype(np.uint8)
         n, _, stats, cents = cv2.connectedComponentsWithStats(sub, connectivity=8)
         found = [
-            (float(cents[k][0]), float(cents[k][1]), int(stats[k][4])) for k in range(1, n) if stats[k][4] >= cfg.min_area
+            (float(cents[k][0]), float(cents[k][1]), int(stats[k][4]))
+            for k in range(1, n)
+            if stats[k][4] >= cfg.min_area
         ]
         if not found:
             break
@@ -131,7 +136,7 @@ def frame_stability(frames: list[Detections], tolerance: float) -> float:
     ``tolerance`` pixels, over consecutive frames with detections in both."""
     found = 0
     total = 0
-    for a, b in zip(frames[:-1], frames[1:], strict=True):
+    for a, b in itertools.pairwise(frames):
         if len(a) == 0 or len(b) == 0:
             continue
         d = np.linalg.norm(a.centroids[:, None, :] - b.centroids[None, :, :], axis=2).min(axis=1)

@@ -17,9 +17,8 @@ detections, a few thousand poses in one call.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numba
 import numpy as np
@@ -91,7 +90,7 @@ def merit_fast(
     kind, params, aspect = camera.model.radial()
     rot, t = camera.mount()
     cu, cv = camera.model.centre()
-    return merit_kernel(  # type: ignore[no-any-return]
+    return merit_kernel(
         np.ascontiguousarray(poses, dtype=np.float64).reshape(-1, 3),
         np.ascontiguousarray(lights, dtype=np.float64).reshape(-1, 3),
         np.ascontiguousarray(detected, dtype=np.float64).reshape(-1, 2),

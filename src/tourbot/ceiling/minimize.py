@@ -159,15 +159,17 @@ class CeilingLocalizer:
             order = _rank(allv, alln)[: cfg.particles]
             parts, value, n = allp[order], allv[order], alln[order]
             sx, st = sx * cfg.shrink, st * cfg.shrink
-        hyps = self._hypotheses(det, parts, value, n)
+        hyps = self._hypotheses(parts, value, n)
         if cfg.refine:
             refined = []
             for h in hyps:
                 x, rm = self.polish(det, np.array(h.pose))
                 evaluations += 2 + 8 * cfg.refine_steps
-                if rm.n[0] >= h.matched and rm.value[0] <= h.merit:
-                    h = Hypothesis(_tuple(x), float(rm.value[0]), int(rm.n[0]), (float(x[3]), float(x[4])))
-                refined.append(h)
+                better = rm.n[0] >= h.matched and rm.value[0] <= h.merit
+                swing = (float(x[3]), float(x[4]))
+                refined.append(
+                    Hypothesis(_tuple(x), float(rm.value[0]), int(rm.n[0]), swing) if better else h
+                )
             hyps = self._keep(sorted(refined, key=lambda h: h.merit))
         return Localization(tuple(hyps), evaluations, len(det))
 
@@ -309,9 +311,7 @@ class CeilingLocalizer:
 
     # -- hypotheses -----------------------------------------------------------------------------
 
-    def _hypotheses(
-        self, det: FloatArray, parts: FloatArray, value: FloatArray, n: NDArray[np.int64]
-    ) -> list[Hypothesis]:
+    def _hypotheses(self, parts: FloatArray, value: FloatArray, n: NDArray[np.int64]) -> list[Hypothesis]:
         """Final particles grouped into separate poses, best first."""
         cfg = self.config
         out: list[Hypothesis] = []

@@ -9,7 +9,8 @@ the inverse of the Gauss-Newton information) are fused with the prediction in a 
 
 An image that the predicted pose does not explain (a measurement beyond the chi-square gate
 ``gate`` of the prediction, 99.9 % for three degrees of freedom; fewer than ``min_matched`` lights or than
-``min_fraction`` of the detections associated, or a merit above ``max_merit`` pixels) and every ``check_every``-th image trigger global localization
+``min_fraction`` of the detections associated, or a merit above ``max_merit`` pixels) and every
+``check_every``-th image trigger global localization
 (Alg. 3). A global result is taken when it is unambiguous and explains the image better than the
 track: a kidnapped robot is found again from the next image.
 """
@@ -27,7 +28,7 @@ from tourbot.ceiling.minimize import CeilingLocalizer, Localization
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.localization.motion_model import OdometryMotionModel
 
-__all__ = ["CeilingTracker", "TrackerConfig", "TrackState"]
+__all__ = ["CeilingTracker", "TrackState", "TrackerConfig"]
 
 FloatArray = NDArray[np.float64]
 
@@ -134,7 +135,8 @@ class CeilingTracker:
                     time, None if self._pose is None else _t(self._pose), self._cov.copy(), how, glob
                 )
                 return self.state
-        assert tracked is not None and self._pose is not None
+        assert tracked is not None
+        assert self._pose is not None
         z, r = tracked[0], tracked[1]
         gain = self._cov @ np.linalg.inv(self._cov + r)
         innov = z - self._pose

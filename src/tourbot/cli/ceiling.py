@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 
@@ -10,18 +11,24 @@ __all__ = ["register"]
 
 
 def register(app: typer.Typer) -> None:
-    ceiling = typer.Typer(help="Localization from the ceiling lights (upward fisheye camera).", no_args_is_help=True)
+    ceiling = typer.Typer(
+        help="Localization from the ceiling lights (upward fisheye camera).", no_args_is_help=True
+    )
     app.add_typer(ceiling, name="ceiling")
 
     @ceiling.command("locate")
     def locate(
-        image: Path = typer.Argument(..., help="The upward camera's image (8-bit, PNG/JPEG)."),
-        site: str = typer.Option("domus", help="Shipped site name or site file (needs ceiling_lights)."),
-        camera: Path | None = typer.Option(None, help="Camera calibration YAML (default: the simulator's camera)."),
-        picture: Path = typer.Option(
-            Path("out/ceiling/locate.png"), help="Picture of the detected and the projected lights."
-        ),
-        seed: int = typer.Option(0, help="Seed of the particle minimization."),
+        image: Annotated[Path, typer.Argument(help="The upward camera's image (8-bit, PNG/JPEG).")],
+        site: Annotated[
+            str, typer.Option(help="Shipped site name or site file (needs ceiling_lights).")
+        ] = "domus",
+        camera: Annotated[
+            Path | None, typer.Option(help="Camera calibration YAML (default: the simulator's camera).")
+        ] = None,
+        picture: Annotated[
+            Path, typer.Option(help="Picture of the detected and the projected lights.")
+        ] = Path("out/ceiling/locate.png"),
+        seed: Annotated[int, typer.Option(help="Seed of the particle minimization.")] = 0,
     ) -> None:
         """The pose hypotheses of IMAGE, best first, and a picture: detected lights (red circles) and
         the lights projected from the best pose (green crosses)."""
@@ -47,7 +54,9 @@ def register(app: typer.Typer) -> None:
         rig.check_image(img.shape, path=image)
         lights = np.array([light.position for light in the_site.ceiling_lights])
         det = detect_lights(img, rig)
-        result = CeilingLocalizer(rig, lights, the_site.grid).locate(det.centroids, np.random.default_rng(seed))
+        result = CeilingLocalizer(rig, lights, the_site.grid).locate(
+            det.centroids, np.random.default_rng(seed)
+        )
         console = Console()
         console.print(f"{len(det)} lights detected ({det.rejected} blobs rejected at the rim or border)")
         if not result.hypotheses:

@@ -18,7 +18,11 @@ def read_raw_frames(path: str | Path, width: int, height: int) -> NDArray[np.uin
     """Frames ``(N, height, width)`` of a headerless 8-bit grayscale stream (``.gz`` or plain)."""
     p = Path(path)
     try:
-        raw = gzip.open(p).read() if p.suffix == ".gz" else p.read_bytes()
+        if p.suffix == ".gz":
+            with gzip.open(p) as fh:
+                raw = fh.read()
+        else:
+            raw = p.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read the frames: {exc.strerror or exc}", path=p) from exc
     size = width * height

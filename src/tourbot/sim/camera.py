@@ -123,7 +123,7 @@ def render(
     if cfg.bloom_gain > 0 and excess.any():
         canvas = canvas + cfg.bloom_gain * cv2.GaussianBlur(excess, (0, 0), cfg.bloom_sigma)
     if cfg.vignetting > 0:
-        canvas *= _vignette(model, width, height, cfg.vignetting)
+        canvas *= _vignette(model, width, height, cfg.vignetting)  # type: ignore[arg-type]
     if cfg.noise_std > 0:
         canvas += rng.normal(0.0, cfg.noise_std, canvas.shape).astype(np.float32)
     return np.clip(np.round(canvas), 0, 255).astype(np.uint8)
