@@ -100,3 +100,27 @@ def test_site_without_lights_is_one_line(
 def test_missing_image_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert _run(["ceiling", "locate", str(tmp_path / "none.png"), "--picture", str(tmp_path / "p.png")]) == 2
     assert "none.png" in _error_line(capsys)
+
+
+def test_simulate_writes_a_ceiling_image_stream(tmp_path: Path) -> None:
+    from tourbot.ceiling.detection import detect_lights
+    from tourbot.io.images import read_image_stream
+
+    log = tmp_path / "sim.log.gz"
+    args = [
+        "simulate",
+        "--site",
+        "domus",
+        "--tour",
+        "hall",
+        "--duration",
+        "3",
+        "--camera",
+        "--write-log",
+        str(log),
+    ]
+    assert _run(args) == 0
+    times, images = read_image_stream(tmp_path / "sim.ceiling.npz")
+    assert images.shape == (3, 480, 640)
+    assert np.allclose(np.diff(times), 1.0)  # 1 Hz
+    assert len(detect_lights(images[0], CeilingCamera())) >= 3

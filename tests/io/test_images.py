@@ -34,3 +34,17 @@ def test_png_round_trip_colour_converted_and_errors(tmp_path: Path) -> None:
         read_gray_image(bad)
     with pytest.raises(InputError, match="no such image"):
         read_gray_image(tmp_path / "none.png")
+
+
+def test_image_stream_round_trip_and_errors(tmp_path: Path) -> None:
+    from tourbot.io.images import read_image_stream, write_image_stream
+
+    imgs = [np.full((4, 5), k, dtype=np.uint8) for k in range(3)]
+    p = tmp_path / "s.npz"
+    write_image_stream(p, [0.0, 1.0, 2.0], imgs)
+    times, images = read_image_stream(p)
+    assert times.tolist() == [0.0, 1.0, 2.0]
+    assert np.array_equal(images, np.stack(imgs))
+    np.savez(tmp_path / "other.npz", stuff=np.zeros(3))
+    with pytest.raises(InputError, match=r"other.npz \(field times\)"):
+        read_image_stream(tmp_path / "other.npz")

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 from tourbot.errors import InputError
 from tourbot.io.output import output_file
 
-__all__ = ["read_gray_image", "read_raw_frames", "write_png"]
+__all__ = ["read_gray_image", "read_image_stream", "read_raw_frames", "write_image_stream", "write_png"]
 
 
 def read_raw_frames(path: str | Path, width: int, height: int) -> NDArray[np.uint8]:
@@ -59,3 +59,28 @@ def write_png(path: str | Path, image: NDArray[np.uint8]) -> None:
         if not ok:
             raise InputError("could not encode the image as PNG", path=path)
         tmp.write_bytes(buf.tobytes())
+
+
+def write_image_stream(path: str | Path, times: list[float], images: list[NDArray[np.uint8]]) -> None:
+    """A sidecar image stream: timestamps and 8-bit images in one compressed ``.npz``, written whole."""
+    if len(times) != len(images):
+        raise ValueError("write_image_stream needs one timestamp per image")
+    stack = np.stack(images) if images else np.zeros((0, 0, 0), dtype=np.uint8)
+    with output_file(path) as tmp, tmp.open("wb") as fh:
+        np.savez_compressed(fh, times=np.asarray(times, dtype=np.float64), images=stack)
+
+
+def read_image_stream(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
+    """The timestamps ``(N,)`` and images ``(N, H, W)`` of a sidecar image stream."""
+    p = Path(path)
+    try:
+        with np.load(p) as data:
+            for key in ("times", "images"):
+                if key not in data.files:
+                    raise InputError("not an image stream: missing", path=p, field=key)
+            times, images = np.asarray(data["times"]), np.asarray(data["images"])
+    except (OSError, ValueError) as exc:
+        raise InputError(f"not an image stream: {exc}", path=p) from exc
+    if images.dtype != np.uint8 or len(times) != len(images):
+        raise InputError("an image stream needs one 8-bit image per timestamp", path=p, field="images")
+    return times, images
