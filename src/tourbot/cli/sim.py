@@ -25,6 +25,9 @@ def register(app: typer.Typer) -> None:
             Path | None,
             typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
         ] = None,
+        camera: bool = typer.Option(
+            False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
+        ),
     ) -> None:
         """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
 
@@ -57,6 +60,13 @@ def register(app: typer.Typer) -> None:
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime
         rt.start_tour(tour)
+        ceiling_sim = None
+        frames: tuple[list[float], list[np.ndarray]] = ([], [])
+        if camera:
+            from tourbot.ceiling.rig import CeilingCamera
+            from tourbot.sim.camera import CeilingCameraSim
+
+            ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
         with Progress(console=console) as progress:
             task = progress.add_task("simulating", total=duration)
             while rt.snapshot().time < duration:
@@ -64,6 +74,11 @@ def register(app: typer.Typer) -> None:
                 if snap is None:
                     break
                 progress.update(task, completed=min(snap.time, duration))
+                if ceiling_sim is not None and ceiling_sim.due(snap.time):
+                    s = robot.simulator
+                    frame = ceiling_sim.frame(snap.time, s.robot.pose, s.people_positions())
+                    frames[0].append(frame.time)
+                    frames[1].append(frame.image)
         sim = robot.simulator
         log_path = Path(write_log)
         log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -77,6 +92,11 @@ def register(app: typer.Typer) -> None:
             "furniture": [[(f.x, f.y, f.theta) for f in items] for _, items in sim.objects_history],
         }
         write_text_whole(stem + ".people.json", json.dumps(people))
+        if ceiling_sim is not None:
+            from tourbot.io.images import write_image_stream
+
+            write_image_stream(stem + ".ceiling.npz", *frames)
+            console.print(f"wrote {stem}.ceiling.npz ({len(frames[0])} ceiling images with their times)")
         console.print(
             f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
         )

@@ -152,9 +152,12 @@ class InvisibleObstacle(_Model):
 
 
 class CeilingLight(_Model):
-    """A ceiling light at ``position`` (x, y, z) in metres."""
+    """A ceiling light at ``position`` (x, y, z) in metres; ``type`` names its fixture (the shape and
+    size the camera simulator draws, e.g. the Domus hall's types A, B and E)."""
 
     position: tuple[float, float, float]
+    name: str = ""
+    type: str = ""
 
 
 class Site(_Model):
@@ -169,6 +172,7 @@ class Site(_Model):
     furniture: list[Furniture] = []
     invisible_obstacles: list[InvisibleObstacle] = []
     ceiling_lights: list[CeilingLight] = []
+    approximate: list[str] = Field(default=[], description="fields drawn approximately (e.g. map.walls)")
     base_dir: Path = Field(default=Path("."), exclude=True)
 
     model_config = ConfigDict(extra="forbid", frozen=True, arbitrary_types_allowed=True)
