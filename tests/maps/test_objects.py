@@ -36,8 +36,20 @@ def test_kernel_matches_the_reference(seed: int, n: int, s: int, b: int) -> None
     rng = np.random.default_rng(seed)
     poses = np.column_stack([rng.uniform(-2, 2, n), rng.uniform(-2, 2, n), rng.uniform(-math.pi, math.pi, n)])
     angles = rng.uniform(-math.pi, math.pi, b)
-    item = Furniture(name="u", outline=[(0, 0), (0.37, 0), (0.37, 0.37), (0.3, 0.37), (0.3, 0.07), (0.07, 0.07),
-                                        (0.07, 0.37), (0, 0.37)], poses=[(0, 0, 0)])  # fmt: skip
+    item = Furniture(
+        name="u",
+        outline=[
+            (0, 0),
+            (0.37, 0),
+            (0.37, 0.37),
+            (0.3, 0.37),
+            (0.3, 0.07),
+            (0.07, 0.07),
+            (0.07, 0.37),
+            (0, 0.37),
+        ],
+        poses=[(0, 0, 0)],
+    )
     shape = furniture_shape(item)
     states = np.column_stack(
         [rng.uniform(-2, 2, s), rng.uniform(-2, 2, s), rng.uniform(-math.pi, math.pi, s)]
@@ -62,8 +74,9 @@ def test_a_beam_meets_a_closed_door_at_the_leaf() -> None:
 
 def test_the_base_range_wins_when_nearer() -> None:
     shape = furniture_shape(Furniture(name="f", outline=SQUARE, poses=[(3.0, 0.0, 0.0)]))
-    out = segment_ranges(np.zeros((1, 3)), np.array([0.0]), shape.segments(np.array([[3.0, 0.0, 0.0]])),
-                         np.array([[1.5]]))  # fmt: skip
+    out = segment_ranges(
+        np.zeros((1, 3)), np.array([0.0]), shape.segments(np.array([[3.0, 0.0, 0.0]])), np.array([[1.5]])
+    )
     assert out[0, 0, 0] == pytest.approx(1.5)
 
 
@@ -113,7 +126,14 @@ def test_distance_to_segments() -> None:
 
 
 def test_door_frames_turn_about_the_hinge() -> None:
-    shape = ObjectShape("d", "door", np.array([[0, -0.01], [1, -0.01], [1, 0.01], [0, 0.01]]), hinge=(1.0, 2.0),
-                        closed_direction=0.0, low=0.0, high=math.pi / 2)  # fmt: skip
+    shape = ObjectShape(
+        "d",
+        "door",
+        np.array([[0, -0.01], [1, -0.01], [1, 0.01], [0, 0.01]]),
+        hinge=(1.0, 2.0),
+        closed_direction=0.0,
+        low=0.0,
+        high=math.pi / 2,
+    )
     poly = shape.polygons(np.array([[math.pi / 2]]))[0]
     np.testing.assert_allclose(poly[1], [1.01, 3.0], atol=1e-9)

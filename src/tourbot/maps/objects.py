@@ -275,9 +275,14 @@ def segment_ranges_reference(
 
 @numba.njit(cache=True)
 def _segment_ranges(
-    x: FloatArray, y: FloatArray, theta: FloatArray, angles: FloatArray, segs: FloatArray, base: FloatArray,
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    angles: FloatArray,
+    segs: FloatArray,
+    base: FloatArray,
     out: Float32Array,
-) -> None:  # fmt: skip
+) -> None:
     n, nb = base.shape
     ns, nm = segs.shape[0], segs.shape[1]
     for i in range(n):

@@ -91,7 +91,7 @@ class ObjectEstimatorConfig:
     max_distance: float = 3.5
     door_samples: int = 100
     furniture_samples: int = 300
-    pose_samples: int = 30
+    pose_samples: int = 10
     beam: BeamModel = field(
         default_factory=lambda: BeamModel(
             z_hit=0.8, z_short=0.15, z_max=0.025, z_rand=0.025, sigma_hit=0.05, lambda_short=0.5
@@ -158,9 +158,14 @@ class ObjectBelief:
         self.time: float | None = None
         self.updates = 0
         self.estimate: ObjectEstimate = ObjectEstimate(
-            shape.name, shape.kind, 0.0, tuple(self._mean(np.full(n, 1.0 / n))), (math.inf,) * shape.dim,
-            Quality(Observation.UNSEEN), 0,
-        )  # fmt: skip
+            shape.name,
+            shape.kind,
+            0.0,
+            tuple(self._mean(np.full(n, 1.0 / n))),
+            (math.inf,) * shape.dim,
+            Quality(Observation.UNSEEN),
+            0,
+        )
 
     # -- motion model (Eq. 5) ---------------------------------------------------------------------
 
@@ -233,11 +238,13 @@ class ObjectBelief:
         self,
         scan: Scan,
         laser_poses: FloatArray,
+        pose_weights: FloatArray,
         caster: RayCaster,
         others: FloatArray,
     ) -> ObjectEstimate:
-        """Integrate ``scan`` over the equally weighted ``laser_poses`` ``(P, 3)``; ``others``
-        ``(1, M, 4)``: the edges of the other objects near, in their current estimates."""
+        """Integrate ``scan`` over the laser poses ``(P, 3)`` weighted ``pose_weights`` ``(P,)``
+        (summing to one); ``others`` ``(1, M, 4)``: the edges of the other objects near, in their
+        current estimates."""
         cfg, shape = self.config, self.shape
         g = scan.geometry
         self.predict(scan.timestamp)
@@ -249,8 +256,11 @@ class ObjectBelief:
         window, measured = window[usable], measured[usable]
         self.updates += 1
         if window.size == 0:
-            return self._report(scan.timestamp, np.full(self.samples.shape[0], 1.0 / self.samples.shape[0]),
-                                Quality(Observation.FEW_BEAMS))  # fmt: skip
+            return self._report(
+                scan.timestamp,
+                np.full(self.samples.shape[0], 1.0 / self.samples.shape[0]),
+                Quality(Observation.FEW_BEAMS),
+            )
         angles = g.angles[window]
         base = caster.cast(laser_poses, angles).astype(np.float64)
         if others.shape[1]:
@@ -264,7 +274,7 @@ class ObjectBelief:
         loglik -= loglik.max(axis=1, keepdims=True)
         ratio = np.exp(loglik)
         ratio /= ratio.sum(axis=1, keepdims=True)
-        weights = ratio.mean(axis=0)  # the pose samples are equally weighted
+        weights = pose_weights @ ratio
         weights /= weights.sum()
         estimate = self._report(scan.timestamp, weights, self._quality(expected, z, weights))
         idx = low_variance_resample(weights, s_, float(self.rng.random()))
@@ -355,10 +365,13 @@ class ObjectStateEstimator:
     def estimates(self) -> list[ObjectEstimate]:
         return [b.estimate for b in self.beliefs]
 
-    def _pose_samples(self, samples: FloatArray, weights: FloatArray) -> FloatArray:
+    def _pose_samples(self, samples: FloatArray, weights: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The belief drawn down to ``pose_samples`` poses; repeated draws merged into one weighted
+        pose (a trajectory given as one pose costs one)."""
         w = np.asarray(weights, dtype=np.float64)
         idx = low_variance_resample(w / w.sum(), self.config.pose_samples, float(self._rng.random()))
-        return np.asarray(samples, dtype=np.float64)[idx]
+        unique, counts = np.unique(idx, return_counts=True)
+        return np.asarray(samples, dtype=np.float64)[unique], counts / counts.sum()
 
     def update(self, scan: Scan, samples: FloatArray, weights: FloatArray) -> list[ObjectEstimate]:
         """Integrate ``scan`` into every object within reach; returns the estimates updated.
@@ -367,7 +380,7 @@ class ObjectStateEstimator:
         """
         import time as _time
 
-        poses = self._pose_samples(samples, weights)
+        poses, pose_weights = self._pose_samples(samples, weights)
         laser = compose(poses, np.asarray(scan.geometry.offset, dtype=np.float64))
         centre = np.average(np.asarray(samples)[:, :2], axis=0, weights=weights)
         near = self.index.near(float(centre[0]), float(centre[1]), self.config.max_distance)
@@ -377,7 +390,7 @@ class ObjectStateEstimator:
                 continue
             t0 = _time.perf_counter()
             others = self._others(near, i)
-            out.append(self.beliefs[i].update(scan, laser, self.caster, others))
+            out.append(self.beliefs[i].update(scan, laser, pose_weights, self.caster, others))
             self.update_seconds.append(_time.perf_counter() - t0)
         return out
 

@@ -59,7 +59,7 @@ class ObjectsEstimator:
         self.scan_share = scan_share
         self.history: list[list[ObjectEstimate]] = []
 
-    def on_odometry(self, odom: Odometry) -> None:
+    def on_odometry(self, odom: Odometry) -> None:  # noqa: ARG002 - the objects need no odometry
         return None
 
     def on_scan(self, scan: Scan, belief: PoseBelief) -> None:

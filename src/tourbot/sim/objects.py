@@ -53,7 +53,7 @@ class DynamicObjects:
     def step(self, time: float, dt: float, rng: np.random.Generator) -> bool:
         """Advance to ``time``; True when the grid must be redrawn."""
         if not self.enabled:
-            return False
+            return self._key() != self._drawn_key  # states set by hand (:meth:`set_states`)
         for i, door in enumerate(self.doors):
             if time >= self._door_next[i]:
                 self.door_target[i] = 1.0 - self.door_target[i]
@@ -68,11 +68,23 @@ class DynamicObjects:
                 self._furniture_next[j] = time + self._interval(item.schedule, rng)
         return self._key() != self._drawn_key  # doors need no redraw: they are circles
 
+    def set_states(
+        self, door_fractions: dict[int, float] | None = None, furniture_poses: dict[int, int] | None = None
+    ) -> None:
+        """Put doors at opening fractions and furniture at one of its site poses now (a scripted
+        scene; with ``enabled=False`` nothing else changes them)."""
+        for i, f in (door_fractions or {}).items():
+            self.door_open[i] = self.door_target[i] = float(np.clip(f, 0.0, 1.0))
+        for j, k in (furniture_poses or {}).items():
+            if not 0 <= k < len(self.furniture[j].poses):
+                raise ValueError(f"furniture {self.furniture[j].name!r} has no pose {k}")
+            self.furniture_index[j] = k
+
     def _key(self) -> tuple[int, ...]:
         return tuple(int(k) for k in self.furniture_index)
 
     def states(self) -> list[NDArray[np.float64]]:
-        """The true state of every shape (:attr:`shapes` order): door angle ``(1,)``, furniture pose ``(3,)``."""
+        """The true state of every shape (:attr:`shapes` order): door angle ``(1,)``, furniture ``(3,)``."""
         out = [np.array([f * d.opening_angle]) for d, f in zip(self.doors, self.door_open, strict=True)]
         for item, k in zip(self.furniture, self.furniture_index, strict=True):
             out.append(np.asarray(item.poses[int(k)], dtype=np.float64))
