@@ -112,6 +112,15 @@ class ObjectShape:
         """The outlines' edges ``(S, E, 4)`` as ``(x0, y0, x1, y1)``."""
         return segments_of(self.polygons(states))
 
+    def error(self, estimate: Sequence[float], truth: Sequence[float]) -> tuple[float, float]:
+        """Position (m; 0 for a door) and angle (rad) error of an estimate against the truth, the
+        heading taken modulo the outline's symmetry."""
+        if self.kind == "door":
+            return 0.0, abs(float(estimate[0]) - float(truth[0]))
+        period = 2 * math.pi / self.symmetry
+        d = math.hypot(estimate[0] - truth[0], estimate[1] - truth[1])
+        return d, abs(math.remainder(estimate[2] - truth[2], period))
+
     def boxes(self, states: ArrayLike) -> FloatArray:
         """Bounding boxes ``(S, 4)`` ``(xmin, ymin, xmax, ymax)`` of the outlines in ``states``."""
         poly = self.polygons(states)

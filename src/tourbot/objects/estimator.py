@@ -42,6 +42,7 @@ from tourbot.localization.mcl import low_variance_resample
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.objects import ObjectIndex, ObjectShape, beam_window, segment_ranges
 from tourbot.maps.raycast import RayCaster
+from tourbot.objects.likelihood import log_likelihoods
 from tourbot.records import Scan
 
 __all__ = [
@@ -75,8 +76,8 @@ class ObjectEstimatorConfig:
     U-shaped object, Sec. 4.2; more here because the jump prior spreads some over the whole range).
     ``pose_samples``: the localizer's belief is drawn down to this many equally weighted poses for
     Eq. 8 (the paper sums over the whole sample set; the cost is linear in it).
-    ``beam``: ``p(d | \\hat d)``. The paper's Gaussian (``sigma_hit``; 5 cm covers a 1-2 cm laser
-    and a few centimetres of pose error) is the hit part; ``z_short`` / ``lambda_short`` take
+    ``beam``: ``p(d | \\hat d)``. The paper's Gaussian (``sigma_hit``; 3 cm covers a 1-2 cm laser
+    and the localizer's 1-3 cm of pose error) is the hit part; ``z_short`` / ``lambda_short`` take
     visitors in front of the object, ``z_max`` / ``z_rand`` lost and spurious readings. The
     paper's pure Gaussian is ``BeamModel(z_hit=1, z_short=0, z_max=0, z_rand=0)``.
     ``door_diffusion`` (rad / sqrt(s)), ``furniture_diffusion`` (m, m, rad per sqrt(s)) and their
@@ -84,17 +85,18 @@ class ObjectEstimatorConfig:
     between changes of the object (the jump rate); ``jump_min``: the least share of samples drawn
     over the whole range at every update. ``search_margin`` (m): furniture may stand this far
     from its site pose, at any heading; ``prior_std``: the spread of the prior around the site pose.
-    ``min_beams``, ``occluded_fraction``, ``max_door_std`` (rad), ``max_position_std`` (m),
+    ``min_beams``, ``min_explained`` (the least share of the discriminating beams the estimate must
+    explain), ``occluded_fraction``, ``max_door_std`` (rad), ``max_position_std`` (m),
     ``max_heading_std`` (rad): the tests of :class:`Quality`.
     """
 
     max_distance: float = 3.5
-    door_samples: int = 100
+    door_samples: int = 50
     furniture_samples: int = 300
-    pose_samples: int = 10
+    pose_samples: int = 8
     beam: BeamModel = field(
         default_factory=lambda: BeamModel(
-            z_hit=0.8, z_short=0.15, z_max=0.025, z_rand=0.025, sigma_hit=0.05, lambda_short=0.5
+            z_hit=0.8, z_short=0.15, z_max=0.025, z_rand=0.025, sigma_hit=0.03, lambda_short=0.5
         )
     )
     door_diffusion: float = math.radians(2.0)
@@ -107,6 +109,7 @@ class ObjectEstimatorConfig:
     search_margin: float = 0.5
     prior_std: tuple[float, float, float] = (0.1, 0.1, math.radians(10.0))
     min_beams: int = 5
+    min_explained: float = 0.6
     occluded_fraction: float = 0.5
     max_door_std: float = math.radians(3.0)
     max_position_std: float = 0.05
@@ -265,38 +268,38 @@ class ObjectBelief:
         base = caster.cast(laser_poses, angles).astype(np.float64)
         if others.shape[1]:
             base = segment_ranges(laser_poses, angles, others, base)[:, 0, :].astype(np.float64)
-        expected = segment_ranges(laser_poses, angles, shape.segments(self.samples), base)  # (P, S, W)
-        p_, s_, w_ = expected.shape
+        segs = shape.segments(self.samples)
         max_range = float(g.max_range)
         z = np.minimum(measured, max_range)
-        loglik = cfg.beam.log_likelihood(expected.reshape(p_ * s_, w_), z, max_range).reshape(p_, s_)
+        loglik = log_likelihoods(laser_poses, angles, segs, base, z, cfg.beam, max_range)  # (P, S), Eq. 10
         # Eq. 8-9: for each pose sample l, p(o | s, l) / p(o | l) with p(o | l) = sum_s p(o | s, l)
         loglik -= loglik.max(axis=1, keepdims=True)
         ratio = np.exp(loglik)
         ratio /= ratio.sum(axis=1, keepdims=True)
         weights = pose_weights @ ratio
         weights /= weights.sum()
+        # how well it was seen, from the likeliest pose sample
+        top = int(np.argmax(pose_weights))
+        expected = segment_ranges(laser_poses[top : top + 1], angles, segs, base[top : top + 1])[0]  # (S, W)
         estimate = self._report(scan.timestamp, weights, self._quality(expected, z, weights))
+        s_ = self.samples.shape[0]
         idx = low_variance_resample(weights, s_, float(self.rng.random()))
         self.samples = self.samples[idx]
         return estimate
 
     def _quality(self, expected: NDArray[np.float32], z: FloatArray, weights: FloatArray) -> Quality:
-        """Discriminating beams (the states disagree by more than 3 sigma at some pose), how many the
+        """Discriminating beams (the states ``(S, W)`` disagree by more than 3 sigma), how many the
         estimate explains (within 3 sigma at the best state), how many read shorter than every state."""
         cfg = self.config
         tol = 3.0 * cfg.beam.sigma_hit
-        spread = expected.max(axis=1) - expected.min(axis=1)  # (P, W)
-        discriminating = (spread > tol).mean(axis=0) > 0.5
-        best = int(np.argmax(weights))
-        at_best = np.median(expected[:, best, :], axis=0)
-        nearest = np.median(expected.min(axis=1), axis=0)
+        discriminating = (expected.max(axis=0) - expected.min(axis=0)) > tol
+        at_best = expected[int(np.argmax(weights))]
         explained = discriminating & (np.abs(z - at_best) < tol)
-        occluded = discriminating & (z < nearest - tol)
+        occluded = discriminating & (z < expected.min(axis=0) - tol)
         nb, ne, no = int(discriminating.sum()), int(explained.sum()), int(occluded.sum())
         if nb and no >= cfg.occluded_fraction * nb:
             status = Observation.OCCLUDED
-        elif ne < cfg.min_beams:
+        elif ne < max(cfg.min_beams, cfg.min_explained * nb):
             status = Observation.FEW_BEAMS
         else:
             status = Observation.OBSERVED

@@ -76,7 +76,9 @@ def estimate_log(
 
             raise InputError(f"{log.source}: no start pose (the log has no reference poses; give one)")
         mcl = MonteCarloLocalization(grid, mcl_config or MCLConfig(), seed=seed)
-        mcl.reset_tracking(np.asarray(start, dtype=np.float64), np.diag([0.05**2, 0.05**2, math.radians(2.0) ** 2]))
+        mcl.reset_tracking(
+            np.asarray(start, dtype=np.float64), np.diag([0.05**2, 0.05**2, math.radians(2.0) ** 2])
+        )
         policy = UpdatePolicy(beam_step=4, min_travel=0.0, min_turn=0.0, max_interval=0.0)
         localizer = MCLLocalizer(mcl, policy, seed=seed)
     samples: FloatArray | None = None

@@ -29,7 +29,15 @@ from numpy.typing import NDArray
 from tourbot.records import RobotLog
 from tourbot.site.model import Site, site_from_dict
 
-__all__ = ["DOOR_STATES_DEG", "Scene", "SceneRun", "corridor_scene", "desk_scene", "run_scene", "ushape_scene"]
+__all__ = [
+    "DOOR_STATES_DEG",
+    "Scene",
+    "SceneRun",
+    "corridor_scene",
+    "desk_scene",
+    "run_scene",
+    "ushape_scene",
+]
 
 # Fig. 5's exact values, as opening angles from closed (world-model orientation minus 180 deg,
 # or 180 minus it for the door opening the other way)
@@ -126,7 +134,7 @@ _U = [(-0.185, -0.185), (0.185, -0.185), (0.185, 0.185), (0.115, 0.185), (0.115,
       (-0.115, 0.185), (-0.185, 0.185)]  # fmt: skip
 
 
-def _turnaround(v: float = SPEED) -> list[tuple[float, float, float]]:
+def _turnaround() -> list[tuple[float, float, float]]:
     """Half a turn on the spot at 0.9 rad/s."""
     return [(math.pi / 0.9, 0.0, 0.9)]
 
@@ -151,9 +159,15 @@ def ushape_scene(turn_deg: float = 30.0) -> Scene:
 def desk_scene(shift: float = 0.2) -> Scene:
     """Sec. 4.3: two offices, four desks shifted ``shift`` towards the rooms' centres; desk-3 mostly
     hidden behind a square table (in the model) and a chair (not in the model)."""
-    walls = [_box(0.0, 0.0, 10.05, 0.05), _box(0.0, 4.0, 10.05, 4.05), _box(0.0, 0.0, 0.05, 4.05),
-             _box(10.0, 0.0, 10.05, 4.05), _box(5.0, 0.0, 5.05, 1.1), _box(5.0, 2.1, 5.05, 4.05),
-             _box(8.55, 2.35, 9.45, 2.85)]  # fmt: skip  (the last: the square table, in the model)
+    walls = [
+        _box(0.0, 0.0, 10.05, 0.05),
+        _box(0.0, 4.0, 10.05, 4.05),
+        _box(0.0, 0.0, 0.05, 4.05),
+        _box(10.0, 0.0, 10.05, 4.05),
+        _box(5.0, 0.0, 5.05, 1.1),
+        _box(5.0, 2.1, 5.05, 4.05),
+        _box(8.55, 2.35, 9.45, 2.85),
+    ]  # fmt: skip  (the last: the square table, in the model)
     chair = _box(7.75, 2.9, 8.25, 3.4)
     desk = [[-0.7, -0.35], [0.7, -0.35], [0.7, 0.35], [-0.7, 0.35]]
     model_poses = [(1.5, 3.55, 0.0), (3.5, 0.5, 0.0), (9.25, 3.55, 0.0), (7.5, 0.5, 0.0)]
@@ -164,7 +178,9 @@ def desk_scene(shift: float = 0.2) -> Scene:
         true_poses.append((x + shift * (cx - x) / d, y + shift * (cy - y) / d, th))
 
     def site(poses: list[tuple[float, float, float]], extra: list[Any]) -> Site:
-        furniture = [{"name": f"desk-{i + 1}", "outline": desk, "poses": [list(p)]} for i, p in enumerate(poses)]
+        furniture = [
+            {"name": f"desk-{i + 1}", "outline": desk, "poses": [list(p)]} for i, p in enumerate(poses)
+        ]
         return site_from_dict(
             {"name": "offices", "map": {"walls": walls + extra, "resolution": 0.05}, "furniture": furniture},
             base_dir=_here(),
