@@ -180,9 +180,16 @@ def beam_probabilities_kernel(
     for i in range(n):
         for b in range(nb):
             out[i, b] = beam_probability_one(
-                float(expected[i, b]), measured[b], short_z[b], w_hit, w_max, w_rand, sigma_hit, lambda_short,
+                float(expected[i, b]),
+                measured[b],
+                short_z[b],
+                w_hit,
+                w_max,
+                w_rand,
+                sigma_hit,
+                lambda_short,
                 max_range,
-            )  # fmt: skip
+            )
 
 
 @numba.njit(cache=True, inline="always")

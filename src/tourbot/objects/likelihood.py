@@ -28,9 +28,14 @@ _FLOOR = 1e-300
 
 
 def log_likelihoods_reference(
-    poses: ArrayLike, angles: ArrayLike, segs: ArrayLike, base: ArrayLike, measured: ArrayLike, model: BeamModel,
+    poses: ArrayLike,
+    angles: ArrayLike,
+    segs: ArrayLike,
+    base: ArrayLike,
+    measured: ArrayLike,
+    model: BeamModel,
     max_range: float,
-) -> FloatArray:  # fmt: skip
+) -> FloatArray:
     """``(P, S)`` log-likelihoods from the numpy references (the kernel's reference)."""
     expected = segment_ranges_reference(poses, angles, segs, base)
     p_, s_, w_ = expected.shape
@@ -41,10 +46,22 @@ def log_likelihoods_reference(
 
 @numba.njit(cache=True)
 def _log_likelihoods(
-    x: FloatArray, y: FloatArray, theta: FloatArray, angles: FloatArray, segs: FloatArray, base: FloatArray,
-    measured: FloatArray, w_hit: float, w_short: float, w_max: float, w_rand: float, sigma_hit: float,
-    lambda_short: float, max_range: float, out: FloatArray,
-) -> None:  # fmt: skip
+    x: FloatArray,
+    y: FloatArray,
+    theta: FloatArray,
+    angles: FloatArray,
+    segs: FloatArray,
+    base: FloatArray,
+    measured: FloatArray,
+    w_hit: float,
+    w_short: float,
+    w_max: float,
+    w_rand: float,
+    sigma_hit: float,
+    lambda_short: float,
+    max_range: float,
+    out: FloatArray,
+) -> None:
     n, nb = base.shape
     ns, nm = segs.shape[0], segs.shape[1]
     short_z = np.empty(nb)
@@ -74,16 +91,28 @@ def _log_likelihoods(
                     if 0.0 <= u <= 1.0:
                         best = t
                 p = beam_probability_one(
-                    float(np.float32(best)), z, short_z[b], w_hit, w_max, w_rand, sigma_hit, lambda_short,
+                    float(np.float32(best)),
+                    z,
+                    short_z[b],
+                    w_hit,
+                    w_max,
+                    w_rand,
+                    sigma_hit,
+                    lambda_short,
                     max_range,
-                )  # fmt: skip
+                )
                 out[i, k] += math.log(max(p, _FLOOR))
 
 
 def log_likelihoods(
-    poses: ArrayLike, angles: ArrayLike, segs: ArrayLike, base: ArrayLike, measured: ArrayLike, model: BeamModel,
+    poses: ArrayLike,
+    angles: ArrayLike,
+    segs: ArrayLike,
+    base: ArrayLike,
+    measured: ArrayLike,
+    model: BeamModel,
     max_range: float,
-) -> FloatArray:  # fmt: skip
+) -> FloatArray:
     """``(P, S)``: ``log p(o | s, l)`` (Eq. 10) for laser ``poses`` ``(P, 3)``, beam ``angles``
     ``(W,)``, state edges ``segs`` ``(S, M, 4)``, static ranges ``base`` ``(P, W)`` and the
     window's readings ``measured`` ``(W,)``."""
@@ -96,7 +125,20 @@ def log_likelihoods(
     if out.size and a.size:
         wh, ws, wm, wr = model.weights
         _log_likelihoods(
-            np.ascontiguousarray(p[:, 0]), np.ascontiguousarray(p[:, 1]), np.ascontiguousarray(p[:, 2]), a, s, b, z,
-            wh, ws, wm, wr, model.sigma_hit, model.lambda_short, float(max_range), out,
-        )  # fmt: skip
+            np.ascontiguousarray(p[:, 0]),
+            np.ascontiguousarray(p[:, 1]),
+            np.ascontiguousarray(p[:, 2]),
+            a,
+            s,
+            b,
+            z,
+            wh,
+            ws,
+            wm,
+            wr,
+            model.sigma_hit,
+            model.lambda_short,
+            float(max_range),
+            out,
+        )
     return out

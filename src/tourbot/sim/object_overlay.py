@@ -28,8 +28,14 @@ from tourbot.maps.objects import ObjectShape, segment_ranges
 from tourbot.records import RobotLog, Scan
 from tourbot.sim.overlay import OverlayError
 
-__all__ = ["ObjectOverlayConfig", "ObjectTruth", "object_truth_path", "overlay_objects", "read_object_truth",
-           "write_object_truth"]  # fmt: skip
+__all__ = [
+    "ObjectOverlayConfig",
+    "ObjectTruth",
+    "object_truth_path",
+    "overlay_objects",
+    "read_object_truth",
+    "write_object_truth",
+]
 
 FloatArray = NDArray[np.float64]
 

@@ -130,8 +130,16 @@ def corridor_scene(states_deg: tuple[int, ...] = DOOR_STATES_DEG, spacing: float
 
 
 # the U of Sec. 4.2: 37 x 37 cm, legs 7 cm thick, its frame at the centre of its square
-_U = [(-0.185, -0.185), (0.185, -0.185), (0.185, 0.185), (0.115, 0.185), (0.115, -0.115), (-0.115, -0.115),
-      (-0.115, 0.185), (-0.185, 0.185)]  # fmt: skip
+_U = [
+    (-0.185, -0.185),
+    (0.185, -0.185),
+    (0.185, 0.185),
+    (0.115, 0.185),
+    (0.115, -0.115),
+    (-0.115, -0.115),
+    (-0.115, 0.185),
+    (-0.185, 0.185),
+]
 
 
 def _turnaround() -> list[tuple[float, float, float]]:
@@ -141,8 +149,12 @@ def _turnaround() -> list[tuple[float, float, float]]:
 
 def ushape_scene(turn_deg: float = 30.0) -> Scene:
     """Sec. 4.2: the U-shape in a 2.5 m corridor, passed twice, turned by ``turn_deg``, passed again."""
-    walls = [_box(-1.0, -1.25, 13.0, -1.2), _box(-1.0, 1.2, 13.0, 1.25), _box(-1.05, -1.25, -1.0, 1.25),
-             _box(13.0, -1.25, 13.05, 1.25)]  # fmt: skip
+    walls = [
+        _box(-1.0, -1.25, 13.0, -1.2),
+        _box(-1.0, 1.2, 13.0, 1.25),
+        _box(-1.05, -1.25, -1.0, 1.25),
+        _box(13.0, -1.25, 13.05, 1.25),
+    ]
     pose0 = (6.0, 0.7, math.radians(-90.0))
     pose1 = (6.0, 0.7, math.radians(-90.0 + turn_deg))
     u = {"name": "U", "outline": [list(p) for p in _U], "poses": [list(pose0), list(pose1)]}
@@ -167,7 +179,7 @@ def desk_scene(shift: float = 0.2) -> Scene:
         _box(5.0, 0.0, 5.05, 1.1),
         _box(5.0, 2.1, 5.05, 4.05),
         _box(8.55, 2.35, 9.45, 2.85),
-    ]  # fmt: skip  (the last: the square table, in the model)
+    ]
     chair = _box(7.75, 2.9, 8.25, 3.4)
     desk = [[-0.7, -0.35], [0.7, -0.35], [0.7, 0.35], [-0.7, 0.35]]
     model_poses = [(1.5, 3.55, 0.0), (3.5, 0.5, 0.0), (9.25, 3.55, 0.0), (7.5, 0.5, 0.0)]
@@ -202,8 +214,9 @@ def run_scene(
     """Drive the simulator through ``scene`` (open loop) and record the log and the true states."""
     from tourbot.sim.simulator import SimConfig, Simulator
 
-    sim = Simulator(scene.world, SimConfig(record=True, dynamic_objects=False, crowd=crowd), seed=seed,
-                    start=scene.start)  # fmt: skip
+    sim = Simulator(
+        scene.world, SimConfig(record=True, dynamic_objects=False, crowd=crowd), seed=seed, start=scene.start
+    )
     sim.objects.set_states(*scene.initial)
     changes = sorted(scene.changes, key=lambda c: c[0])
     truth: list[list[NDArray[np.float64]]] = []
