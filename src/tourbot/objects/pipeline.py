@@ -79,7 +79,7 @@ def estimate_log(
         mcl.reset_tracking(
             np.asarray(start, dtype=np.float64), np.diag([0.05**2, 0.05**2, math.radians(2.0) ** 2])
         )
-        policy = UpdatePolicy(beam_step=4, min_travel=0.0, min_turn=0.0, max_interval=0.0)
+        policy = UpdatePolicy(beam_step=1, min_travel=0.0, min_turn=0.0, max_interval=0.0)
         localizer = MCLLocalizer(mcl, policy, seed=seed)
     samples: FloatArray | None = None
     weights: FloatArray | None = None

@@ -212,11 +212,13 @@ def run_scene(
     scene: Scene, seed: int, crowd: Any = None, progress: Callable[[float], None] | None = None
 ) -> SceneRun:
     """Drive the simulator through ``scene`` (open loop) and record the log and the true states."""
+    from tourbot.sim.robot import DiffDriveConfig
     from tourbot.sim.simulator import SimConfig, Simulator
 
-    sim = Simulator(
-        scene.world, SimConfig(record=True, dynamic_objects=False, crowd=crowd), seed=seed, start=scene.start
-    )
+    # Rhino drove 0.7 m/s on the straight parts (the tour default is 0.6)
+    robot = DiffDriveConfig(max_speed=SPEED)
+    config = SimConfig(record=True, dynamic_objects=False, crowd=crowd, robot=robot)
+    sim = Simulator(scene.world, config, seed=seed, start=scene.start)
     sim.objects.set_states(*scene.initial)
     changes = sorted(scene.changes, key=lambda c: c[0])
     truth: list[list[NDArray[np.float64]]] = []
