@@ -56,7 +56,9 @@ def test_objects_get_the_odd_scans_and_reach_the_snapshot(room: Site) -> None:
         make_scan(room, [shape], [np.array([math.radians(30.0)])], (2.0 + 0.025 * k, 2.0, 1.2), 0.1 * k, rng)
         for k in range(40)
     ]
-    estimator = ObjectsEstimator(ObjectStateEstimator([shape], DDACaster(room.grid, 10.0)), {"door": math.pi / 2})
+    estimator = ObjectsEstimator(
+        ObjectStateEstimator([shape], DDACaster(room.grid, 10.0)), {"door": math.pi / 2}
+    )
     assert estimator.scan_share == ScanShare.ALTERNATE
     localizer = FakeLocalizer()
     runtime = Runtime(ListSource(scans), localizer, estimators=[estimator])

@@ -22,14 +22,22 @@ from tourbot.site.model import Door, Furniture
 
 def _log(ranges: float = 5.0, n: int = 30) -> RobotLog:
     g = LaserGeometry(num_beams=181, angle_min=-math.pi / 2, angle_increment=math.pi / 180, max_range=20.0)
-    scans = [Scan(float(k), np.full(181, ranges), g, odom=(0.0, 0.0, 0.0), reference=(0.0, 0.0, 0.0)) for k in range(n)]
+    scans = [
+        Scan(float(k), np.full(181, ranges), g, odom=(0.0, 0.0, 0.0), reference=(0.0, 0.0, 0.0))
+        for k in range(n)
+    ]
     return RobotLog(source="test", scans=scans)
 
 
 SHAPES = [
     door_shape(Door(name="d", hinge=(2.0, -0.45), leaf_length=0.9, closed_direction=math.pi / 2)),
-    furniture_shape(Furniture(name="b", outline=[(-0.2, -0.2), (0.2, -0.2), (0.2, 0.2), (-0.2, 0.2)],
-                              poses=[(3.0, 1.5, 0.0), (3.0, 2.5, 0.0)])),
+    furniture_shape(
+        Furniture(
+            name="b",
+            outline=[(-0.2, -0.2), (0.2, -0.2), (0.2, 0.2), (-0.2, 0.2)],
+            poses=[(3.0, 1.5, 0.0), (3.0, 2.5, 0.0)],
+        )
+    ),
 ]
 POSES = [[], SHAPES[1] and [(3.0, 1.5, 0.0), (3.0, 2.5, 0.0)]]
 
