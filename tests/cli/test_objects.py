@@ -41,7 +41,8 @@ def _error_line(capsys: pytest.CaptureFixture[str], argv: list[str]) -> str:
         main(argv)
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip()
-    assert "\n" not in err and "Traceback" not in err
+    assert "\n" not in err
+    assert "Traceback" not in err
     return err
 
 
@@ -97,7 +98,9 @@ def test_impossible_door_is_one_line(
     err = _error_line(
         capsys, ["objects", str(files["log"]), "--site", str(bad), "-o", str(tmp_path / "x.csv")]
     )
-    assert "bad.yaml" in err and "doors.1" in err and "opening_angle" in err
+    assert "bad.yaml" in err
+    assert "doors.1" in err
+    assert "opening_angle" in err
 
 
 def test_object_outside_the_map_is_one_line(
@@ -110,7 +113,8 @@ def test_object_outside_the_map_is_one_line(
     err = _error_line(
         capsys, ["objects", str(files["log"]), "--site", str(bad), "-o", str(tmp_path / "x.csv")]
     )
-    assert "doors.2.hinge" in err and "outside the map" in err
+    assert "doors.2.hinge" in err
+    assert "outside the map" in err
 
 
 def test_log_in_another_frame_is_one_line(
@@ -127,7 +131,8 @@ def test_log_in_another_frame_is_one_line(
     err = _error_line(
         capsys, ["objects", str(files["log"]), "--site", str(moved), "-o", str(tmp_path / "x.csv")]
     )
-    assert "not in the site's frame" in err and "corridor.log" in err
+    assert "not in the site's frame" in err
+    assert "corridor.log" in err
 
 
 def test_crowd_with_objects_writes_their_truth(files: dict[str, Any], tmp_path: Path) -> None:
