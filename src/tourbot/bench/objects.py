@@ -74,7 +74,12 @@ def _run(scenario: str, seed: int, share: Any, figure: Path | None) -> Trial:
     figures: dict[str, float] = {}
     if scenario == "real":
         return _run_real(seed, share, figure)
-    scene = {"doors": corridor_scene, "ushape": ushape_scene, "desks": desk_scene}[scenario]()
+    builders: dict[str, Callable[[], Any]] = {
+        "doors": corridor_scene,
+        "ushape": ushape_scene,
+        "desks": desk_scene,
+    }
+    scene = builders[scenario]()
     sim = run_scene(scene, seed)
     shapes = shapes_of_site(scene.model.doors, scene.model.furniture)
     run = estimate_log(sim.log, shapes, scene.model.grid, share=share, seed=seed)
@@ -145,7 +150,7 @@ def _run_real(seed: int, share: Any, figure: Path | None) -> Trial:
     site = load_site(site_path("fhw-doors"))
     log = rebuilt_odometry(load_log(find_data("carmen/fhw-corrected.log.gz")))
     shapes = shapes_of_site(site.doors, site.furniture)
-    poses = [[]] * len(site.doors) + [f.poses for f in site.furniture]
+    poses: list[Any] = [[] for _ in site.doors] + [f.poses for f in site.furniture]
     with_objects, truth = overlay_objects(log, shapes, poses, seed=seed)
     crowded = overlay_crowd(with_objects, site.grid, OverlayConfig.preset("peak"), seed=seed).log
     run = estimate_log(crowded, shapes, site.grid, share=share, seed=seed)

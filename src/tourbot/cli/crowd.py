@@ -64,7 +64,9 @@ def register(app: typer.Typer) -> None:
             shapes = site_shapes(site, objects)
             check_objects(shapes, grid, objects)
             check_frame(robot_log, grid, log)
-            poses = [[] for _ in site.doors] + [f.poses for f in site.furniture]
+            poses: list[list[tuple[float, float, float]]] = [[] for _ in site.doors] + [
+                f.poses for f in site.furniture
+            ]
             robot_log, object_truth = overlay_objects(robot_log, shapes, poses, seed=seed)
         config = OverlayConfig.preset(preset, kidnap=kidnap)
         with Progress(console=console) as progress:

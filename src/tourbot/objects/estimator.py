@@ -229,7 +229,7 @@ class ObjectBelief:
             moved = np.where(moved > hi, 2 * hi - moved, moved)
             moved = np.clip(moved, lo, hi)
         p_jump = max(cfg.jump_min, 1.0 - math.exp(-dt / change)) if self.time is not None else 0.0
-        jump = self.rng.random(n) < p_jump
+        jump: NDArray[np.bool_] = np.asarray(self.rng.random(n) < p_jump)
         if jump.any():
             moved[jump] = self._jump(int(jump.sum()))
         self.samples = self._canonical(moved)
@@ -326,7 +326,7 @@ class ObjectBelief:
         cfg, s = self.config, self.samples
         mean = self._mean(weights)
         if self.shape.kind == "door":
-            std = (float(np.sqrt(weights @ (s[:, 0] - mean[0]) ** 2)),)
+            std: tuple[float, ...] = (float(np.sqrt(weights @ (s[:, 0] - mean[0]) ** 2)),)
             wide = std[0] > cfg.max_door_std
         else:
             pos = float(np.sqrt(weights @ ((s[:, 0] - mean[0]) ** 2 + (s[:, 1] - mean[1]) ** 2)))

@@ -149,5 +149,8 @@ def rebuilt_odometry(log: RobotLog) -> RobotLog:
             step = relative(raw[i - 1], raw[i])
         poses[i] = compose(poses[i - 1], step)
     idx = np.clip(np.searchsorted(t, scan_t, side="right") - 1, 0, len(t) - 1)
-    scans = [replace(s, odom=tuple(float(v) for v in poses[k])) for s, k in zip(log.scans, idx, strict=True)]
+    scans = [
+        replace(s, odom=(float(poses[k, 0]), float(poses[k, 1]), float(poses[k, 2])))
+        for s, k in zip(log.scans, idx, strict=True)
+    ]
     return RobotLog(source=log.source, scans=scans, odometry=list(log.odometry), warnings=list(log.warnings))
