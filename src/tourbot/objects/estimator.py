@@ -84,7 +84,9 @@ class ObjectEstimatorConfig:
     ``*_floor`` per update keep the samples from collapsing; ``*_change_time`` (s): the mean time
     between changes of the object (the jump rate); ``jump_min``: the least share of samples drawn
     over the whole range at every update. ``search_margin`` (m): furniture may stand this far
-    from its site pose, at any heading; ``prior_std``: the spread of the prior around the site pose.
+    from its site pose, at any heading; ``prior_std``: the spread of the prior around the site pose;
+    ``nudge_std``: half of a piece of furniture's jumps land this close to where the sample was
+    (turned or pushed a little) rather than anywhere.
     ``min_beams``, ``min_explained`` (the least share of the discriminating beams the estimate must
     explain), ``occluded_fraction``, ``max_door_std`` (rad), ``max_position_std`` (m),
     ``max_heading_std`` (rad): the tests of :class:`Quality`.
@@ -108,6 +110,7 @@ class ObjectEstimatorConfig:
     jump_min: float = 0.02
     search_margin: float = 0.5
     prior_std: tuple[float, float, float] = (0.1, 0.1, math.radians(10.0))
+    nudge_std: tuple[float, float, float] = (0.1, 0.1, math.radians(30.0))
     min_beams: int = 5
     min_explained: float = 0.6
     occluded_fraction: float = 0.5
@@ -232,6 +235,12 @@ class ObjectBelief:
         jump: NDArray[np.bool_] = np.asarray(self.rng.random(n) < p_jump)
         if jump.any():
             moved[jump] = self._jump(int(jump.sum()))
+            if s.kind != "door":
+                # half of furniture's jumps land near where it was: people turn or push it a little
+                near = np.flatnonzero(jump)[: int(jump.sum()) // 2]
+                moved[near] = self.samples[near] + self.rng.standard_normal((near.size, 3)) * np.asarray(
+                    cfg.nudge_std
+                )
         self.samples = self._canonical(moved)
         self.time = time
 
