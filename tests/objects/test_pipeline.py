@@ -25,7 +25,9 @@ def test_rebuilt_odometry_drops_the_reanchoring_jumps() -> None:
     for i in range(1, 101):
         t = 0.1 * i
         raw = compose(raw, step)
-        odometry.append(Odometry(t, (float(raw[0]), float(raw[1]), float(raw[2])), tv=1.0, rv=math.radians(5.0)))
+        odometry.append(
+            Odometry(t, (float(raw[0]), float(raw[1]), float(raw[2])), tv=1.0, rv=math.radians(5.0))
+        )
         if i % 10 == 5:
             truth = (t + 0.01, 0.0, 0.0)
             scans.append(Scan(t + 0.01, np.ones(3), g, odom=tuple(raw), reference=truth))  # type: ignore[arg-type]

@@ -1,8 +1,9 @@
 """Table 1 of Schulz and Burgard (2001) over a whole log: localization and object states together.
 
-:func:`estimate_log` replays a log: scan ``k`` goes to Monte Carlo localization when ``k`` is
-even and to the object estimator when it is odd (``ScanShare.ALTERNATE``, the paper's loop), or
-to both (``ScanShare.ALL``). The object estimator integrates over MCL's pose samples (the
+:func:`estimate_log` replays a log: every scan goes to both Monte Carlo localization and the
+object estimator (``ScanShare.ALL``, the default: measured better, docs/results/objects.md), or
+scan ``k`` goes to localization when ``k`` is even and to the objects when it is odd
+(``ScanShare.ALTERNATE``, the paper's loop). MCL integrates every beam of every scan it gets. The object estimator integrates over MCL's pose samples (the
 belief, Eq. 8), carried from the last localization update to the object scan by the odometry in
 between (the prediction of Eq. 7 without its noise: one scan period of motion). With a given
 trajectory instead (``trajectory``), each scan's pose is one sample of weight one.
@@ -48,7 +49,7 @@ def estimate_log(
     grid: OccupancyGrid,
     *,
     config: ObjectEstimatorConfig | None = None,
-    share: ScanShare = ScanShare.ALTERNATE,
+    share: ScanShare = ScanShare.ALL,
     trajectory: FloatArray | None = None,
     start: Sequence[float] | None = None,
     mcl_config: MCLConfig | None = None,
