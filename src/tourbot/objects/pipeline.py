@@ -3,9 +3,10 @@
 :func:`estimate_log` replays a log: every scan goes to both Monte Carlo localization and the
 object estimator (``ScanShare.ALL``, the default: measured better, docs/results/objects.md), or
 scan ``k`` goes to localization when ``k`` is even and to the objects when it is odd
-(``ScanShare.ALTERNATE``, the paper's loop). MCL integrates every beam of every scan it gets. The object estimator integrates over MCL's pose samples (the
-belief, Eq. 8), carried from the last localization update to the object scan by the odometry in
-between (the prediction of Eq. 7 without its noise: one scan period of motion). With a given
+(``ScanShare.ALTERNATE``, the paper's loop). MCL integrates every beam of every scan it gets.
+The object estimator integrates over MCL's pose samples (the belief, Eq. 8), carried from the
+last localization update to the object scan by the odometry in between (the prediction of Eq. 7
+without its noise: one scan period of motion). With a given
 trajectory instead (``trajectory``), each scan's pose is one sample of weight one.
 """
 
