@@ -22,7 +22,7 @@ def _run(
     start: float = 0.0,
     est: ObjectStateEstimator | None = None,
     t0: float = 0.0,
-):  # type: ignore[no-untyped-def]
+) -> ObjectStateEstimator:
     shape = door_shape(room.doors[0])
     rng = np.random.default_rng(seed)
     if est is None:

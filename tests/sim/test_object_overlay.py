@@ -39,7 +39,7 @@ SHAPES = [
         )
     ),
 ]
-POSES = [[], SHAPES[1] and [(3.0, 1.5, 0.0), (3.0, 2.5, 0.0)]]
+POSES: list[list[tuple[float, float, float]]] = [[], [(3.0, 1.5, 0.0), (3.0, 2.5, 0.0)]]
 
 
 def test_objects_shorten_beams_in_front_only() -> None:
