@@ -137,3 +137,22 @@ def test_door_frames_turn_about_the_hinge() -> None:
     )
     poly = shape.polygons(np.array([[math.pi / 2]]))[0]
     np.testing.assert_allclose(poly[1], [1.01, 3.0], atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 100_000), full=st.booleans())
+def test_every_beam_that_can_hit_is_in_the_window(seed: int, full: bool) -> None:
+    rng = np.random.default_rng(seed)
+    shape = furniture_shape(Furniture(name="f", outline=SQUARE, poses=[(0.0, 0.0, 0.0)]))
+    states = np.column_stack(
+        [rng.uniform(-3, 3, 4), rng.uniform(-3, 3, 4), rng.uniform(-math.pi, math.pi, 4)]
+    )
+    poses = np.column_stack([rng.uniform(-4, 4, 3), rng.uniform(-4, 4, 3), rng.uniform(-math.pi, math.pi, 3)])
+    nb = 360 if full else 181
+    inc = math.radians(1.0)
+    a0 = -math.pi if full else -math.pi / 2
+    window = set(beam_window(poses, shape.boxes(states), a0, inc, nb).tolist())
+    angles = a0 + inc * np.arange(nb)
+    cast = segment_ranges(poses, angles, shape.segments(states), np.full((3, nb), 50.0))
+    hit = np.flatnonzero((cast < 50.0).any(axis=(0, 1)))
+    assert set(hit.tolist()) <= window

@@ -359,27 +359,19 @@ def beam_window(
         return np.arange(num_beams, dtype=np.int64)
     corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
     cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
-    centre = np.arctan2(cy - p[:, 1], cx - p[:, 0]) - p[:, 2]  # (N,) in the laser frame
-    ref = float(centre[0])
+    centre = np.arctan2(cy - p[:, 1], cx - p[:, 0]) - p[:, 2]  # (N,) in each laser's frame
     ang = np.arctan2(corners[None, :, 1] - p[:, 1, None], corners[None, :, 0] - p[:, 0, None]) - p[:, 2, None]
-    rel = wrap_angle(ang - ref)  # the box spans < pi from outside, so no wrap inside it
-    lo, hi = float(rel.min()), float(rel.max())
-    if hi - lo >= 2 * math.pi - increment:
-        return np.arange(num_beams, dtype=np.int64)
-    start = ref + lo - angle_min
-    stop = ref + hi - angle_min
-    if full:
-        k0 = math.ceil(start / increment - 1e-9)
-        k1 = math.floor(stop / increment + 1e-9)
-        return np.mod(np.arange(k0, k1 + 1, dtype=np.int64), num_beams)
-    # a partial scan: the window's directions taken nearest to the scan's span
-    start = float(wrap_angle(start + angle_min)) - angle_min
-    if start < -math.pi / 2:
-        start += 2 * math.pi
-    stop = start + (hi - lo)
-    k0 = max(0, math.ceil(start / increment - 1e-9))
-    k1 = min(num_beams - 1, math.floor(stop / increment + 1e-9))
-    return np.arange(k0, k1 + 1, dtype=np.int64) if k1 >= k0 else np.zeros(0, dtype=np.int64)
+    rel = wrap_angle(ang - centre[:, None])  # seen from outside the box spans < pi: no wrap inside it
+    lo, hi = rel.min(axis=1), rel.max(axis=1)  # (N,)
+    beams = angle_min + increment * np.arange(num_beams)
+    off = wrap_angle(beams[None, :] - centre[:, None])  # (N, B)
+    hit = ((off >= lo[:, None] - 1e-9) & (off <= hi[:, None] + 1e-9)).any(axis=0)
+    inside = np.flatnonzero(hit)
+    if full and inside.size and inside[0] == 0 and inside[-1] == num_beams - 1:
+        # the window wraps around the scan's ends: start it after the gap
+        gap = int(np.argmax(np.diff(inside))) + 1 if inside.size < num_beams else 0
+        inside = np.roll(inside, -gap)
+    return inside.astype(np.int64)
 
 
 class ObjectIndex:
