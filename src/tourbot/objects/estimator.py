@@ -40,7 +40,13 @@ from numpy.typing import NDArray
 from tourbot.geometry import compose, wrap_angle
 from tourbot.localization.mcl import low_variance_resample
 from tourbot.maps.beam_model import BeamModel
-from tourbot.maps.objects import ObjectIndex, ObjectShape, beam_window, segment_ranges
+from tourbot.maps.objects import (
+    ObjectIndex,
+    ObjectShape,
+    beam_window,
+    segment_ranges,
+    segment_ranges_reference,
+)
 from tourbot.maps.raycast import RayCaster
 from tourbot.objects.likelihood import log_likelihoods
 from tourbot.records import Scan
@@ -89,7 +95,9 @@ class ObjectEstimatorConfig:
     (turned or pushed a little) rather than anywhere.
     ``min_beams``, ``min_explained`` (the least share of the discriminating beams the estimate must
     explain), ``occluded_fraction``, ``max_door_std`` (rad), ``max_position_std`` (m),
-    ``max_heading_std`` (rad): the tests of :class:`Quality`.
+    ``max_heading_std`` (rad): the tests of :class:`Quality`; ``min_constraint``: the weakest
+    direction of the information of a piece of furniture's pose from the readings on its outline,
+    as a share of the strongest, for it to count as pinned down (:meth:`ObjectBelief._constrained`).
     """
 
     max_distance: float = 3.5
@@ -117,6 +125,7 @@ class ObjectEstimatorConfig:
     max_door_std: float = math.radians(3.0)
     max_position_std: float = 0.05
     max_heading_std: float = math.radians(5.0)
+    min_constraint: float = 0.15
 
     def __post_init__(self) -> None:
         if min(self.door_samples, self.furniture_samples, self.pose_samples) < 1:
@@ -290,11 +299,50 @@ class ObjectBelief:
         # how well it was seen, from the likeliest pose sample
         top = int(np.argmax(pose_weights))
         expected = segment_ranges(laser_poses[top : top + 1], angles, segs, base[top : top + 1])[0]  # (S, W)
-        estimate = self._report(scan.timestamp, weights, self._quality(expected, z, weights))
+        quality = self._quality(expected, z, weights)
+        if quality.status == Observation.OBSERVED and shape.kind != "door":
+            best = self.samples[int(np.argmax(weights))]
+            if not self._constrained(laser_poses[top], angles, z, best, base[top]):
+                quality = Quality(Observation.AMBIGUOUS, quality.beams, quality.explained, quality.occluded)
+        estimate = self._report(scan.timestamp, weights, quality)
         s_ = self.samples.shape[0]
         idx = low_variance_resample(weights, s_, float(self.rng.random()))
         self.samples = self.samples[idx]
         return estimate
+
+    def _constrained(
+        self, laser: FloatArray, angles: FloatArray, z: FloatArray, state: FloatArray, base: FloatArray
+    ) -> bool:
+        """Whether the readings on the outline pin all three degrees of freedom of a pose.
+
+        Each reading explained on edge ``e`` at point ``p`` constrains the pose along the edge's
+        normal ``n``: a row ``(n_x, n_y, ((p - c) x n) / r)`` of the Jacobian (``c`` the object's
+        frame origin, ``r`` its radius, so a turn counts by how far it moves the outline). The
+        information ``J^T J`` must have no direction weaker than ``min_constraint`` of its
+        strongest: readings on one face only (a desk seen from the front, the rest hidden) leave
+        the shift along that face free, and the estimate is ambiguous however well it explains them.
+        """
+        cfg, shape = self.config, self.shape
+        tol = 3.0 * cfg.beam.sigma_hit
+        edges = shape.segments(state[None])[0]  # (E, 4)
+        per_edge = segment_ranges_reference(
+            laser[None], angles, edges[:, None, :], np.full((1, angles.size), np.inf)
+        )[0]
+        t = per_edge.min(axis=0)  # (W,)
+        on = np.isfinite(t) & (t < base - tol) & (np.abs(z - t) < tol)
+        if on.sum() < 3:
+            return False
+        e = edges[np.argmin(per_edge, axis=0)[on]]
+        nx, ny = -(e[:, 3] - e[:, 1]), e[:, 2] - e[:, 0]
+        norm = np.hypot(nx, ny)
+        nx, ny = nx / norm, ny / norm
+        a = laser[2] + angles[on]
+        px = laser[0] + t[on] * np.cos(a) - state[0]
+        py = laser[1] + t[on] * np.sin(a) - state[1]
+        r = max(shape.radius, 1e-3)  # the heading in metres at the outline, comparable with shifts
+        jac = np.column_stack([nx, ny, (px * ny - py * nx) / r])
+        eig = np.linalg.eigvalsh(jac.T @ jac)
+        return bool(eig[0] >= cfg.min_constraint * eig[-1])
 
     def _quality(self, expected: NDArray[np.float32], z: FloatArray, weights: FloatArray) -> Quality:
         """Discriminating beams (the states ``(S, W)`` disagree by more than 3 sigma), how many the
