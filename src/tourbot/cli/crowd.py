@@ -29,9 +29,18 @@ def register(app: typer.Typer) -> None:
         lenient: LenientOpt = False,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
         force: ForceOpt = False,
+        objects: Annotated[
+            Path | None,
+            typer.Option(
+                "--objects",
+                help="A site file whose doors and furniture are written into the log first, in states "
+                "changing over time (truth in NAME.objects.json).",
+            ),
+        ] = None,
     ) -> None:
         """Visitors walk through a corrected log; beams hitting them are shortened. Writes the new log
-        and, beside it, NAME.truth.json (corrupted beams per scan, kidnaps)."""
+        and, beside it, NAME.truth.json (corrupted beams per scan, kidnaps); with --objects, the
+        site's doors and furniture too (NAME.objects.json: their true states per scan)."""
         from rich.console import Console
 
         from tourbot.cli._checks import check_before_work, map_problem
@@ -54,6 +63,20 @@ def register(app: typer.Typer) -> None:
         ]
         for warning in warnings:
             console.print(f"[yellow]warning:[/] {warning}", highlight=False, soft_wrap=True)
+        object_truth = None
+        if objects is not None:
+            from tourbot.cli.objects import check_frame, check_objects, site_shapes
+            from tourbot.sim.object_overlay import overlay_objects
+            from tourbot.site.model import load_site
+
+            site = load_site(objects)
+            shapes = site_shapes(site, objects)
+            check_objects(shapes, grid, objects)
+            check_frame(robot_log, grid, log)
+            poses: list[list[tuple[float, float, float]]] = [[] for _ in site.doors] + [
+                f.poses for f in site.furniture
+            ]
+            robot_log, object_truth = overlay_objects(robot_log, shapes, poses, seed=seed)
         config = OverlayConfig.preset(preset, kidnap=kidnap)
         with ScanProgress(f"{preset} crowd over {log.name}", len(robot_log.scans)) as progress:
             result = overlay_crowd(
@@ -67,6 +90,15 @@ def register(app: typer.Typer) -> None:
         write_carmen(result.log, output)
         truth = truth_path(output)
         write_truth(result.truth, truth)
+        if object_truth is not None:
+            from tourbot.sim.object_overlay import object_truth_path, write_object_truth
+
+            write_object_truth(object_truth, object_truth_path(output))
+            console.print(
+                f"{len(object_truth.names)} objects written in: {sum(object_truth.changed)} beams shortened; "
+                f"their states in {object_truth_path(output).name}",
+                highlight=False,
+            )
         f = result.truth.fraction
         console.print(
             f"wrote {output} and {truth.name}: {result.truth.people} visitors; corrupted beams per scan "

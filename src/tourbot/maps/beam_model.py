@@ -39,6 +39,7 @@ __all__ = [
     "BeamModel",
     "BeamModelError",
     "beam_probabilities_kernel",
+    "beam_probability_one",
     "p_hit",
     "p_max",
     "p_rand",
@@ -125,6 +126,38 @@ def _ndtr(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
 
+@numba.njit(cache=True, inline="always")
+def beam_probability_one(
+    e: float,
+    z: float,
+    short_z: float,
+    w_hit: float,
+    w_max: float,
+    w_rand: float,
+    sigma_hit: float,
+    lambda_short: float,
+    max_range: float,
+) -> float:
+    """``p(z | e)`` of one reading, the Eq. 6.12 mixture (weights pre-normalised); ``short_z`` is
+    the reading's own factor of ``p_short``, ``w_short lambda_short exp(-lambda_short z)``."""
+    if z < 0.0:
+        return 0.0
+    p = w_max if z >= max_range else w_rand * (1.0 / max_range)
+    if z <= max_range:
+        inv_s = 1.0 / sigma_hit
+        c_gauss = 1.0 / (sigma_hit * math.sqrt(2.0 * math.pi))
+        u = (z - e) * inv_s
+        if abs(u) < 40.0:  # beyond, exp(-u^2 / 2) is 0 in double precision
+            mass = _ndtr((max_range - e) * inv_s) - _ndtr(-e * inv_s)
+            if mass > 0.0:
+                p += w_hit * c_gauss * math.exp(-0.5 * u * u) / mass
+    if z <= e:
+        norm = -math.expm1(-lambda_short * e)
+        if norm > 0.0:
+            p += short_z / norm
+    return p
+
+
 @numba.njit(cache=True)
 def beam_probabilities_kernel(
     expected: NDArray[np.float32],
@@ -140,36 +173,23 @@ def beam_probabilities_kernel(
 ) -> None:
     """``out[i, b] = p(measured[b] | expected[i, b])``, the Eq. 6.12 mixture (weights pre-normalised)."""
     n, nb = expected.shape
-    c_gauss = 1.0 / (sigma_hit * math.sqrt(2.0 * math.pi))
-    p_r = 1.0 / max_range
-    inv_s = 1.0 / sigma_hit
     # the reading's own factor of p_short, once per beam rather than per pose
     short_z = np.empty(nb)
     for b in range(nb):
         short_z[b] = w_short * lambda_short * math.exp(-lambda_short * measured[b])
     for i in range(n):
         for b in range(nb):
-            e = float(expected[i, b])
-            z = measured[b]
-            p = 0.0
-            if z < 0.0:
-                out[i, b] = 0.0
-                continue
-            if z >= max_range:
-                p += w_max
-            else:
-                p += w_rand * p_r
-            if z <= max_range:
-                u = (z - e) * inv_s
-                if abs(u) < 40.0:  # beyond, exp(-u^2 / 2) is 0 in double precision
-                    mass = _ndtr((max_range - e) * inv_s) - _ndtr(-e * inv_s)
-                    if mass > 0.0:
-                        p += w_hit * c_gauss * math.exp(-0.5 * u * u) / mass
-            if z <= e:
-                norm = -math.expm1(-lambda_short * e)
-                if norm > 0.0:
-                    p += short_z[b] / norm
-            out[i, b] = p
+            out[i, b] = beam_probability_one(
+                float(expected[i, b]),
+                measured[b],
+                short_z[b],
+                w_hit,
+                w_max,
+                w_rand,
+                sigma_hit,
+                lambda_short,
+                max_range,
+            )
 
 
 @numba.njit(cache=True, inline="always")

@@ -2,7 +2,9 @@
 
 The laser sits at about 40 cm above the floor (``DiffDriveConfig.laser_height``): it sees walls,
 door leaves, furniture and people's legs, but not low tables or glass cases (the site's invisible
-obstacles). Ranges get Gaussian noise; beams without a return read ``max_range``.
+obstacles). Walls come from the static grid's cast, door leaves and furniture from their outlines'
+edges (:func:`tourbot.maps.objects.segment_ranges`, the estimator's sensor simulation), legs as
+circles. Ranges get Gaussian noise; beams without a return read ``max_range``.
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ class LaserConfig:
 
 
 class SimLaser:
-    """Casts scans from the true robot pose; :meth:`set_world` after the world's grid changes."""
+    """Casts scans from the true robot pose; :meth:`set_world` after the static grid changes."""
 
     def __init__(self, config: LaserConfig, grid: OccupancyGrid) -> None:
         self.config = config
@@ -59,8 +61,8 @@ class SimLaser:
         self.set_world(grid)
 
     def set_world(self, grid: OccupancyGrid) -> None:
-        # The distance-transform caster gives the exact DDA ranges several times faster; it is
-        # rebuilt only when furniture moves (door leaves and legs are circles, cast separately).
+        # The distance-transform caster gives the exact DDA ranges several times faster; doors,
+        # furniture (edges) and legs (circles) are cast separately, so it is never rebuilt for them.
         from tourbot.maps.raycast import DistanceCaster
 
         self._caster = DistanceCaster(grid, self.config.max_range)
@@ -72,8 +74,10 @@ class SimLaser:
         radii: NDArray[np.float64],
         rng: np.random.Generator,
         people: int = 0,
+        segments: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float64]:
-        """One scan ``(num_beams,)`` from the robot at ``robot_pose`` among circles (legs).
+        """One scan ``(num_beams,)`` from the robot at ``robot_pose`` among circles (legs) and the
+        edges ``segments`` ``(1, M, 4)`` of doors and furniture.
 
         The first ``people`` circles are people's legs: :attr:`last_person_hits` then tells which
         beams of this scan returned from a person (ground truth for metrics, e.g. people-filtered
@@ -84,6 +88,10 @@ class SimLaser:
         c = np.asarray(circles_xy, dtype=np.float64).reshape(-1, 2)
         rad = np.asarray(radii, dtype=np.float64).ravel()
         cast = self._caster.cast_with_circles(poses, self._angles, c[people:], rad[people:])
+        if segments is not None and segments.shape[1]:
+            from tourbot.maps.objects import segment_ranges
+
+            cast = segment_ranges(poses, self._angles, segments, cast)[:, 0, :]
         without_people = cast[0].copy()
         self._caster.lower_to_circles(cast, poses, self._angles, c[:people], rad[:people])
         r = cast[0].astype(np.float64)

@@ -1,11 +1,12 @@
 """Doors that open and close and furniture that is moved, on a schedule or at random.
 
 The true states of the site's doors and movable furniture (Schulz and Burgard 2001, Sec. 3: the
-object-based world model whose states the robot estimates). Furniture moves rarely and at once:
-:meth:`DynamicObjects.grid` draws it into the static occupancy grid (the laser's caster is rebuilt
-then). Door leaves swing continuously, so they are given to the ray caster as a chain of small
-circles along the leaf (:meth:`DynamicObjects.door_circles`), like people's legs: the one caster's
-grid-plus-circles cast, with no rebuild while a door moves.
+object-based world model whose states the robot estimates). Every object is an
+:class:`tourbot.maps.objects.ObjectShape`, the geometry the estimator uses too: the laser sees the
+outlines' edges exactly (:meth:`DynamicObjects.segments`, cast by
+:func:`tourbot.maps.objects.segment_ranges` over the static map's ranges), so a swinging door or
+a moved desk needs no rebuild of the caster. :meth:`DynamicObjects.grid` draws the furniture into
+the static occupancy grid for what needs cells (collisions, the drawn world).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.objects import ObjectShape, shapes_of_site
 from tourbot.site.model import Door, Furniture, Schedule, Site, rasterize_polygons
 from tourbot.snapshot import DoorState, FurnitureState
 
@@ -40,8 +42,9 @@ class DynamicObjects:
         self._furniture_next = np.array([self._interval(f.schedule, rng) for f in self.furniture])
         self._drawn_key: tuple[int, ...] | None = None
         self._grid = static
-        self._circles_key: tuple[float, ...] | None = None
-        self._circles: tuple[NDArray[np.float64], NDArray[np.float64]] = (np.zeros((0, 2)), np.zeros(0))
+        self.shapes: list[ObjectShape] = shapes_of_site(self.doors, self.furniture)
+        self._segments_key: tuple[float, ...] | None = None
+        self._segments: NDArray[np.float64] = np.zeros((1, 0, 4))
 
     @staticmethod
     def _interval(schedule: Schedule, rng: np.random.Generator) -> float:
@@ -50,7 +53,7 @@ class DynamicObjects:
     def step(self, time: float, dt: float, rng: np.random.Generator) -> bool:
         """Advance to ``time``; True when the grid must be redrawn."""
         if not self.enabled:
-            return False
+            return self._key() != self._drawn_key  # states set by hand (:meth:`set_states`)
         for i, door in enumerate(self.doors):
             if time >= self._door_next[i]:
                 self.door_target[i] = 1.0 - self.door_target[i]
@@ -65,29 +68,37 @@ class DynamicObjects:
                 self._furniture_next[j] = time + self._interval(item.schedule, rng)
         return self._key() != self._drawn_key  # doors need no redraw: they are circles
 
+    def set_states(
+        self, door_fractions: dict[int, float] | None = None, furniture_poses: dict[int, int] | None = None
+    ) -> None:
+        """Put doors at opening fractions and furniture at one of its site poses now (a scripted
+        scene; with ``enabled=False`` nothing else changes them)."""
+        for i, f in (door_fractions or {}).items():
+            self.door_open[i] = self.door_target[i] = float(np.clip(f, 0.0, 1.0))
+        for j, k in (furniture_poses or {}).items():
+            if not 0 <= k < len(self.furniture[j].poses):
+                raise ValueError(f"furniture {self.furniture[j].name!r} has no pose {k}")
+            self.furniture_index[j] = k
+
     def _key(self) -> tuple[int, ...]:
         return tuple(int(k) for k in self.furniture_index)
 
-    def door_circles(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Door leaves as chains of circles (centres ``(K, 2)``, radii ``(K,)``) of the leaf's
-        thickness, overlapping so no beam slips between them."""
-        key = tuple(float(f) for f in self.door_open)
-        if self._circles_key == key:
-            return self._circles
-        centres, radii = [], []
-        for door, f in zip(self.doors, self.door_open, strict=True):
-            (x0, y0), (x1, y1) = door.leaf(float(f))
-            r = door.thickness / 2
-            n = max(2, math.ceil(door.leaf_length / r) + 1)
-            t = np.linspace(0.0, 1.0, n)
-            centres.append(np.stack([x0 + t * (x1 - x0), y0 + t * (y1 - y0)], axis=-1))
-            radii.append(np.full(n, r))
-        self._circles_key = key
-        if not centres:
-            self._circles = (np.zeros((0, 2)), np.zeros(0))
-        else:
-            self._circles = (np.vstack(centres), np.concatenate(radii))
-        return self._circles
+    def states(self) -> list[NDArray[np.float64]]:
+        """The true state of every shape (:attr:`shapes` order): door angle ``(1,)``, furniture ``(3,)``."""
+        out = [np.array([f * d.opening_angle]) for d, f in zip(self.doors, self.door_open, strict=True)]
+        for item, k in zip(self.furniture, self.furniture_index, strict=True):
+            out.append(np.asarray(item.poses[int(k)], dtype=np.float64))
+        return out
+
+    def segments(self) -> NDArray[np.float64]:
+        """The edges ``(1, M, 4)`` of every door leaf and piece of furniture in its current state."""
+        key = tuple(float(f) for f in self.door_open) + tuple(float(k) for k in self.furniture_index)
+        if self._segments_key == key:
+            return self._segments
+        parts = [shape.segments(state)[0] for shape, state in zip(self.shapes, self.states(), strict=True)]
+        self._segments = np.concatenate(parts, axis=0)[None] if parts else np.zeros((1, 0, 4))
+        self._segments_key = key
+        return self._segments
 
     def grid(self) -> OccupancyGrid:
         """The static grid with the furniture drawn in at its current poses."""

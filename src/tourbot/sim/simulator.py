@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.objects import distance_to_segments
 from tourbot.records import Odometry, Record, RobotLog, Scan
 from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import Crowd, CrowdConfig
@@ -93,7 +94,7 @@ class Simulator:
         self.odometry = OdometryError(cfg.odometry, start)
         self.objects = DynamicObjects(site, self.static, self._rng_objects, enabled=cfg.dynamic_objects)
         self._world = self.objects.grid()
-        self.laser = SimLaser(cfg.laser, self._world)
+        self.laser = SimLaser(cfg.laser, self.static)
         self._occupied = self._world.occupied()
         self._invisible = site.invisible_mask(self.static)
         self._footprint = _disc_offsets(cfg.robot.radius, self.static.resolution)
@@ -143,14 +144,20 @@ class Simulator:
         self._check_people()
         if self.objects.step(self._time, dt, self._rng_objects):
             self._world = self.objects.grid()
-            self.laser.set_world(self._world)
             self._occupied = self._world.occupied()
         odom_pose = self.odometry.step(before, self.robot.pose, self._rng_odom)
         out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
         if self._steps % self._scan_every == 0:
             centres, radii = self.legs()
             people = len(self._crowd_circles()[1]) if self.crowd is not None else 0
-            ranges = self.laser.scan(self.robot.pose, centres, radii, self._rng_laser, people=people)
+            ranges = self.laser.scan(
+                self.robot.pose,
+                centres,
+                radii,
+                self._rng_laser,
+                people=people,
+                segments=self.objects.segments(),
+            )
             out.append(
                 Scan(self._time, ranges, self.laser.geometry, odom=odom_pose, reference=self.robot.pose)
             )
@@ -187,12 +194,11 @@ class Simulator:
     # -- views ------------------------------------------------------------------------------------
 
     def legs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """What the laser sees besides the grid: people's legs, then the door leaves, as circles."""
-        doors, door_r = self.objects.door_circles()
+        """People's legs as circles (centres ``(K, 2)``, radii ``(K,)``); doors and furniture are
+        :meth:`DynamicObjects.segments`."""
         if self.crowd is None:
-            return doors, door_r
-        c, r = self._crowd_circles()
-        return np.vstack([c, doors]), np.concatenate([r, door_r])
+            return np.zeros((0, 2)), np.zeros(0)
+        return self._crowd_circles()
 
     def _crowd_circles(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         assert self.crowd is not None
@@ -223,10 +229,8 @@ class Simulator:
     def _move_robot(self, dt: float) -> None:
         pose, v, w = self.robot.propose(dt)
         radius = self.config.robot.radius
-        doors, door_r = self.objects.door_circles()
-        hit_door = bool(
-            len(door_r) and (np.hypot(doors[:, 0] - pose[0], doors[:, 1] - pose[1]) - door_r).min() < radius
-        )
+        leaves = self.objects.segments()[0, : 4 * len(self.objects.doors)]
+        hit_door = distance_to_segments(pose[0], pose[1], leaves) < radius
         hit_static = hit_door or _covers(self._occupied, self.static, pose, self._footprint)
         hit_invisible = _covers(self._invisible, self.static, pose, self._footprint)
         here = self.robot.pose

@@ -1,0 +1,158 @@
+"""Table 1 of Schulz and Burgard (2001) over a whole log: localization and object states together.
+
+:func:`estimate_log` replays a log: every scan goes to both Monte Carlo localization and the
+object estimator (``ScanShare.ALL``, the default: measured better, docs/results/objects.md), or
+scan ``k`` goes to localization when ``k`` is even and to the objects when it is odd
+(``ScanShare.ALTERNATE``, the paper's loop). MCL integrates every beam of every scan it gets.
+The object estimator integrates over MCL's pose samples (the belief, Eq. 8), carried from the
+last localization update to the object scan by the odometry in between (the prediction of Eq. 7
+without its noise: one scan period of motion). With a given
+trajectory instead (``trajectory``), each scan's pose is one sample of weight one.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.geometry import compose, relative
+from tourbot.interfaces import ScanShare
+from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.maps.objects import ObjectShape
+from tourbot.maps.raycast import DistanceCaster
+from tourbot.objects.estimator import ObjectEstimate, ObjectEstimatorConfig, ObjectStateEstimator
+from tourbot.records import RobotLog
+from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
+
+__all__ = ["ObjectRun", "estimate_log", "rebuilt_odometry"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass
+class ObjectRun:
+    """What a replay produced: every object update, the robot's estimated path, the costs."""
+
+    updates: list[tuple[int, ObjectEstimate]] = field(default_factory=list)  # (scan index, estimate)
+    path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (t, x, y, theta)
+    update_seconds: list[float] = field(default_factory=list)
+    final: list[ObjectEstimate] = field(default_factory=list)
+
+
+def estimate_log(
+    log: RobotLog,
+    shapes: Sequence[ObjectShape],
+    grid: OccupancyGrid,
+    *,
+    config: ObjectEstimatorConfig | None = None,
+    share: ScanShare = ScanShare.ALL,
+    trajectory: FloatArray | None = None,
+    start: Sequence[float] | None = None,
+    mcl_config: MCLConfig | None = None,
+    seed: int = 0,
+    progress: Callable[[int, int], None] | None = None,
+) -> ObjectRun:
+    """Replay ``log``; ``trajectory`` ``(S, 3)`` (one pose per scan) replaces localization.
+
+    Without a trajectory MCL tracks from ``start`` (default: the first scan's reference pose).
+    """
+    if not log.scans:
+        from tourbot.errors import InputError
+
+        raise InputError(f"{log.source}: the log has no scans")
+    max_range = max(float(s.geometry.max_range) for s in log.scans)
+    caster = DistanceCaster(grid, max_range)
+    estimator = ObjectStateEstimator(shapes, caster, config, seed=seed)
+    run = ObjectRun()
+    localizer: MCLLocalizer | None = None
+    if trajectory is None:
+        if start is None:
+            start = log.scans[0].reference
+        if start is None:
+            from tourbot.errors import InputError
+
+            raise InputError(f"{log.source}: no start pose (the log has no reference poses; give one)")
+        mcl = MonteCarloLocalization(grid, mcl_config or MCLConfig(), seed=seed)
+        mcl.reset_tracking(
+            np.asarray(start, dtype=np.float64), np.diag([0.05**2, 0.05**2, math.radians(2.0) ** 2])
+        )
+        policy = UpdatePolicy(beam_step=1, min_travel=0.0, min_turn=0.0, max_interval=0.0)
+        localizer = MCLLocalizer(mcl, policy, seed=seed)
+    samples: FloatArray | None = None
+    weights: FloatArray | None = None
+    belief_odom: FloatArray | None = None
+    n = len(log.scans)
+    for k, scan in enumerate(log.scans):
+        odom = np.asarray(scan.odom if scan.odom is not None else (0.0, 0.0, 0.0), dtype=np.float64)
+        for_pose = share == ScanShare.ALL or k % 2 == 0 or samples is None
+        for_objects = share == ScanShare.ALL or k % 2 == 1
+        if trajectory is not None:
+            samples, weights, belief_odom = trajectory[k][None, :], np.ones(1), odom
+        elif for_pose and localizer is not None:
+            belief = localizer.on_scan(scan)
+            if belief is not None:
+                samples, weights, belief_odom = belief.samples, belief.weights, odom
+        if samples is None or weights is None or belief_odom is None:
+            continue
+        # the belief carried to this scan by the odometry since its update (Eq. 7, no noise)
+        here = compose(samples, relative(belief_odom, odom)) if trajectory is None else samples
+        mean = _mean_pose(here, weights)
+        run.path.append((scan.timestamp, *mean))
+        if for_objects:
+            before = len(estimator.update_seconds)
+            for est in estimator.update(scan, here, weights):
+                run.updates.append((k, est))
+            run.update_seconds.extend(estimator.update_seconds[before:])
+        if progress is not None:
+            progress(k + 1, n)
+    run.final = estimator.estimates()
+    return run
+
+
+def _mean_pose(samples: FloatArray, weights: FloatArray) -> tuple[float, float, float]:
+    w = weights / weights.sum()
+    x = float(w @ samples[:, 0])
+    y = float(w @ samples[:, 1])
+    th = math.atan2(float(w @ np.sin(samples[:, 2])), float(w @ np.cos(samples[:, 2])))
+    return (x, y, th)
+
+
+def rebuilt_odometry(log: RobotLog) -> RobotLog:
+    """The log with each scan's ``odom`` rebuilt from the odometry increments.
+
+    A stand-in until the reader's rebuild lands (branch ``odometry``), then to be replaced by it:
+    the corrected logs restart their odometry stream from the corrected pose at every scan
+    (``../shared/data/README.md``), so the increments between consecutive readings are chained,
+    except across a scan, where the step (which holds the jump onto the corrected pose) is
+    replaced by the readings' velocities times the time between them.
+    """
+    from dataclasses import replace
+
+    odom = sorted(log.odometry, key=lambda o: o.timestamp)
+    if len(odom) < 2:
+        return log
+    t = np.array([o.timestamp for o in odom])
+    raw = np.array([o.pose for o in odom])
+    scan_t = np.array([s.timestamp for s in log.scans])
+    crosses = np.searchsorted(scan_t, t[1:], side="left") > np.searchsorted(scan_t, t[:-1], side="left")
+    poses = np.empty_like(raw)
+    poses[0] = raw[0]
+    for i in range(1, len(odom)):
+        if crosses[i - 1]:
+            dt = t[i] - t[i - 1]
+            tv, rv = odom[i - 1].tv, odom[i - 1].rv
+            step = np.array([tv * dt * math.cos(rv * dt / 2), tv * dt * math.sin(rv * dt / 2), rv * dt])
+        else:
+            step = relative(raw[i - 1], raw[i])
+        poses[i] = compose(poses[i - 1], step)
+    idx = np.clip(np.searchsorted(t, scan_t, side="right") - 1, 0, len(t) - 1)
+    scans = [
+        replace(s, odom=(float(poses[k, 0]), float(poses[k, 1]), float(poses[k, 2])))
+        for s, k in zip(log.scans, idx, strict=True)
+    ]
+    return RobotLog(source=log.source, scans=scans, odometry=list(log.odometry), warnings=list(log.warnings))
