@@ -12,12 +12,14 @@ from starlette.testclient import WebSocketTestSession
 from starlette.websockets import WebSocketDisconnect
 
 from tests.web.fakes import FakeRobot
+from tests.web.live import LiveServer
 from tourbot.web.app import COOKIE, WebConfig, create_app
 from tourbot.web.db import Database, open_database
 from tourbot.web.guard import GuardConfig
 from tourbot.web.stream import StreamDecoder
 
 ORIGIN = {"origin": "http://testserver"}
+PAIRING = "pair-this-screen-0123"
 
 
 @pytest.fixture
@@ -40,7 +42,7 @@ def client(robot: FakeRobot, db: Database, tmp_path: Path) -> Iterator[TestClien
     config = WebConfig(
         site_name="Test museum",
         speech_dir=tmp_path / "speech",
-        onboard_hosts=("127.0.0.1",),
+        onboard_token=PAIRING,
         guard=GuardConfig(commands_per_second=5.0, burst=10),
     )
     with TestClient(create_app({"lefkos": robot}, db, None, config)) as c:
@@ -261,6 +263,28 @@ def test_onboard_screen_is_only_for_the_robot_itself(client: TestClient) -> None
         pass
 
 
+def test_onboard_screen_is_paired_by_its_token_not_by_its_address(
+    robot: FakeRobot, db: Database, tmp_path: Path
+) -> None:
+    """A visitor on the robot's own machine (loopback) is not the on-board screen: only the
+    pairing token makes one, and a wrong token is refused."""
+    app = create_app({"lefkos": robot}, db, None, WebConfig(speech_dir=tmp_path, onboard_token=PAIRING))
+    with TestClient(app, client=("127.0.0.1", 50000)) as local:
+        assert local.get("/onboard").status_code == 403
+        token = new_session(local)
+        with pytest.raises(WebSocketDisconnect), connect(local, token, query="?screen=onboard"):
+            pass
+        assert local.get("/onboard/pair?token=wrong-token").status_code == 403
+        paired = local.get(f"/onboard/pair?token={PAIRING}", follow_redirects=False)
+        assert paired.status_code == 303
+        screen = paired.cookies[COOKIE]
+        assert local.get("/onboard", cookies={COOKIE: screen}).status_code == 200
+        with connect(local, screen, query="?screen=onboard") as ws:
+            ws.send_text(json.dumps({"type": "goto", "x": 3.0, "y": 3.0}))
+            wait_for(ws, lambda m: m["type"] == "ack")
+    assert robot.commands == [("goal", (3.0, 3.0, None, None))]
+
+
 def test_speech_files_cannot_escape_their_folder(client: TestClient) -> None:
     assert client.get("/speech/..%2F..%2Fetc%2Fpasswd").status_code == 404
     assert client.get("/speech/" + "a" * 24 + ".wav").status_code == 404
@@ -299,3 +323,180 @@ def test_holder_and_watcher_get_the_path_of_a_new_goal(client: TestClient) -> No
         hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
         assert hub.path_message is not None
         assert json.loads(hub.path_message)["points"][-1] == [8.0, 2.0]
+
+
+# --- hardening -------------------------------------------------------------------------------
+def login(client: TestClient) -> None:
+    response = client.post("/api/login", json={"username": "curator", "password": "correct horse"})
+    assert response.status_code == 200
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "staff"),
+    [
+        ("post", "/api/login", False),
+        ("post", "/api/admin/exhibits", False),
+        ("post", "/api/admin/exhibits", True),
+        ("post", "/api/robots/lefkos/staff-stop", False),
+        ("get", "/api/site", False),
+    ],
+)
+def test_a_large_body_is_refused_before_it_is_read_or_authenticated(
+    client: TestClient, method: str, path: str, staff: bool
+) -> None:
+    if staff:
+        login(client)
+    big = b'{"username": "' + b"x" * 200_000 + b'"}'
+    response = client.request(method, path, content=big, headers={"content-type": "application/json"})
+    assert response.status_code == 413  # not 401, not 422: refused by its size alone
+    assert len(response.content) < 200
+
+
+def test_a_large_body_without_a_length_is_cut_off(client: TestClient) -> None:
+    def chunks() -> Iterator[bytes]:
+        for _ in range(100):
+            yield b"x" * 10_000
+
+    response = client.post("/api/login", content=chunks(), headers={"content-type": "application/json"})
+    assert response.status_code == 413
+    assert len(response.content) < 200
+
+
+def test_errors_never_echo_the_request(client: TestClient) -> None:
+    marker = "<script>echo-marker</script>"
+    response = client.post("/api/login", json={"username": marker, "password": 5, marker: 1})
+    assert response.status_code == 422
+    assert "echo-marker" not in response.text
+    assert response.json()["detail"]  # still says where and why
+    login(client)
+    bad_link = {"slug": "lyre", "name": "Lyre", "x": 1, "y": 2, "links": [{"url": "javascript:" + marker}]}
+    response = client.post("/api/admin/exhibits", json=bad_link)
+    assert response.status_code == 422
+    assert "echo-marker" not in response.text
+    for path in ("/api/exhibits/echo-marker", "/api/admin/stream/echo-marker"):
+        response = client.get(path)
+        assert response.status_code == 404
+        assert "echo-marker" not in response.text
+    with connect(client, new_session(client)) as ws:
+        ws.send_text(json.dumps({"type": marker}))
+        assert "echo-marker" not in json.dumps(wait_for(ws, lambda m: m["type"] == "error"))
+        ws.send_text(json.dumps({"type": "book", marker: 1}))
+        assert "echo-marker" not in json.dumps(wait_for(ws, lambda m: m["type"] == "error"))
+
+
+@pytest.mark.parametrize(
+    "url", ["javascript:alert(1)", " JavaScript:alert(1)", "data:text/html,x", "//evil.example/"]
+)
+def test_javascript_links_are_refused_by_the_api(client: TestClient, url: str) -> None:
+    login(client)
+    exhibit = {"slug": "lyre", "name": "Lyre", "x": 1, "y": 2, "pictures": [{"url": url}]}
+    assert client.post("/api/admin/exhibits", json=exhibit).status_code == 422
+
+
+def test_new_sessions_are_rate_limited_per_address(client: TestClient) -> None:
+    codes = []
+    for _ in range(40):
+        client.cookies.clear()
+        codes.append(client.get("/api/session").status_code)
+    assert codes[:20] == [200] * 20
+    assert codes.count(429) >= 15
+    client.cookies.clear()
+    assert client.get("/").status_code == 429  # a page view without a cookie mints one too
+
+
+def test_one_address_holds_few_queue_places(client: TestClient) -> None:
+    """Fresh sessions from one address cannot fill the queue ahead of real visitors."""
+    sockets = [connect(client, new_session(client)) for _ in range(5)]
+    try:
+        answers = []
+        for ws in sockets:
+            ws.__enter__()
+            ws.send_text(json.dumps({"type": "book"}))
+            answers.append(wait_for(ws, lambda m: m["type"] in ("ack", "error")))
+        assert [a["type"] for a in answers] == ["ack", "ack", "ack", "error", "error"]
+        assert "places in the queue" in answers[3]["message"]
+        sockets[0].send_text(json.dumps({"type": "book"}))  # booking again keeps the one place
+        assert wait_for(sockets[0], lambda m: m["type"] in ("ack", "error"))["type"] == "ack"
+    finally:
+        for ws in sockets:
+            ws.__exit__(None, None, None)
+
+
+@pytest.mark.parametrize(
+    "headers",
+    [
+        {"origin": "http://127.0.0.1:8899"},  # another port of the same host: same-site, not same-origin
+        {"origin": "http://evil.example"},
+        {"sec-fetch-site": "same-site"},
+        {"sec-fetch-site": "cross-site", "origin": "http://testserver"},
+        {"origin": "https://testserver"},
+    ],
+)
+def test_staff_actions_from_another_origin_are_refused(
+    client: TestClient, robot: FakeRobot, headers: dict[str, str]
+) -> None:
+    login(client)
+    hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+    assert client.post("/api/robots/lefkos/staff-stop", headers=headers).status_code == 403
+    assert not hub.arbiter.staff_stopped
+    assert robot.commands == []
+    assert client.post("/api/robots/lefkos/staff-stop").status_code == 200
+    assert client.post("/api/robots/lefkos/staff-release", headers=headers).status_code == 403
+    assert hub.arbiter.staff_stopped
+    assert client.delete("/api/admin/exhibits/loom", headers=headers).status_code == 403
+    same = {"origin": "http://testserver", "sec-fetch-site": "same-origin"}
+    assert client.post("/api/robots/lefkos/staff-release", headers=same).status_code == 200
+    assert not hub.arbiter.staff_stopped
+
+
+def test_sessions_expire_on_the_server(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    app = create_app({"lefkos": robot}, db, None, WebConfig(speech_dir=tmp_path, session_idle=1.0))
+    with TestClient(app) as client:
+        login(client)
+        assert client.get("/api/admin/stats").status_code == 200
+        time.sleep(1.3)
+        assert client.get("/api/admin/stats").status_code == 401  # the cookie is still sent
+        token = client.cookies.get(COOKIE)
+        assert token is not None
+        assert db.session_for(token) is None  # ended in the database too, not just forgotten
+
+
+def test_an_idle_session_in_the_database_is_not_revived(db: Database) -> None:
+    token, _ = db.new_session("web")
+    assert db.session_for(token, max_idle=60.0) is not None
+    with db.session() as s:
+        from tourbot.web.db import VisitorSession
+
+        for row in s.query(VisitorSession):
+            row.last_seen -= 120.0
+    assert db.session_for(token, max_idle=60.0) is None
+    assert db.session_for(token) is None
+
+
+def test_the_http_api_survives_schemathesis(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    """Every route of the OpenAPI document fuzzed, logged in as staff: never a server error, and
+    every response of the content type and shape the document declares."""
+    import schemathesis
+    from hypothesis import HealthCheck, given, settings
+    from schemathesis.checks import not_a_server_error
+    from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
+
+    config = WebConfig(speech_dir=tmp_path, sessions_per_minute=1e6, login_attempts_per_minute=1_000_000)
+    app = create_app({"lefkos": robot}, db, None, config)
+    checks = [not_a_server_error, content_type_conformance, response_schema_conformance]
+    with LiveServer(app) as url:
+        import httpx
+
+        logged_in = httpx.post(f"{url}/api/login", json={"username": "curator", "password": "correct horse"})
+        cookie = {COOKIE: str(logged_in.cookies[COOKIE])}
+        schema = schemathesis.openapi.from_dict(httpx.get(f"{url}/api/openapi.json").json())
+        operations = [result.ok() for result in schema.get_all_operations()]  # type: ignore[union-attr]
+        assert len(operations) >= 15
+        for operation in operations:
+
+            @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck), database=None)
+            @given(case=operation.as_strategy())
+            def check(case: Any) -> None:
+                case.call_and_validate(base_url=url, cookies=cookie, checks=checks)
+
+            check()

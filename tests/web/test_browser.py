@@ -2,18 +2,15 @@
 
 from __future__ import annotations
 
-import socket
-import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import uvicorn
 
 from tests.web.fakes import FakeRobot
+from tests.web.live import LiveServer
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.web.app import WebConfig, create_app, find_node_modules
 from tourbot.web.db import Database, open_database
@@ -48,34 +45,6 @@ def _room() -> OccupancyGrid:
     return OccupancyGrid(prob, 0.1, (0.0, 0.0, 0.0))
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class _Server:
-    def __init__(self, app: Any) -> None:
-        self.port = _free_port()
-        self.server = uvicorn.Server(
-            uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
-        )
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
-
-    def __enter__(self) -> str:
-        self.thread.start()
-        deadline = time.monotonic() + 20
-        while not self.server.started:
-            if time.monotonic() > deadline:
-                raise RuntimeError("server did not start")
-            time.sleep(0.05)
-        return f"http://127.0.0.1:{self.port}"
-
-    def __exit__(self, *_: object) -> None:
-        self.server.should_exit = True
-        self.thread.join(10)
-
-
 @pytest.fixture
 def site_db(sqlite_url: str) -> Database:
     db = open_database(sqlite_url)
@@ -91,7 +60,7 @@ def server(site_db: Database, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]
         pytest.skip("three.js is not installed (npm ci)")
     robot = FakeRobot(speed=2.0)
     config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech")
-    with _Server(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
+    with LiveServer(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
         yield url, robot
 
 
@@ -280,7 +249,7 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     )  # fmt: skip
     app, db = build_site_app(settings)
     target = db.exhibit("alexander-map")
-    with _Server(app) as url:
+    with LiveServer(app) as url:
         visitor = _Visitor(browser, url)
         visitor.page.wait_for_selector("#exhibits button[data-exhibit='alexander-map']", timeout=30000)
         visitor.page.click("#book")
