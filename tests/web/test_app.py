@@ -14,8 +14,9 @@ from starlette.websockets import WebSocketDisconnect
 from tests.web.fakes import FakeRobot
 from tests.web.live import LiveServer
 from tourbot.web.app import COOKIE, WebConfig, create_app
-from tourbot.web.db import Database, open_database
+from tourbot.web.db import Database
 from tourbot.web.guard import GuardConfig
+from tourbot.web.slots import SlotConfig
 from tourbot.web.stream import StreamDecoder
 
 ORIGIN = {"origin": "http://testserver"}
@@ -25,16 +26,6 @@ PAIRING = "pair-this-screen-0123"
 @pytest.fixture
 def robot() -> FakeRobot:
     return FakeRobot()
-
-
-@pytest.fixture
-def db(sqlite_url: str) -> Database:
-    db = open_database(sqlite_url)
-    db.save_exhibit("amphora", "Amphora", x=4.0, y=2.0, summary="A clay amphora.")
-    db.save_exhibit("loom", "Loom", x=6.0, y=4.0)
-    db.save_tour("short", "Short tour", ["amphora", "loom"])
-    db.set_staff("curator", "correct horse")
-    return db
 
 
 @pytest.fixture
@@ -68,6 +59,24 @@ def wait_for(
 ) -> dict[str, Any]:
     """Read messages until a JSON one passes ``test`` (binary frames are skipped)."""
     for _ in range(limit):
+        message = ws.receive()
+        if message.get("text"):
+            data = json.loads(message["text"])
+            if test(data):
+                return data
+    raise AssertionError("expected message never came")
+
+
+def answering(
+    ws: WebSocketTestSession, test: Callable[[dict[str, Any]], bool], seconds: float
+) -> dict[str, Any]:
+    """As :func:`wait_for`, for up to ``seconds``, pinging twice a second as a page does."""
+    deadline = time.monotonic() + seconds
+    pinged = 0.0
+    while time.monotonic() < deadline:
+        if time.monotonic() - pinged > 0.5:
+            ws.send_text(json.dumps({"type": "ping"}))
+            pinged = time.monotonic()
         message = ws.receive()
         if message.get("text"):
             data = json.loads(message["text"])
@@ -158,21 +167,59 @@ def test_only_the_slot_holder_moves_the_robot(client: TestClient, robot: FakeRob
         assert robot.commands[-1] == ("tour", "short")
 
 
-def test_holder_closing_the_page_hands_over(client: TestClient, db: Database) -> None:
-    first, second = new_session(client), new_session(client)
-    with connect(client, second) as b:
-        with connect(client, first) as a:
-            a.send_text(json.dumps({"type": "book"}))
-            wait_for(a, role_is("holder"))
-            b.send_text(json.dumps({"type": "book"}))
-            wait_for(b, role_is("queued"))
-        wait_for(b, role_is("holder"))
-        bookings = db.bookings()
-        deadline = time.monotonic() + 5.0  # the rows are written just after the hand-over
-        while time.monotonic() < deadline and len(bookings) < 2:
-            time.sleep(0.05)
+def hub_of(client: TestClient) -> Any:
+    return client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+
+
+def _short_grace_client(robot: FakeRobot, db: Database, tmp_path: Path, grace: float) -> TestClient:
+    config = WebConfig(speech_dir=tmp_path, slots=SlotConfig(answer_timeout=grace))
+    return TestClient(create_app({"lefkos": robot}, db, None, config))
+
+
+def test_holder_closing_the_page_hands_over_after_the_grace_time(
+    robot: FakeRobot, db: Database, tmp_path: Path
+) -> None:
+    with _short_grace_client(robot, db, tmp_path, grace=1.5) as client:
+        first, second = new_session(client), new_session(client)
+        with connect(client, second) as b:
+            with connect(client, first) as a:
+                a.send_text(json.dumps({"type": "book"}))
+                wait_for(a, role_is("holder"))
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("queued"))
+            closed = time.monotonic()
+            answering(b, role_is("holder"), 10.0)
+            assert time.monotonic() - closed > 1.0  # not at once: the holder had its grace time
             bookings = db.bookings()
-        assert [(row[1], row[4]) for row in bookings] == [(1, "left"), (2, "")]
+            deadline = time.monotonic() + 5.0  # the rows are written just after the hand-over
+            while time.monotonic() < deadline and len(bookings) < 2:
+                time.sleep(0.05)
+                bookings = db.bookings()
+            assert [(row[1], row[4]) for row in bookings] == [(1, "silent"), (2, "")]
+
+
+def test_a_reload_or_a_second_tab_keeps_the_slot(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    with _short_grace_client(robot, db, tmp_path, grace=3.0) as client:
+        holder, other = new_session(client), new_session(client)
+        with connect(client, other) as b:
+            with connect(client, holder) as a:
+                a.send_text(json.dumps({"type": "book"}))
+                wait_for(a, role_is("holder"))
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("queued"))
+                with connect(client, holder) as tab:  # a second tab of the same browser
+                    wait_for(tab, role_is("holder"))
+                a.send_text(json.dumps({"type": "goto", "x": 3.0, "y": 2.0}))
+                wait_for(a, lambda m: m["type"] == "ack")  # the first tab still drives
+            time.sleep(1.0)  # the page reloads: closed, then opened again within the grace time
+            with connect(client, holder) as again:
+                wait_for(again, role_is("holder"))
+                with pytest.raises(AssertionError):  # 4 s, longer than the grace time: still holder
+                    answering(again, lambda m: m["type"] == "status" and m["slot"]["role"] != "holder", 4.0)
+                again.send_text(json.dumps({"type": "goto", "x": 4.0, "y": 2.0}))
+                wait_for(again, lambda m: m["type"] == "ack")
+                assert hub_of(client).arbiter.holder == client.app.state.lookup(holder).session  # type: ignore[attr-defined]
+    assert robot.commands[-1] == ("goal", (4.0, 2.0, None, None))
 
 
 @pytest.mark.parametrize(

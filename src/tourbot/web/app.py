@@ -45,6 +45,7 @@ from fastapi.staticfiles import StaticFiles
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 from starlette.websockets import WebSocketState
 
+from tourbot.errors import TourbotError
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.web.db import Database, DatabaseError, check_link_url
 from tourbot.web.face import FaceConfig
@@ -551,8 +552,11 @@ def create_app(
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
-        hub.arbiter.staff_stop()
-        await hub.command(lambda link: link.stop())
+        hub.arbiter.staff_stop()  # web commands are refused from now on, whatever the robot says
+        try:
+            await hub.command(lambda link: link.stop())
+        except TourbotError:
+            raise HTTPException(503, "the robot did not answer; web control is stopped") from None
         await hub.announce("Stopped by staff.")
         return {"ok": True}
 
@@ -686,9 +690,14 @@ async def _receive_loop(
         try:
             command = parse_command(raw or b"", cfg.guard)
             answer = await _execute(command, hub, client, db, now, phrasebook, host)
-        except (CommandError, DatabaseError) as exc:
+        except TourbotError as exc:
             # a command's error names the rule; the database's would quote the client's slug
-            text = str(exc) if isinstance(exc, CommandError) else "no such exhibit or tour"
+            if isinstance(exc, CommandError):
+                text = str(exc)
+            elif isinstance(exc, DatabaseError):
+                text = "no such exhibit or tour"
+            else:  # the robot refused, or its process is restarting
+                text = f"the robot cannot do that now: {str(exc)[:200]}"
             await _reply(ws, "error", message=text)
             continue
         if answer is not None:

@@ -72,6 +72,11 @@ class SimulatedRobotFactory:
     seed: int
     particles: int
     speedup: float = 1.0
+    start: tuple[float, float, float] | None = None  # None: the site's start pose
+
+    def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
+        """The same robot standing at ``pose`` (its last estimate, when its process restarts)."""
+        return replace(self, start=pose)
 
     def __call__(self) -> RobotLink:
         from tourbot.runtime.simulated import SimulationSettings, simulated_runtime
@@ -81,7 +86,7 @@ class SimulatedRobotFactory:
 
         site = load_site(site_path(self.site))
         sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, particles=self.particles)
-        robot = simulated_runtime(site, sim_settings, record=False)
+        robot = simulated_runtime(site, sim_settings, start=self.start, record=False)
         period = float(robot.simulator.dt) / self.speedup
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
 

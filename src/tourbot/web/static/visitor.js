@@ -108,7 +108,8 @@ async function start() {
   $("book").addEventListener("click", () => state.live.send({ type: "book" }));
   $("leave").addEventListener("click", () => state.live.send({ type: "leave" }));
   $("stop").addEventListener("click", () => command({ type: "stop" }));
-  window.addEventListener("pagehide", () => state.live.send({ type: "leave" }));
+  // No leave at pagehide: a reload or a second tab keeps the slot (the server holds it for a
+  // grace time after the last page closes); "Leave" gives it up.
   if (site.three) {
     try {
       const { View3D } = await import("./view3d.js");
