@@ -16,6 +16,7 @@ from tourbot.web.app import WebConfig, create_app, find_node_modules
 from tourbot.web.db import Database, open_database
 
 CHROMIUM = Path("/usr/bin/chromium")
+PAIRING = "pair-the-robot-screen"
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(
@@ -59,7 +60,7 @@ def server(site_db: Database, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]
     if find_node_modules() is None:
         pytest.skip("three.js is not installed (npm ci)")
     robot = FakeRobot(speed=2.0)
-    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech")
+    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech", onboard_token=PAIRING)
     with LiveServer(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
         yield url, robot
 
@@ -127,7 +128,10 @@ def test_visitor_books_drives_to_an_exhibit_and_hands_over(
         "document.getElementById('messages').textContent.includes('Take control first')"
     )
     assert len(robot.commands) == 1
-    first.page.close()  # the holder leaves: the slot passes on
+    first.page.reload()  # a reload keeps the slot
+    first.slot("holder")
+    second.slot("queued")
+    first.page.click("#leave")  # the holder leaves: the slot passes on
     second.slot("holder")
     second.page.click("#exhibits button[data-exhibit='loom']")
     second.page.wait_for_function(
@@ -190,7 +194,7 @@ def test_onboard_screen_talks_and_staff_place_an_exhibit(
     server: tuple[str, FakeRobot], browser: Any, site_db: Database
 ) -> None:
     url, robot = server
-    onboard = _Visitor(browser, url + "/onboard")
+    onboard = _Visitor(browser, url + f"/onboard/pair?token={PAIRING}")  # lands on /onboard
     onboard.page.wait_for_selector("#exhibits button[data-exhibit='loom']")
     onboard.page.wait_for_selector("#face[data-mood='happy']")
     onboard.page.fill("#phrase", "who are you?")
