@@ -269,3 +269,129 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
         assert abs(shown["y"] - target.y) < 0.6, shown
         assert visitor.outside == []
         assert visitor.errors == []
+
+
+@pytest.fixture
+def museum(sqlite_url: str, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]:
+    """The FHW museum's real (scanned) map and its exhibits, the fake robot at an exhibit."""
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+    from tourbot.web.sitedata import import_site
+
+    if find_node_modules() is None:
+        pytest.skip("three.js is not installed (npm ci)")
+    site = load_site(site_path("fhw"))
+    db = open_database(sqlite_url)
+    import_site(site, db)
+    robot = FakeRobot(speed=0.0)
+    first = db.exhibits()[3]
+    robot.x, robot.y = first.x, first.y
+    config = WebConfig(site_name="FHW", speech_dir=tmp_path / "speech")
+    with LiveServer(create_app({"lefkos": robot}, db, site.grid, config)) as url:
+        yield url, robot
+
+
+_LAYOUT = """() => {
+    const t = window.tourbot, map = t.map, v = t.view3d;
+    const box = (e) => { const r = e.getBoundingClientRect(); return {x: r.left, y: r.top + scrollY, w: r.width, h: r.height}; };
+    const sections = [...document.querySelectorAll('main > section')].map(box).filter((b) => b.w > 0 && b.h > 0);
+    const canvas = document.getElementById('map');
+    const k = map.scale;
+    const [cw, ch] = map.cropSize;
+    const [w, h] = map.turned ? [ch, cw] : [cw, ch];
+    const robot = t.live.scene(0).find((b) => b.id === 0);
+    const [ux, uy] = map.screenUp;
+    const ahead = robot && map.toCanvas(robot.x + 3 * ux, robot.y + 3 * uy);
+    const here = robot && map.toCanvas(robot.x, robot.y);
+    return {
+        viewport: innerWidth, scrollWidth: document.documentElement.scrollWidth, sections,
+        map: box(canvas), fill: (w * k * h * k) / (canvas.width * canvas.height),
+        canvas: {w: canvas.width, h: canvas.height}, labels: map.labels, exhibits: t.site.exhibits.length,
+        robotAt: map.robotAt, up2d: robot && [ahead[0] - here[0], ahead[1] - here[1]],
+        robot3d: robot && v.project(robot.x, robot.y, 0.5),
+        up3d: robot && v.project(robot.x + 3 * ux, robot.y + 3 * uy, 0.5),
+        view3d: box(document.getElementById('view3d')),
+    };
+}"""
+
+
+def _overlap(a: dict[str, float], b: dict[str, float]) -> bool:
+    return (
+        a["x"] < b["x"] + b["w"] - 0.5
+        and b["x"] < a["x"] + a["w"] - 0.5
+        and (a["y"] < b["y"] + b["h"] - 0.5 and b["y"] < a["y"] + a["h"] - 0.5)
+    )
+
+
+@pytest.mark.parametrize(("width", "height"), [(390, 844), (1440, 900)], ids=["phone", "desktop"])
+def test_visitor_page_layout_rules(
+    museum: tuple[str, FakeRobot], browser: Any, tmp_path: Path, width: int, height: int
+) -> None:
+    """At a phone's and a desktop's size: nothing wider than the screen, no section over another,
+    the 2D map filling its canvas with labels that never overlap and the robot on it, the 3D view
+    framing the robot and turned like the 2D map (up on the map is up in the 3D view)."""
+    url, _ = museum
+    context = browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=1)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_function(
+        "() => window.tourbot && window.tourbot.view3d && window.tourbot.map.robotAt", timeout=30000
+    )
+    page.wait_for_timeout(1500)
+    shots = Path(__import__("os").environ.get("TOURBOT_SCREENSHOTS", tmp_path))
+    shots.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(shots / f"visitor-{width}x{height}.png"), full_page=True)
+    got = page.evaluate(_LAYOUT)
+    assert got["viewport"] == width
+    assert got["scrollWidth"] <= width, "the page is wider than the screen"
+    sections = got["sections"]
+    assert len(sections) == 6
+    for i, a in enumerate(sections):
+        assert a["x"] >= 0
+        assert a["x"] + a["w"] <= width + 0.5
+        for b in sections[i + 1 :]:
+            assert not _overlap(a, b), (a, b)
+    assert got["map"]["w"] <= width
+    assert got["fill"] > 0.9, got["fill"]  # the map fills its canvas
+    labels = got["labels"]
+    assert len(labels) >= got["exhibits"] // 2
+    for i, a in enumerate(labels):
+        assert 0 <= a["x"] and a["x"] + a["w"] <= got["canvas"]["w"]
+        assert 0 <= a["y"] and a["y"] + a["h"] <= got["canvas"]["h"]
+        for b in labels[i + 1 :]:
+            assert not _overlap(a, b), (a, b)
+    robot = got["robotAt"]
+    assert 0 < robot["x"] < got["canvas"]["w"]
+    assert 0 < robot["y"] < got["canvas"]["h"]
+    dx, dy = got["up2d"]
+    assert dy < 0 and abs(dx) < 1e-6 * got["canvas"]["w"] + 1  # screenUp is up on the 2D map
+    r3, u3 = got["robot3d"], got["up3d"]
+    assert abs(r3["x"]) < 0.8 and abs(r3["y"]) < 0.8, r3  # the default 3D view frames the robot
+    assert u3["y"] > r3["y"] + 0.05  # ... and shows the map's up as up
+    assert abs(u3["x"] - r3["x"]) < 0.05
+    assert got["view3d"]["w"] <= width
+    assert errors == []
+    context.close()
+
+
+def test_status_messages_are_not_repeated(server: tuple[str, FakeRobot], browser: Any) -> None:
+    url, _ = server
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function("() => window.tourbot && window.tourbot.live")
+    lines = visitor.page.evaluate(
+        """() => {
+            const log = document.getElementById('messages');
+            log.replaceChildren();
+            for (let i = 0; i < 10; i++) {
+                window.tourbot.message('moving: Amphora');
+                window.tourbot.message('blocked: Amphora');
+            }
+            window.tourbot.message('Arrived at Amphora');
+            return [...log.children].map((n) => n.textContent);
+        }"""
+    )
+    assert len(lines) == 3
+    assert "Arrived at Amphora" in lines[0]
+    assert "×10" in lines[1] or "×10" in lines[2]

@@ -72,7 +72,7 @@ from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
 from tourbot.web.stream import StreamConfig
 
-__all__ = ["WebConfig", "create_app", "find_node_modules"]
+__all__ = ["WebConfig", "create_app", "find_node_modules", "known_bounds", "pooled", "wall_boxes"]
 
 STATIC = Path(__file__).with_name("static")
 COOKIE = "tourbot_session"
@@ -214,15 +214,59 @@ def _map_png(grid: OccupancyGrid) -> bytes:
     return buffer.getvalue()
 
 
-def _walls(grid: OccupancyGrid) -> list[list[int]]:
-    """Occupied cells merged into horizontal runs ``[col0, row, col1]`` (col1 exclusive)."""
-    runs: list[list[int]] = []
-    occupied = grid.occupied()
+def known_bounds(grid: OccupancyGrid, margin: int = 4) -> list[int]:
+    """The part of the floor-plan image that is mapped, ``[u0, v0, u1, v1]`` in image pixels (u
+    right, v down, north up as :func:`_map_png` draws it; ends exclusive), ``margin`` cells wider:
+    the pages draw this part only, so the building fills the canvas, not the unknown around it."""
+    known = grid.prob[::-1] >= 0
+    rows, cols = known.shape
+    if not known.any():
+        return [0, 0, cols, rows]
+    v = np.flatnonzero(known.any(axis=1))
+    u = np.flatnonzero(known.any(axis=0))
+    return [
+        max(0, int(u[0]) - margin),
+        max(0, int(v[0]) - margin),
+        min(cols, int(u[-1]) + 1 + margin),
+        min(rows, int(v[-1]) + 1 + margin),
+    ]
+
+
+def pooled(occupied: np.ndarray, factor: int) -> np.ndarray:
+    """Occupancy at ``factor`` times coarser cells: a coarse cell is occupied when any of its fine
+    cells is (the last row and column padded free)."""
+    if factor == 1:
+        return occupied
+    rows, cols = occupied.shape
+    padded = np.zeros((-(-rows // factor) * factor, -(-cols // factor) * factor), dtype=bool)
+    padded[:rows, :cols] = occupied
+    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).any(
+        axis=(1, 3)
+    )
+
+
+def wall_boxes(occupied: np.ndarray) -> list[list[int]]:
+    """Occupied cells merged into boxes ``[col0, row0, col1, row1]`` (ends exclusive): each row's
+    runs of occupied cells, and a run that repeats exactly in the next row grows its box instead of
+    starting a new one. A wall one cell thick is one long box, whichever way it runs; every
+    occupied cell is in exactly one box."""
+    boxes: list[list[int]] = []
+    open_boxes: dict[tuple[int, int], list[int]] = {}  # (col0, col1) -> the box ending at this row
     for row in range(occupied.shape[0]):
         line = np.concatenate([[False], occupied[row], [False]]).astype(np.int8)
         edges = np.flatnonzero(np.diff(line))
-        runs.extend([int(a), row, int(b)] for a, b in zip(edges[::2], edges[1::2], strict=True))
-    return runs
+        runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
+        for key in list(open_boxes):
+            if key not in runs:
+                boxes.append(open_boxes.pop(key))
+        for a, b in sorted(runs):
+            box = open_boxes.get((a, b))
+            if box is None:
+                open_boxes[(a, b)] = [a, row, b, row + 1]
+            else:
+                box[3] = row + 1
+    boxes.extend(open_boxes.values())
+    return sorted(boxes, key=lambda box: (box[1], box[0]))
 
 
 def create_app(
@@ -257,7 +301,10 @@ def create_app(
         for name, link in robots.items()
     }
     map_png = _map_png(grid) if grid is not None else None
-    walls = _walls(grid) if grid is not None else []
+    map_crop = known_bounds(grid) if grid is not None else None
+    # the 3D walls at about 10 cm: a scanned map's ragged wall edges merge into few boxes
+    wall_cell = 1 if grid is None else max(1, round(0.1 / grid.resolution))
+    walls = wall_boxes(pooled(grid.occupied(), wall_cell)) if grid is not None else []
     buckets: dict[int, TokenBucket] = {}
     login_buckets: dict[str, TokenBucket] = {}
     sessions: dict[str, _Client] = {}
@@ -430,6 +477,7 @@ def create_app(
                 "origin": list(grid.origin),
                 "rows": grid.shape[0],
                 "cols": grid.shape[1],
+                "crop": map_crop,
             },
             "three": modules is not None,
         }
@@ -449,7 +497,8 @@ def create_app(
 
     @app.get("/api/walls")
     def api_walls() -> dict[str, Any]:
-        return {"runs": walls}
+        """The 3D view's walls: the map's occupied cells as merged boxes (:func:`wall_boxes`)."""
+        return {"boxes": walls, "cell": wall_cell}
 
     # --- staff ---------------------------------------------------------------------------
     @app.post("/api/login")
