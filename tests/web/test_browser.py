@@ -362,8 +362,10 @@ def test_visitor_page_layout_rules(
     labels = got["labels"]
     assert len(labels) >= got["exhibits"] // 2
     for i, a in enumerate(labels):
-        assert a["x"] >= 0 and a["x"] + a["w"] <= got["canvas"]["w"]
-        assert a["y"] >= 0 and a["y"] + a["h"] <= got["canvas"]["h"]
+        assert a["x"] >= 0
+        assert a["x"] + a["w"] <= got["canvas"]["w"]
+        assert a["y"] >= 0
+        assert a["y"] + a["h"] <= got["canvas"]["h"]
         for b in labels[i + 1 :]:
             assert not _overlap(a, b), (a, b)
     robot = got["robotAt"]

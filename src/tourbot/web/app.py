@@ -240,9 +240,8 @@ def pooled(occupied: np.ndarray, factor: int) -> np.ndarray:
     rows, cols = occupied.shape
     padded = np.zeros((-(-rows // factor) * factor, -(-cols // factor) * factor), dtype=bool)
     padded[:rows, :cols] = occupied
-    return padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor).any(
-        axis=(1, 3)
-    )
+    blocks = padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor)
+    return np.asarray(blocks.any(axis=(1, 3)), dtype=bool)
 
 
 def wall_boxes(occupied: np.ndarray) -> list[list[int]]:
