@@ -131,3 +131,61 @@ def test_staff_help_does_not_call_the_prompted_password_required(
     _run(["site", "staff", "--help"])
     line = next(x for x in capsys.readouterr().out.splitlines() if "--password" in x)
     assert "required" not in line
+
+
+def test_a_javascript_link_is_refused_by_the_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    url = f"sqlite:///{tmp_path / 'site.db'}"
+    code = _run(
+        ["site", "exhibit", "x", "--x", "1", "--y", "2", "--link", "javascript:alert(1)", "--database", url]
+    )
+    assert code == 2
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1
+    assert "must start with http://" in err[0]
+    assert "Traceback" not in err[0]
+
+
+def test_the_staff_password_is_not_taken_from_the_command_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every user of the machine can read a command line (``ps``): no ``--staff-password``."""
+    db = tmp_path / "site.db"
+    assert _run(["serve", "--database", f"sqlite:///{db}", "--staff-password", "s3cret-pass"]) == 2
+    assert "No such option" in capsys.readouterr().err
+    assert not db.exists()
+
+
+@pytest.mark.parametrize(
+    ("content", "expected"), [(None, "cannot read"), ("", "is empty"), ("short\n", "at least 8 characters")]
+)
+def test_a_bad_staff_password_file_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], content: str | None, expected: str
+) -> None:
+    file = tmp_path / "password"
+    if content is not None:
+        file.write_text(content)
+    db = tmp_path / "site.db"
+    assert _run(["serve", "--database", f"sqlite:///{db}", "--staff-password-file", str(file)]) == 2
+    lines = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(lines) == 1
+    assert expected in lines[0]
+    assert not db.exists()
+
+
+def test_the_staff_password_comes_from_a_file_the_environment_or_a_prompt(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from tourbot.cli.web import _staff_password
+    from tourbot.errors import InputError
+
+    monkeypatch.delenv("TOURBOT_STAFF_PASSWORD", raising=False)
+    file = tmp_path / "password"
+    file.write_text("from the file\nignored\n")
+    assert _staff_password(file, False) == "from the file"
+    assert _staff_password(None, False) is None
+    monkeypatch.setattr("typer.prompt", lambda *_, **__: "typed, hidden")
+    assert _staff_password(None, True) == "typed, hidden"
+    monkeypatch.setenv("TOURBOT_STAFF_PASSWORD", "from the environment")
+    assert _staff_password(None, False) == "from the environment"
+    with pytest.raises(InputError, match="one way"):
+        _staff_password(file, False)

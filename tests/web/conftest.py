@@ -10,6 +10,8 @@ from pathlib import Path
 import pytest
 from sqlalchemy import create_engine, text
 
+from tourbot.web.db import Database
+
 _PG = os.environ.get("TOURBOT_TEST_DATABASE_URL")
 _BACKENDS = [
     pytest.param("sqlite", id="sqlite"),
@@ -57,3 +59,16 @@ def sqlite_url(tmp_path: Path, _migrated_sqlite: Path) -> str:
     """An empty SQLite site database, already migrated (a copy: migrating takes a second)."""
     shutil.copyfile(_migrated_sqlite, tmp_path / "site.db")
     return f"sqlite:///{tmp_path / 'site.db'}"
+
+
+@pytest.fixture
+def db(sqlite_url: str) -> Database:
+    """A small site: two exhibits, one tour, one staff login (curator / correct horse)."""
+    from tourbot.web.db import open_database
+
+    db = open_database(sqlite_url)
+    db.save_exhibit("amphora", "Amphora", x=4.0, y=2.0, summary="A clay amphora.")
+    db.save_exhibit("loom", "Loom", x=6.0, y=4.0)
+    db.save_tour("short", "Short tour", ["amphora", "loom"])
+    db.set_staff("curator", "correct horse")
+    return db

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import threading
 import time
+from dataclasses import dataclass, replace
 
 from tourbot.web.link import NavStatus, PersonView, RobotView
 
@@ -87,3 +88,19 @@ class FakeRobot:
         with self._lock:
             self.commands.append(("stop", None))
             self.goal, self.tour, self.state = None, [], "stopped"
+
+
+@dataclass(frozen=True)
+class FakeFactory:
+    """A picklable :class:`FakeRobot` maker for a robot process; ``at`` restarts it at a pose."""
+
+    start: tuple[float, float, float] | None = None
+
+    def at(self, pose: tuple[float, float, float]) -> FakeFactory:
+        return replace(self, start=pose)
+
+    def __call__(self) -> FakeRobot:
+        robot = FakeRobot()
+        if self.start is not None:
+            robot.x, robot.y, robot.theta = self.start
+        return robot

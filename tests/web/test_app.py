@@ -6,18 +6,24 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from fastapi.testclient import TestClient
+from hypothesis import given
+from hypothesis import strategies as st
 from starlette.testclient import WebSocketTestSession
 from starlette.websockets import WebSocketDisconnect
 
 from tests.web.fakes import FakeRobot
-from tourbot.web.app import COOKIE, WebConfig, create_app
-from tourbot.web.db import Database, open_database
+from tests.web.live import LiveServer
+from tourbot.web.app import COOKIE, WebConfig, create_app, pooled, wall_boxes
+from tourbot.web.db import Database
 from tourbot.web.guard import GuardConfig
+from tourbot.web.slots import SlotConfig
 from tourbot.web.stream import StreamDecoder
 
 ORIGIN = {"origin": "http://testserver"}
+PAIRING = "pair-this-screen-0123"
 
 
 @pytest.fixture
@@ -26,21 +32,11 @@ def robot() -> FakeRobot:
 
 
 @pytest.fixture
-def db(sqlite_url: str) -> Database:
-    db = open_database(sqlite_url)
-    db.save_exhibit("amphora", "Amphora", x=4.0, y=2.0, summary="A clay amphora.")
-    db.save_exhibit("loom", "Loom", x=6.0, y=4.0)
-    db.save_tour("short", "Short tour", ["amphora", "loom"])
-    db.set_staff("curator", "correct horse")
-    return db
-
-
-@pytest.fixture
 def client(robot: FakeRobot, db: Database, tmp_path: Path) -> Iterator[TestClient]:
     config = WebConfig(
         site_name="Test museum",
         speech_dir=tmp_path / "speech",
-        onboard_hosts=("127.0.0.1",),
+        onboard_token=PAIRING,
         guard=GuardConfig(commands_per_second=5.0, burst=10),
     )
     with TestClient(create_app({"lefkos": robot}, db, None, config)) as c:
@@ -66,6 +62,24 @@ def wait_for(
 ) -> dict[str, Any]:
     """Read messages until a JSON one passes ``test`` (binary frames are skipped)."""
     for _ in range(limit):
+        message = ws.receive()
+        if message.get("text"):
+            data = json.loads(message["text"])
+            if test(data):
+                return data
+    raise AssertionError("expected message never came")
+
+
+def answering(
+    ws: WebSocketTestSession, test: Callable[[dict[str, Any]], bool], seconds: float
+) -> dict[str, Any]:
+    """As :func:`wait_for`, for up to ``seconds``, pinging twice a second as a page does."""
+    deadline = time.monotonic() + seconds
+    pinged = 0.0
+    while time.monotonic() < deadline:
+        if time.monotonic() - pinged > 0.5:
+            ws.send_text(json.dumps({"type": "ping"}))
+            pinged = time.monotonic()
         message = ws.receive()
         if message.get("text"):
             data = json.loads(message["text"])
@@ -156,21 +170,59 @@ def test_only_the_slot_holder_moves_the_robot(client: TestClient, robot: FakeRob
         assert robot.commands[-1] == ("tour", "short")
 
 
-def test_holder_closing_the_page_hands_over(client: TestClient, db: Database) -> None:
-    first, second = new_session(client), new_session(client)
-    with connect(client, second) as b:
-        with connect(client, first) as a:
-            a.send_text(json.dumps({"type": "book"}))
-            wait_for(a, role_is("holder"))
-            b.send_text(json.dumps({"type": "book"}))
-            wait_for(b, role_is("queued"))
-        wait_for(b, role_is("holder"))
-        bookings = db.bookings()
-        deadline = time.monotonic() + 5.0  # the rows are written just after the hand-over
-        while time.monotonic() < deadline and len(bookings) < 2:
-            time.sleep(0.05)
+def hub_of(client: TestClient) -> Any:
+    return client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+
+
+def _short_grace_client(robot: FakeRobot, db: Database, tmp_path: Path, grace: float) -> TestClient:
+    config = WebConfig(speech_dir=tmp_path, slots=SlotConfig(answer_timeout=grace))
+    return TestClient(create_app({"lefkos": robot}, db, None, config))
+
+
+def test_holder_closing_the_page_hands_over_after_the_grace_time(
+    robot: FakeRobot, db: Database, tmp_path: Path
+) -> None:
+    with _short_grace_client(robot, db, tmp_path, grace=1.5) as client:
+        first, second = new_session(client), new_session(client)
+        with connect(client, second) as b:
+            with connect(client, first) as a:
+                a.send_text(json.dumps({"type": "book"}))
+                wait_for(a, role_is("holder"))
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("queued"))
+            closed = time.monotonic()
+            answering(b, role_is("holder"), 10.0)
+            assert time.monotonic() - closed > 1.0  # not at once: the holder had its grace time
             bookings = db.bookings()
-        assert [(row[1], row[4]) for row in bookings] == [(1, "left"), (2, "")]
+            deadline = time.monotonic() + 5.0  # the rows are written just after the hand-over
+            while time.monotonic() < deadline and len(bookings) < 2:
+                time.sleep(0.05)
+                bookings = db.bookings()
+            assert [(row[1], row[4]) for row in bookings] == [(1, "silent"), (2, "")]
+
+
+def test_a_reload_or_a_second_tab_keeps_the_slot(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    with _short_grace_client(robot, db, tmp_path, grace=3.0) as client:
+        holder, other = new_session(client), new_session(client)
+        with connect(client, other) as b:
+            with connect(client, holder) as a:
+                a.send_text(json.dumps({"type": "book"}))
+                wait_for(a, role_is("holder"))
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("queued"))
+                with connect(client, holder) as tab:  # a second tab of the same browser
+                    wait_for(tab, role_is("holder"))
+                a.send_text(json.dumps({"type": "goto", "x": 3.0, "y": 2.0}))
+                wait_for(a, lambda m: m["type"] == "ack")  # the first tab still drives
+            time.sleep(1.0)  # the page reloads: closed, then opened again within the grace time
+            with connect(client, holder) as again:
+                wait_for(again, role_is("holder"))
+                with pytest.raises(AssertionError):  # 4 s, longer than the grace time: still holder
+                    answering(again, lambda m: m["type"] == "status" and m["slot"]["role"] != "holder", 4.0)
+                again.send_text(json.dumps({"type": "goto", "x": 4.0, "y": 2.0}))
+                wait_for(again, lambda m: m["type"] == "ack")
+                assert hub_of(client).arbiter.holder == client.app.state.lookup(holder).session  # type: ignore[attr-defined]
+    assert robot.commands[-1] == ("goal", (4.0, 2.0, None, None))
 
 
 @pytest.mark.parametrize(
@@ -261,6 +313,28 @@ def test_onboard_screen_is_only_for_the_robot_itself(client: TestClient) -> None
         pass
 
 
+def test_onboard_screen_is_paired_by_its_token_not_by_its_address(
+    robot: FakeRobot, db: Database, tmp_path: Path
+) -> None:
+    """A visitor on the robot's own machine (loopback) is not the on-board screen: only the
+    pairing token makes one, and a wrong token is refused."""
+    app = create_app({"lefkos": robot}, db, None, WebConfig(speech_dir=tmp_path, onboard_token=PAIRING))
+    with TestClient(app, client=("127.0.0.1", 50000)) as local:
+        assert local.get("/onboard").status_code == 403
+        token = new_session(local)
+        with pytest.raises(WebSocketDisconnect), connect(local, token, query="?screen=onboard"):
+            pass
+        assert local.get("/onboard/pair?token=wrong-token").status_code == 403
+        paired = local.get(f"/onboard/pair?token={PAIRING}", follow_redirects=False)
+        assert paired.status_code == 303
+        screen = paired.cookies[COOKIE]
+        assert local.get("/onboard", cookies={COOKIE: screen}).status_code == 200
+        with connect(local, screen, query="?screen=onboard") as ws:
+            ws.send_text(json.dumps({"type": "goto", "x": 3.0, "y": 3.0}))
+            wait_for(ws, lambda m: m["type"] == "ack")
+    assert robot.commands == [("goal", (3.0, 3.0, None, None))]
+
+
 def test_speech_files_cannot_escape_their_folder(client: TestClient) -> None:
     assert client.get("/speech/..%2F..%2Fetc%2Fpasswd").status_code == 404
     assert client.get("/speech/" + "a" * 24 + ".wav").status_code == 404
@@ -299,3 +373,219 @@ def test_holder_and_watcher_get_the_path_of_a_new_goal(client: TestClient) -> No
         hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
         assert hub.path_message is not None
         assert json.loads(hub.path_message)["points"][-1] == [8.0, 2.0]
+
+
+# --- hardening -------------------------------------------------------------------------------
+def login(client: TestClient) -> None:
+    response = client.post("/api/login", json={"username": "curator", "password": "correct horse"})
+    assert response.status_code == 200
+
+
+@pytest.mark.parametrize(
+    ("method", "path", "staff"),
+    [
+        ("post", "/api/login", False),
+        ("post", "/api/admin/exhibits", False),
+        ("post", "/api/admin/exhibits", True),
+        ("post", "/api/robots/lefkos/staff-stop", False),
+        ("get", "/api/site", False),
+    ],
+)
+def test_a_large_body_is_refused_before_it_is_read_or_authenticated(
+    client: TestClient, method: str, path: str, staff: bool
+) -> None:
+    if staff:
+        login(client)
+    big = b'{"username": "' + b"x" * 200_000 + b'"}'
+    response = client.request(method, path, content=big, headers={"content-type": "application/json"})
+    assert response.status_code == 413  # not 401, not 422: refused by its size alone
+    assert len(response.content) < 200
+
+
+def test_a_large_body_without_a_length_is_cut_off(client: TestClient) -> None:
+    def chunks() -> Iterator[bytes]:
+        for _ in range(100):
+            yield b"x" * 10_000
+
+    response = client.post("/api/login", content=chunks(), headers={"content-type": "application/json"})
+    assert response.status_code == 413
+    assert len(response.content) < 200
+
+
+def test_errors_never_echo_the_request(client: TestClient) -> None:
+    marker = "<script>echo-marker</script>"
+    response = client.post("/api/login", json={"username": marker, "password": 5, marker: 1})
+    assert response.status_code == 422
+    assert "echo-marker" not in response.text
+    assert response.json()["detail"]  # still says where and why
+    login(client)
+    bad_link = {"slug": "lyre", "name": "Lyre", "x": 1, "y": 2, "links": [{"url": "javascript:" + marker}]}
+    response = client.post("/api/admin/exhibits", json=bad_link)
+    assert response.status_code == 422
+    assert "echo-marker" not in response.text
+    for path in ("/api/exhibits/echo-marker", "/api/admin/stream/echo-marker"):
+        response = client.get(path)
+        assert response.status_code == 404
+        assert "echo-marker" not in response.text
+    with connect(client, new_session(client)) as ws:
+        ws.send_text(json.dumps({"type": marker}))
+        assert "echo-marker" not in json.dumps(wait_for(ws, lambda m: m["type"] == "error"))
+        ws.send_text(json.dumps({"type": "book", marker: 1}))
+        assert "echo-marker" not in json.dumps(wait_for(ws, lambda m: m["type"] == "error"))
+
+
+@pytest.mark.parametrize(
+    "url", ["javascript:alert(1)", " JavaScript:alert(1)", "data:text/html,x", "//evil.example/"]
+)
+def test_javascript_links_are_refused_by_the_api(client: TestClient, url: str) -> None:
+    login(client)
+    exhibit = {"slug": "lyre", "name": "Lyre", "x": 1, "y": 2, "pictures": [{"url": url}]}
+    assert client.post("/api/admin/exhibits", json=exhibit).status_code == 422
+
+
+def test_new_sessions_are_rate_limited_per_address(client: TestClient) -> None:
+    codes = []
+    for _ in range(40):
+        client.cookies.clear()
+        codes.append(client.get("/api/session").status_code)
+    assert codes[:20] == [200] * 20
+    assert codes.count(429) >= 15
+    client.cookies.clear()
+    assert client.get("/").status_code == 429  # a page view without a cookie mints one too
+
+
+def test_one_address_holds_few_queue_places(client: TestClient) -> None:
+    """Fresh sessions from one address cannot fill the queue ahead of real visitors."""
+    sockets = [connect(client, new_session(client)) for _ in range(5)]
+    try:
+        answers = []
+        for ws in sockets:
+            ws.__enter__()
+            ws.send_text(json.dumps({"type": "book"}))
+            answers.append(wait_for(ws, lambda m: m["type"] in ("ack", "error")))
+        assert [a["type"] for a in answers] == ["ack", "ack", "ack", "error", "error"]
+        assert "places in the queue" in answers[3]["message"]
+        sockets[0].send_text(json.dumps({"type": "book"}))  # booking again keeps the one place
+        assert wait_for(sockets[0], lambda m: m["type"] in ("ack", "error"))["type"] == "ack"
+    finally:
+        for ws in sockets:
+            ws.__exit__(None, None, None)
+
+
+@pytest.mark.parametrize(
+    "headers",
+    [
+        {"origin": "http://127.0.0.1:8899"},  # another port of the same host: same-site, not same-origin
+        {"origin": "http://evil.example"},
+        {"sec-fetch-site": "same-site"},
+        {"sec-fetch-site": "cross-site", "origin": "http://testserver"},
+        {"origin": "https://testserver"},
+    ],
+)
+def test_staff_actions_from_another_origin_are_refused(
+    client: TestClient, robot: FakeRobot, headers: dict[str, str]
+) -> None:
+    login(client)
+    hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+    assert client.post("/api/robots/lefkos/staff-stop", headers=headers).status_code == 403
+    assert not hub.arbiter.staff_stopped
+    assert robot.commands == []
+    assert client.post("/api/robots/lefkos/staff-stop").status_code == 200
+    assert client.post("/api/robots/lefkos/staff-release", headers=headers).status_code == 403
+    assert hub.arbiter.staff_stopped
+    assert client.delete("/api/admin/exhibits/loom", headers=headers).status_code == 403
+    same = {"origin": "http://testserver", "sec-fetch-site": "same-origin"}
+    assert client.post("/api/robots/lefkos/staff-release", headers=same).status_code == 200
+    assert not hub.arbiter.staff_stopped
+
+
+def test_sessions_expire_on_the_server(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    app = create_app({"lefkos": robot}, db, None, WebConfig(speech_dir=tmp_path, session_idle=1.0))
+    with TestClient(app) as client:
+        login(client)
+        assert client.get("/api/admin/stats").status_code == 200
+        time.sleep(1.3)
+        assert client.get("/api/admin/stats").status_code == 401  # the cookie is still sent
+        token = client.cookies.get(COOKIE)
+        assert token is not None
+        assert db.session_for(token) is None  # ended in the database too, not just forgotten
+
+
+def test_an_idle_session_in_the_database_is_not_revived(db: Database) -> None:
+    token, _ = db.new_session("web")
+    assert db.session_for(token, max_idle=60.0) is not None
+    with db.session() as s:
+        from tourbot.web.db import VisitorSession
+
+        for row in s.query(VisitorSession):
+            row.last_seen -= 120.0
+    assert db.session_for(token, max_idle=60.0) is None
+    assert db.session_for(token) is None
+
+
+def test_the_http_api_survives_schemathesis(robot: FakeRobot, db: Database, tmp_path: Path) -> None:
+    """Every route of the OpenAPI document fuzzed, logged in as staff: never a server error, and
+    every response of the content type and shape the document declares."""
+    import schemathesis
+    from hypothesis import HealthCheck, given, settings
+    from schemathesis.checks import not_a_server_error
+    from schemathesis.specs.openapi.checks import content_type_conformance, response_schema_conformance
+
+    config = WebConfig(speech_dir=tmp_path, sessions_per_minute=1e6, login_attempts_per_minute=1_000_000)
+    app = create_app({"lefkos": robot}, db, None, config)
+    checks = [not_a_server_error, content_type_conformance, response_schema_conformance]
+    with LiveServer(app) as url:
+        import httpx
+
+        logged_in = httpx.post(f"{url}/api/login", json={"username": "curator", "password": "correct horse"})
+        cookie = {COOKIE: str(logged_in.cookies[COOKIE])}
+        schema = schemathesis.openapi.from_dict(httpx.get(f"{url}/api/openapi.json").json())
+        operations = [result.ok() for result in schema.get_all_operations()]  # type: ignore[union-attr]
+        assert len(operations) >= 15
+        for operation in operations:
+
+            @settings(max_examples=12, deadline=None, suppress_health_check=list(HealthCheck), database=None)
+            @given(case=operation.as_strategy())
+            def check(case: Any) -> None:
+                case.call_and_validate(base_url=url, cookies=cookie, checks=checks)
+
+            check()
+
+
+@given(st.lists(st.lists(st.booleans(), min_size=6, max_size=6), min_size=1, max_size=8))
+def test_wall_boxes_cover_each_occupied_cell_once(rows: list[list[bool]]) -> None:
+    occupied = np.array(rows, dtype=bool)
+    cover = np.zeros(occupied.shape, dtype=int)
+    for c0, r0, c1, r1 in wall_boxes(occupied):
+        assert c1 > c0
+        assert r1 > r0
+        cover[r0:r1, c0:c1] += 1
+    assert np.array_equal(cover, occupied.astype(int))
+
+
+def test_walls_of_the_fhw_map_are_few_long_boxes() -> None:
+    """A one-cell wall running up the map is one box, not a picket fence of cell-row runs; the
+    scanned FHW map at 10 cm gives fewer than half as many boxes as it has runs at 5 cm."""
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    grid = load_site(site_path("fhw")).grid
+    occupied = grid.occupied()
+    boxes = wall_boxes(pooled(occupied, round(0.1 / grid.resolution)))  # as the server sends them
+    runs = sum(
+        int(np.count_nonzero(np.diff(np.concatenate([[0], r.astype(np.int8), [0]])))) // 2 for r in occupied
+    )
+    assert len(boxes) < 0.5 * runs
+    column = np.zeros((40, 5), dtype=bool)
+    column[:, 2] = True
+    assert wall_boxes(column) == [[2, 0, 3, 40]]
+
+
+def test_pooling_keeps_every_occupied_cell() -> None:
+    occupied = np.zeros((5, 7), dtype=bool)
+    occupied[4, 6] = occupied[0, 0] = True
+    coarse = pooled(occupied, 2)
+    assert coarse.shape == (3, 4)
+    assert coarse[2, 3]
+    assert coarse[0, 0]
+    assert coarse.sum() == 2

@@ -2,23 +2,21 @@
 
 from __future__ import annotations
 
-import socket
-import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import uvicorn
 
 from tests.web.fakes import FakeRobot
+from tests.web.live import LiveServer
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.web.app import WebConfig, create_app, find_node_modules
 from tourbot.web.db import Database, open_database
 
 CHROMIUM = Path("/usr/bin/chromium")
+PAIRING = "pair-the-robot-screen"
 pytestmark = [
     pytest.mark.browser,
     pytest.mark.skipif(
@@ -48,34 +46,6 @@ def _room() -> OccupancyGrid:
     return OccupancyGrid(prob, 0.1, (0.0, 0.0, 0.0))
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-class _Server:
-    def __init__(self, app: Any) -> None:
-        self.port = _free_port()
-        self.server = uvicorn.Server(
-            uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
-        )
-        self.thread = threading.Thread(target=self.server.run, daemon=True)
-
-    def __enter__(self) -> str:
-        self.thread.start()
-        deadline = time.monotonic() + 20
-        while not self.server.started:
-            if time.monotonic() > deadline:
-                raise RuntimeError("server did not start")
-            time.sleep(0.05)
-        return f"http://127.0.0.1:{self.port}"
-
-    def __exit__(self, *_: object) -> None:
-        self.server.should_exit = True
-        self.thread.join(10)
-
-
 @pytest.fixture
 def site_db(sqlite_url: str) -> Database:
     db = open_database(sqlite_url)
@@ -90,8 +60,8 @@ def server(site_db: Database, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]
     if find_node_modules() is None:
         pytest.skip("three.js is not installed (npm ci)")
     robot = FakeRobot(speed=2.0)
-    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech")
-    with _Server(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
+    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech", onboard_token=PAIRING)
+    with LiveServer(create_app({"lefkos": robot}, site_db, _room(), config)) as url:
         yield url, robot
 
 
@@ -158,7 +128,10 @@ def test_visitor_books_drives_to_an_exhibit_and_hands_over(
         "document.getElementById('messages').textContent.includes('Take control first')"
     )
     assert len(robot.commands) == 1
-    first.page.close()  # the holder leaves: the slot passes on
+    first.page.reload()  # a reload keeps the slot
+    first.slot("holder")
+    second.slot("queued")
+    first.page.click("#leave")  # the holder leaves: the slot passes on
     second.slot("holder")
     second.page.click("#exhibits button[data-exhibit='loom']")
     second.page.wait_for_function(
@@ -221,7 +194,7 @@ def test_onboard_screen_talks_and_staff_place_an_exhibit(
     server: tuple[str, FakeRobot], browser: Any, site_db: Database
 ) -> None:
     url, robot = server
-    onboard = _Visitor(browser, url + "/onboard")
+    onboard = _Visitor(browser, url + f"/onboard/pair?token={PAIRING}")  # lands on /onboard
     onboard.page.wait_for_selector("#exhibits button[data-exhibit='loom']")
     onboard.page.wait_for_selector("#face[data-mood='happy']")
     onboard.page.fill("#phrase", "who are you?")
@@ -281,7 +254,7 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     )  # fmt: skip
     app, db = build_site_app(settings)
     target = db.exhibit("alexander-map")
-    with _Server(app) as url:
+    with LiveServer(app) as url:
         visitor = _Visitor(browser, url)
         visitor.page.wait_for_selector("#exhibits button[data-exhibit='alexander-map']", timeout=30000)
         visitor.page.click("#book")
@@ -297,3 +270,137 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
         assert abs(shown["y"] - target.y) < 0.6, shown
         assert visitor.outside == []
         assert visitor.errors == []
+
+
+@pytest.fixture
+def museum(sqlite_url: str, tmp_path: Path) -> Iterator[tuple[str, FakeRobot]]:
+    """The FHW museum's real (scanned) map and its exhibits, the fake robot at an exhibit."""
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+    from tourbot.web.sitedata import import_site
+
+    if find_node_modules() is None:
+        pytest.skip("three.js is not installed (npm ci)")
+    site = load_site(site_path("fhw"))
+    db = open_database(sqlite_url)
+    import_site(site, db)
+    robot = FakeRobot(speed=0.0)
+    first = db.exhibits()[3]
+    robot.x, robot.y = first.x, first.y
+    config = WebConfig(site_name="FHW", speech_dir=tmp_path / "speech")
+    with LiveServer(create_app({"lefkos": robot}, db, site.grid, config)) as url:
+        yield url, robot
+
+
+_LAYOUT = """() => {
+    const t = window.tourbot, map = t.map, v = t.view3d;
+    const box = (e) => {
+        const r = e.getBoundingClientRect();
+        return {x: r.left, y: r.top + scrollY, w: r.width, h: r.height};
+    };
+    const sections = [...document.querySelectorAll('main > section')].map(box)
+        .filter((b) => b.w > 0 && b.h > 0);
+    const canvas = document.getElementById('map');
+    const k = map.scale;
+    const [cw, ch] = map.cropSize;
+    const [w, h] = map.turned ? [ch, cw] : [cw, ch];
+    const robot = t.live.scene(0).find((b) => b.id === 0);
+    const [ux, uy] = map.screenUp;
+    const ahead = robot && map.toCanvas(robot.x + 3 * ux, robot.y + 3 * uy);
+    const here = robot && map.toCanvas(robot.x, robot.y);
+    return {
+        viewport: innerWidth, scrollWidth: document.documentElement.scrollWidth, sections,
+        map: box(canvas), fill: (w * k * h * k) / (canvas.width * canvas.height),
+        canvas: {w: canvas.width, h: canvas.height}, labels: map.labels, exhibits: t.site.exhibits.length,
+        robotAt: map.robotAt, up2d: robot && [ahead[0] - here[0], ahead[1] - here[1]],
+        robot3d: robot && v.project(robot.x, robot.y, 0.5),
+        up3d: robot && v.project(robot.x + 3 * ux, robot.y + 3 * uy, 0.5),
+        view3d: box(document.getElementById('view3d')),
+    };
+}"""
+
+
+def _overlap(a: dict[str, float], b: dict[str, float]) -> bool:
+    return (
+        a["x"] < b["x"] + b["w"] - 0.5
+        and b["x"] < a["x"] + a["w"] - 0.5
+        and (a["y"] < b["y"] + b["h"] - 0.5 and b["y"] < a["y"] + a["h"] - 0.5)
+    )
+
+
+@pytest.mark.parametrize(("width", "height"), [(390, 844), (1440, 900)], ids=["phone", "desktop"])
+def test_visitor_page_layout_rules(
+    museum: tuple[str, FakeRobot], browser: Any, tmp_path: Path, width: int, height: int
+) -> None:
+    """At a phone's and a desktop's size: nothing wider than the screen, no section over another,
+    the 2D map filling its canvas with labels that never overlap and the robot on it, the 3D view
+    framing the robot and turned like the 2D map (up on the map is up in the 3D view)."""
+    url, _ = museum
+    context = browser.new_context(viewport={"width": width, "height": height}, device_scale_factor=1)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda e: errors.append(str(e)))
+    page.goto(url)
+    page.wait_for_function(
+        "() => window.tourbot && window.tourbot.view3d && window.tourbot.map.robotAt", timeout=30000
+    )
+    page.wait_for_timeout(1500)
+    shots = Path(__import__("os").environ.get("TOURBOT_SCREENSHOTS", tmp_path))
+    shots.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(shots / f"visitor-{width}x{height}.png"), full_page=True)
+    got = page.evaluate(_LAYOUT)
+    assert got["viewport"] == width
+    assert got["scrollWidth"] <= width, "the page is wider than the screen"
+    sections = got["sections"]
+    assert len(sections) == 6
+    for i, a in enumerate(sections):
+        assert a["x"] >= 0
+        assert a["x"] + a["w"] <= width + 0.5
+        for b in sections[i + 1 :]:
+            assert not _overlap(a, b), (a, b)
+    assert got["map"]["w"] <= width
+    assert got["fill"] > 0.9, got["fill"]  # the map fills its canvas
+    labels = got["labels"]
+    assert len(labels) >= got["exhibits"] // 2
+    for i, a in enumerate(labels):
+        assert a["x"] >= 0
+        assert a["x"] + a["w"] <= got["canvas"]["w"]
+        assert a["y"] >= 0
+        assert a["y"] + a["h"] <= got["canvas"]["h"]
+        for b in labels[i + 1 :]:
+            assert not _overlap(a, b), (a, b)
+    robot = got["robotAt"]
+    assert 0 < robot["x"] < got["canvas"]["w"]
+    assert 0 < robot["y"] < got["canvas"]["h"]
+    dx, dy = got["up2d"]
+    assert dy < 0  # screenUp is up on the 2D map
+    assert abs(dx) < 1
+    r3, u3 = got["robot3d"], got["up3d"]
+    assert abs(r3["x"]) < 0.8, r3  # the default 3D view frames the robot
+    assert abs(r3["y"]) < 0.8, r3
+    assert u3["y"] > r3["y"] + 0.05  # ... and shows the map's up as up
+    assert abs(u3["x"] - r3["x"]) < 0.05
+    assert got["view3d"]["w"] <= width
+    assert errors == []
+    context.close()
+
+
+def test_status_messages_are_not_repeated(server: tuple[str, FakeRobot], browser: Any) -> None:
+    url, _ = server
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function("() => window.tourbot && window.tourbot.live")
+    lines = visitor.page.evaluate(
+        """() => {
+            const log = document.getElementById('messages');
+            log.replaceChildren();
+            for (let i = 0; i < 10; i++) {
+                window.tourbot.message('moving: Amphora');
+                window.tourbot.message('blocked: Amphora');
+            }
+            window.tourbot.message('Arrived at Amphora');
+            return [...log.children].map((n) => n.textContent);
+        }"""
+    )
+    assert len(lines) == 3
+    assert "Arrived at Amphora" in lines[0]
+    assert "×10" in lines[1] or "×10" in lines[2]

@@ -75,3 +75,51 @@ def test_upgrade_keeps_the_content_of_an_old_site(database_url: str) -> None:
 def test_bad_url_is_a_clear_error() -> None:
     with pytest.raises(DatabaseError, match="cannot"):
         open_database("nosuchdriver://x")
+
+
+def test_sqlite_takes_concurrent_writers(sqlite_url: str) -> None:
+    """20 sessions created at once (20 threads, 20 connections): none fails with "database is
+    locked", since the file is in write-ahead-log mode with a busy timeout."""
+    import threading
+
+    db = open_database(sqlite_url)
+    with db.engine.connect() as connection:
+        assert connection.execute(text("PRAGMA journal_mode")).scalar() == "wal"
+        assert int(connection.execute(text("PRAGMA busy_timeout")).scalar() or 0) >= 5000
+    errors: list[BaseException] = []
+    start = threading.Barrier(20)
+
+    def create() -> None:
+        start.wait()
+        try:
+            for _ in range(5):
+                token, _ = db.new_session("web")
+                assert db.session_for(token) is not None
+        except BaseException as exc:  # collected: a thread's failure must fail the test
+            errors.append(exc)
+
+    threads = [threading.Thread(target=create) for _ in range(20)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert errors == []
+    with db.session() as s:
+        from tourbot.web.db import VisitorSession
+
+        assert s.query(VisitorSession).count() == 100
+
+
+@pytest.mark.parametrize(
+    "url",
+    ["javascript:alert(1)", "JAVASCRIPT:alert(1)", " javascript:x", "data:text/html,x", "//evil.example",
+     "/\\evil.example", "vbscript:x", "java\tscript:x"],
+)  # fmt: skip
+def test_unsafe_link_urls_are_never_stored(sqlite_url: str, url: str) -> None:
+    db = open_database(sqlite_url)
+    with pytest.raises(DatabaseError, match="must start with"):
+        db.save_exhibit("a", "A", x=0, y=0, links=[(url, "")])
+    with pytest.raises(DatabaseError, match="must start with"):
+        db.save_exhibit("a", "A", x=0, y=0, pictures=[(url, "")])
+    assert db.exhibits() == []
+    db.save_exhibit("a", "A", x=0, y=0, links=[("https://example.org/x", ""), ("/static/a.png", "")])

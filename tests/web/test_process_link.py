@@ -3,12 +3,18 @@ errors flow back, and closing ends the process."""
 
 from __future__ import annotations
 
+import json
 import time
+from pathlib import Path
 
 import pytest
+from fastapi.testclient import TestClient
 
-from tests.web.fakes import FakeRobot
+from tests.web.fakes import FakeFactory, FakeRobot
+from tests.web.test_app import connect, new_session, role_is, wait_for
 from tourbot.errors import TourbotError
+from tourbot.web.app import WebConfig, create_app
+from tourbot.web.db import Database
 from tourbot.web.link import RobotLink
 from tourbot.web.process_link import ProcessLink, RobotProcessError
 
@@ -68,8 +74,33 @@ def test_a_robot_that_cannot_start_says_why() -> None:
     assert not link._process.is_alive()
 
 
-def test_a_robot_process_that_dies_shows_as_failed() -> None:
-    link = ProcessLink(FakeRobot, name="fragile")
+def test_a_robot_process_that_dies_is_restarted_where_it_was() -> None:
+    """kill -9 of the robot's process: within seconds a new one runs, from the last estimated pose,
+    and takes commands again."""
+    link = ProcessLink(FakeFactory(), name="phoenix")
+    try:
+        link.wait_ready(60)
+        link.send_goal(9.0, 2.0)
+        _wait(lambda: link.view().x > 4.0)
+        link._process.kill()
+        killed = time.monotonic()
+        _wait(lambda: link.view().nav.state == "restarting", limit=5.0)
+        before = link.view().x
+        _wait(lambda: link.view().nav.state != "restarting" and link._process.is_alive(), limit=30.0)
+        assert time.monotonic() - killed < 15.0
+        after = link.view()
+        assert after.x == pytest.approx(before, abs=0.2)  # not back at the start (2, 2)
+        assert after.x > 4.0
+        link.send_goal(after.x + 1.0, 2.0)
+        _wait(lambda: link.view().x > after.x + 0.5)
+        assert len(link.restarts) == 1
+    finally:
+        link.close()
+    assert not link._process.is_alive()
+
+
+def test_a_robot_process_that_dies_too_often_shows_as_failed() -> None:
+    link = ProcessLink(FakeRobot, name="fragile", max_restarts=0)
     try:
         link.wait_ready(60)
         assert link.view().nav.state == "idle"
@@ -78,5 +109,31 @@ def test_a_robot_process_that_dies_shows_as_failed() -> None:
         assert "the robot stopped" in link.view().nav.message
         with pytest.raises(RobotProcessError, match="fragile"):
             link.send_goal(1.0, 1.0)
+    finally:
+        link.close()
+
+
+def test_slots_and_queue_outlive_a_restarted_robot(db: Database, tmp_path: Path) -> None:
+    """The server keeps the holder and the queue while the robot's process is killed and restarted;
+    the holder drives the new process."""
+    link = ProcessLink(FakeFactory(), name="lefkos")
+    link.wait_ready(60)
+    try:
+        with TestClient(create_app({"lefkos": link}, db, None, WebConfig(speech_dir=tmp_path))) as client:
+            holder, queued = new_session(client), new_session(client)
+            with connect(client, holder) as a, connect(client, queued) as b:
+                a.send_text(json.dumps({"type": "book"}))
+                wait_for(a, role_is("holder"))
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("queued"))
+                link._process.kill()
+                wait_for(a, lambda m: m["type"] == "status" and m["nav"]["state"] == "restarting")
+                wait_for(a, lambda m: m["type"] == "status" and m["nav"]["state"] == "idle", limit=2000)
+                hub = client.app.state.hubs["lefkos"]  # type: ignore[attr-defined]
+                assert hub.arbiter.holder == client.app.state.lookup(holder).session  # type: ignore[attr-defined]
+                assert len(hub.arbiter.queue) == 1
+                a.send_text(json.dumps({"type": "goto", "x": 5.0, "y": 2.0}))
+                wait_for(a, lambda m: m["type"] == "ack")
+                _wait(lambda: link.view().x > 2.5)
     finally:
         link.close()

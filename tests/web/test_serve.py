@@ -3,14 +3,24 @@
 from __future__ import annotations
 
 import json
+import shutil
+import subprocess
 from pathlib import Path
+from typing import Any
 
+import httpx
 import pytest
+from fastapi import FastAPI
 from fastapi.testclient import TestClient
 
+from tests.web.fakes import FakeRobot
+from tests.web.live import LiveServer
 from tests.web.test_app import connect, new_session, role_is, wait_for
+from tourbot.errors import TourbotError
 from tourbot.localization.mcl import MCLConfig
-from tourbot.web.serve import ServeSettings, build_site_app
+from tourbot.web.app import WebConfig, create_app
+from tourbot.web.db import open_database
+from tourbot.web.serve import ServeSettings, build_site_app, uvicorn_config
 
 
 @pytest.mark.slow
@@ -43,3 +53,62 @@ def test_serve_fhw_drives_the_simulated_robot(sqlite_url: str, tmp_path: Path) -
             going = wait_for(ws, lambda m: m["type"] == "status" and m["nav"]["goal"] is not None, limit=600)
             exhibit = db.exhibit(target)
             assert going["nav"]["goal"] == pytest.approx([exhibit.x, exhibit.y], abs=0.01)
+
+
+def _hall_app(sqlite_url: str, tmp_path: Path, **config: Any) -> FastAPI:
+    db = open_database(sqlite_url)
+    db.set_staff("curator", "correct horse")
+    return create_app({"lefkos": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path, **config))
+
+
+def test_forwarded_addresses_are_not_believed_unless_configured(sqlite_url: str, tmp_path: Path) -> None:
+    """A client on loopback rotating X-Forwarded-For is still one address to the login limit."""
+    with LiveServer(_hall_app(sqlite_url, tmp_path)) as url:
+        codes = [
+            httpx.post(
+                f"{url}/api/login",
+                json={"username": "curator", "password": f"guess {i}"},
+                headers={"x-forwarded-for": f"203.0.113.{i}"},
+            ).status_code
+            for i in range(6)
+        ]
+    assert 429 in codes
+
+
+def test_a_configured_proxy_is_believed(sqlite_url: str, tmp_path: Path) -> None:
+    with LiveServer(_hall_app(sqlite_url, tmp_path), trusted_proxies=("127.0.0.1",)) as url:
+        codes = [
+            httpx.post(
+                f"{url}/api/login",
+                json={"username": "curator", "password": f"guess {i}"},
+                headers={"x-forwarded-for": f"203.0.113.{i}"},
+            ).status_code
+            for i in range(6)
+        ]
+    assert codes == [401] * 6  # six visitors behind the proxy, one attempt each
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl is not installed")
+def test_tls_serves_https_with_secure_cookies(sqlite_url: str, tmp_path: Path) -> None:
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    subprocess.run(
+        ["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1", "-subj", "/CN=127.0.0.1",
+         "-keyout", str(key), "-out", str(cert)],
+        check=True, capture_output=True,
+    )  # fmt: skip
+    app = _hall_app(sqlite_url, tmp_path, secure_cookies=True)
+    with LiveServer(app, certfile=cert, keyfile=key) as url:
+        assert url.startswith("https://")
+        response = httpx.get(f"{url}/api/session", verify=False)
+        login = httpx.post(
+            f"{url}/api/login", json={"username": "curator", "password": "correct horse"}, verify=False
+        )
+    for r in (response, login):
+        cookie = r.headers["set-cookie"].lower()
+        assert "secure" in cookie
+        assert "httponly" in cookie
+
+
+def test_tls_needs_both_files(tmp_path: Path) -> None:
+    with pytest.raises(TourbotError, match="both --certfile and --keyfile"):
+        uvicorn_config(_hall_app(f"sqlite:///{tmp_path / 'x.db'}", tmp_path), certfile=tmp_path / "c.pem")

@@ -116,3 +116,18 @@ def test_invariants_under_any_sequence(ops: list[tuple[str, int, float]]) -> Non
         assert len(holders) <= 1
         if arb.queue:
             assert arb.holder is not None
+
+
+def test_one_group_holds_at_most_its_places() -> None:
+    """Clients of one address (group) hold at most ``places_per_group`` places, the slot included;
+    a place freed is bookable again, and other groups are not held back."""
+    arb: SlotArbiter[str] = SlotArbiter(SlotConfig(places_per_group=2))
+    assert arb.book("a1", 0.0, group="10.0.0.1")
+    assert arb.book("a2", 0.0, group="10.0.0.1")
+    assert not arb.book("a3", 0.0, group="10.0.0.1")
+    assert arb.book("a1", 1.0, group="10.0.0.1")  # booking again: still its one place
+    assert arb.book("b1", 1.0, group="10.0.0.2")
+    assert (arb.holder, arb.queue) == ("a1", ["a2", "b1"])
+    arb.leave("a2", 2.0)
+    assert arb.book("a3", 2.0, group="10.0.0.1")
+    assert arb.queue == ["b1", "a3"]

@@ -61,10 +61,13 @@ class _Server:
         command = [
             sys.executable, "-m", "tourbot", "serve", "--site", site, "--port", str(self.port),
             "--database", db, "--crowd", crowd, "--seed", str(seed), "--robots", str(robots),
-            "--staff-password", "bench-password",
             "--robot-process" if robot_process else "--robot-in-server",
         ]  # fmt: skip
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), *sys.path])}
+        env = {
+            **os.environ,
+            "TOURBOT_STAFF_PASSWORD": "bench-password",
+            "PYTHONPATH": os.pathsep.join([str(Path(__file__).parents[2]), *sys.path]),
+        }
         self.process = subprocess.Popen(
             command, cwd=self.folder.name, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
         )

@@ -34,6 +34,34 @@ def _db(database: str | None, site: str) -> Database:
     return db
 
 
+def _staff_password(file: Path | None, ask: bool) -> str | None:
+    """The staff password from one of: ``$TOURBOT_STAFF_PASSWORD``, the first line of ``file``, a
+    hidden prompt (``ask``); None when none is given. Never from the command line, which every
+    user of the machine can read (``ps``)."""
+    import os
+
+    from tourbot.errors import InputError
+
+    env = os.environ.get("TOURBOT_STAFF_PASSWORD")
+    given = [name for name, on in [("$TOURBOT_STAFF_PASSWORD", env), ("--staff-password-file", file),
+                                   ("--ask-staff-password", ask)] if on]  # fmt: skip
+    if len(given) > 1:
+        raise InputError(f"give the staff password one way, not {' and '.join(given)}", field=given[1])
+    if file is not None:
+        try:
+            lines = file.read_text().splitlines()
+        except OSError as exc:
+            raise InputError(
+                f"cannot read {file}: {exc.strerror or exc}", field="--staff-password-file"
+            ) from None
+        if not lines or not lines[0]:
+            raise InputError(f"{file}: the first line (the password) is empty", field="--staff-password-file")
+        return lines[0]
+    if ask:
+        return str(typer.prompt("staff password", hide_input=True, confirmation_prompt=True))
+    return env or None
+
+
 def register(app: typer.Typer) -> None:
     site_app = typer.Typer(
         help="Author a site's exhibits and tours (the web database).", no_args_is_help=True
@@ -50,8 +78,21 @@ def register(app: typer.Typer) -> None:
         crowd: Annotated[str, typer.Option(help="visitors: empty, sparse, peak or a number")] = "sparse",
         seed: Annotated[int, typer.Option(help="simulation seed")] = 0,
         slot_minutes: Annotated[float, typer.Option(help="length of a control slot")] = 10.0,
-        staff_password: Annotated[
-            str | None, typer.Option(envvar="TOURBOT_STAFF_PASSWORD", help="password of user 'staff'")
+        staff_password_file: Annotated[
+            Path | None,
+            typer.Option(
+                help="a file whose first line is the password of user 'staff' (or set "
+                "$TOURBOT_STAFF_PASSWORD)"
+            ),
+        ] = None,
+        ask_staff_password: Annotated[
+            bool, typer.Option("--ask-staff-password", help="ask for the password of user 'staff' (hidden)")
+        ] = False,
+        certfile: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve HTTPS")] = None,
+        keyfile: Annotated[Path | None, typer.Option(help="TLS private key (PEM) of --certfile")] = None,
+        trusted_proxy: Annotated[
+            list[str] | None,
+            typer.Option(help="address of a reverse proxy whose X-Forwarded-For is believed (repeatable)"),
         ] = None,
         robot_process: Annotated[
             bool,
@@ -68,6 +109,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.app.simulated import crowd_config
         from tourbot.errors import InputError
         from tourbot.localization.profile import LocalizationProfile
+        from tourbot.web.db import check_staff_password
         from tourbot.web.serve import ServeSettings, build_site_app, run
 
         # checked before the database is opened (and the site imported into it)
@@ -76,14 +118,26 @@ def register(app: typer.Typer) -> None:
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
         crowd_config(crowd)
+        if (certfile is None) != (keyfile is None):
+            raise InputError(
+                "TLS needs both --certfile and --keyfile", field="--keyfile" if certfile else "--certfile"
+            )
+        for name, path in (("--certfile", certfile), ("--keyfile", keyfile)):
+            if path is not None and not path.is_file():
+                raise InputError(f"{path}: no such file", field=name)
+        staff_password = _staff_password(staff_password_file, ask_staff_password)
+        if staff_password is not None:
+            check_staff_password(staff_password)
 
+        proxies = tuple(trusted_proxy or ())
         settings = ServeSettings(
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
             mcl=LocalizationProfile.load(config).mcl,
+            certfile=certfile, keyfile=keyfile, trusted_proxies=proxies,
         )  # fmt: skip
         web, _ = build_site_app(settings)
-        run(web, host, port)
+        run(web, host, port, certfile=certfile, keyfile=keyfile, trusted_proxies=proxies)
 
     @site_app.command("import")
     def import_(
@@ -135,8 +189,16 @@ def register(app: typer.Typer) -> None:
         database: DatabaseOpt = None,
     ) -> None:
         """Add an exhibit, or replace one with the same slug."""
+        from tourbot.errors import InputError
+        from tourbot.web.db import DatabaseError, check_link_url
         from tourbot.web.sitedata import title
 
+        for option, urls in (("--picture", picture or []), ("--link", link or [])):
+            for url in urls:  # before a database is opened (or created)
+                try:
+                    check_link_url(url)
+                except DatabaseError as exc:
+                    raise InputError(str(exc), field=option) from None
         db = _db(database, site)
         saved = db.save_exhibit(
             slug, name or title(slug), x=x, y=y, theta=theta, text=text, summary=summary,

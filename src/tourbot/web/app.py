@@ -16,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import base64
 import hashlib
+import hmac
 import io
 import json
 import os
@@ -28,14 +29,25 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from fastapi import Depends, FastAPI, HTTPException, Request, Response, WebSocket, WebSocketDisconnect
-from fastapi.responses import FileResponse, HTMLResponse, JSONResponse
+from fastapi import (
+    Depends,
+    FastAPI,
+    HTTPException,
+    Query,
+    Request,
+    Response,
+    WebSocket,
+    WebSocketDisconnect,
+)
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import FileResponse, HTMLResponse, JSONResponse, RedirectResponse
 from fastapi.staticfiles import StaticFiles
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 from starlette.websockets import WebSocketState
 
+from tourbot.errors import TourbotError
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.web.db import Database, DatabaseError
+from tourbot.web.db import Database, DatabaseError, check_link_url
 from tourbot.web.face import FaceConfig
 from tourbot.web.guard import (
     Book,
@@ -54,12 +66,13 @@ from tourbot.web.guard import (
 )
 from tourbot.web.hub import RobotHub
 from tourbot.web.link import RobotLink
+from tourbot.web.middleware import BodyLimit, SameOrigin
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
 from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
 from tourbot.web.stream import StreamConfig
 
-__all__ = ["WebConfig", "create_app", "find_node_modules"]
+__all__ = ["WebConfig", "create_app", "find_node_modules", "known_bounds", "pooled", "wall_boxes"]
 
 STATIC = Path(__file__).with_name("static")
 COOKIE = "tourbot_session"
@@ -83,7 +96,14 @@ def find_node_modules(start: Path | None = None) -> Path | None:
 
 @dataclass(frozen=True)
 class WebConfig:
-    """Everything the server can be told, with the paper's values where it gives them."""
+    """Everything the server can be told, with the paper's values where it gives them.
+
+    ``onboard_token``: the secret that pairs the robot's own screen (``/onboard/pair?token=...``,
+    once per device; the screen is never recognised by its address). ``secure_cookies``: the
+    session cookie only over TLS (set when serving HTTPS). ``session_idle``: a session unused this
+    long (s) is ended on the server. ``sessions_per_minute``: new sessions one address may start
+    (sustained; twice that at once). ``max_body_bytes``: the largest request body of any route.
+    """
 
     site_name: str = "the museum"
     slots: SlotConfig = field(default_factory=SlotConfig)
@@ -94,7 +114,11 @@ class WebConfig:
     speech_dir: Path = Path("tourbot-speech")
     node_modules: Path | None = None
     allowed_origins: tuple[str, ...] = ()
-    onboard_hosts: tuple[str, ...] = ("127.0.0.1", "::1", "localhost")
+    onboard_token: str | None = None
+    secure_cookies: bool = False
+    session_idle: float = 6 * 3600.0
+    sessions_per_minute: float = 10.0
+    max_body_bytes: int = 64 * 1024
     login_attempts_per_minute: int = 6
     drive_robots: bool = True
 
@@ -104,6 +128,8 @@ class _Client:
     session: int
     kind: str
     staff: bool
+    seen: float = field(default_factory=time.time)  # last use (the server ends idle sessions)
+    stored: float = field(default_factory=time.time)  # last use written to the database
 
 
 class _Login(BaseModel):
@@ -112,9 +138,17 @@ class _Login(BaseModel):
     password: Annotated[str, Field(min_length=1, max_length=200)]
 
 
+def _safe_url(url: str) -> str:
+    try:
+        check_link_url(url)
+    except DatabaseError as exc:
+        raise ValueError(str(exc)) from None
+    return url
+
+
 class _Link(BaseModel):
     model_config = ConfigDict(extra="forbid")
-    url: Annotated[str, Field(min_length=1, max_length=1000, pattern=r"^(https?://|/)")]
+    url: Annotated[str, Field(min_length=1, max_length=1000), AfterValidator(_safe_url)]
     caption: Annotated[str, Field(max_length=400)] = ""
 
 
@@ -180,15 +214,58 @@ def _map_png(grid: OccupancyGrid) -> bytes:
     return buffer.getvalue()
 
 
-def _walls(grid: OccupancyGrid) -> list[list[int]]:
-    """Occupied cells merged into horizontal runs ``[col0, row, col1]`` (col1 exclusive)."""
-    runs: list[list[int]] = []
-    occupied = grid.occupied()
+def known_bounds(grid: OccupancyGrid, margin: int = 4) -> list[int]:
+    """The part of the floor-plan image that is mapped, ``[u0, v0, u1, v1]`` in image pixels (u
+    right, v down, north up as :func:`_map_png` draws it; ends exclusive), ``margin`` cells wider:
+    the pages draw this part only, so the building fills the canvas, not the unknown around it."""
+    known = grid.prob[::-1] >= 0
+    rows, cols = known.shape
+    if not known.any():
+        return [0, 0, cols, rows]
+    v = np.flatnonzero(known.any(axis=1))
+    u = np.flatnonzero(known.any(axis=0))
+    return [
+        max(0, int(u[0]) - margin),
+        max(0, int(v[0]) - margin),
+        min(cols, int(u[-1]) + 1 + margin),
+        min(rows, int(v[-1]) + 1 + margin),
+    ]
+
+
+def pooled(occupied: np.ndarray, factor: int) -> np.ndarray:
+    """Occupancy at ``factor`` times coarser cells: a coarse cell is occupied when any of its fine
+    cells is (the last row and column padded free)."""
+    if factor == 1:
+        return occupied
+    rows, cols = occupied.shape
+    padded = np.zeros((-(-rows // factor) * factor, -(-cols // factor) * factor), dtype=bool)
+    padded[:rows, :cols] = occupied
+    blocks = padded.reshape(padded.shape[0] // factor, factor, padded.shape[1] // factor, factor)
+    return np.asarray(blocks.any(axis=(1, 3)), dtype=bool)
+
+
+def wall_boxes(occupied: np.ndarray) -> list[list[int]]:
+    """Occupied cells merged into boxes ``[col0, row0, col1, row1]`` (ends exclusive): each row's
+    runs of occupied cells, and a run that repeats exactly in the next row grows its box instead of
+    starting a new one. A wall one cell thick is one long box, whichever way it runs; every
+    occupied cell is in exactly one box."""
+    boxes: list[list[int]] = []
+    open_boxes: dict[tuple[int, int], list[int]] = {}  # (col0, col1) -> the box ending at this row
     for row in range(occupied.shape[0]):
         line = np.concatenate([[False], occupied[row], [False]]).astype(np.int8)
         edges = np.flatnonzero(np.diff(line))
-        runs.extend([int(a), row, int(b)] for a, b in zip(edges[::2], edges[1::2], strict=True))
-    return runs
+        runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
+        for key in list(open_boxes):
+            if key not in runs:
+                boxes.append(open_boxes.pop(key))
+        for a, b in sorted(runs):
+            box = open_boxes.get((a, b))
+            if box is None:
+                open_boxes[(a, b)] = [a, row, b, row + 1]
+            else:
+                box[3] = row + 1
+    boxes.extend(open_boxes.values())
+    return sorted(boxes, key=lambda box: (box[1], box[0]))
 
 
 def create_app(
@@ -223,7 +300,10 @@ def create_app(
         for name, link in robots.items()
     }
     map_png = _map_png(grid) if grid is not None else None
-    walls = _walls(grid) if grid is not None else []
+    map_crop = known_bounds(grid) if grid is not None else None
+    # the 3D walls at about 10 cm: a scanned map's ragged wall edges merge into few boxes
+    wall_cell = 1 if grid is None else max(1, round(0.1 / grid.resolution))
+    walls = wall_boxes(pooled(grid.occupied(), wall_cell)) if grid is not None else []
     buckets: dict[int, TokenBucket] = {}
     login_buckets: dict[str, TokenBucket] = {}
     sessions: dict[str, _Client] = {}
@@ -236,41 +316,80 @@ def create_app(
         for hub in hubs.values():
             await hub.close()
 
-    app = FastAPI(title="tourbot", lifespan=lifespan, docs_url=None, redoc_url=None, openapi_url=None)
+    app = FastAPI(
+        title="tourbot", lifespan=lifespan, docs_url=None, redoc_url=None, openapi_url="/api/openapi.json"
+    )
     app.state.hubs = hubs
     app.state.db = db
     app.state.config = cfg
+    # Outermost first: the body limit, then cross-site refusal, both before any route runs.
+    app.add_middleware(SameOrigin, allowed=cfg.allowed_origins)
+    app.add_middleware(BodyLimit, max_bytes=cfg.max_body_bytes)
+
+    @app.exception_handler(RequestValidationError)
+    async def invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
+        """Where the request is wrong and why, never the request itself (no ``input`` echoed)."""
+        errors = []
+        for e in exc.errors()[:10]:
+            loc = [str(p) for p in e.get("loc", ())][:4]
+            if e.get("type") == "extra_forbidden":  # the last part is the client's own field name
+                loc = [*loc[:-1], "(unknown field)"]
+            errors.append({"loc": loc, "msg": str(e.get("msg", ""))[:200]})
+        return JSONResponse({"detail": errors}, status_code=422)
 
     # --- sessions ------------------------------------------------------------------------
+    session_buckets: dict[str, TokenBucket] = {}
+
     def lookup(token: str | None) -> _Client | None:
         if not token or len(token) > 100:
             return None
-        if token in sessions:
-            return sessions[token]
-        found = db.session_for(token)
-        if found is None:
+        now = time.time()
+        client = sessions.get(token)
+        if client is None:
+            found = db.session_for(token, max_idle=cfg.session_idle)
+            if found is None:
+                return None
+            client = sessions[token] = _Client(found[0], found[1], found[2] is not None)
+        if now - client.seen > cfg.session_idle:
+            sessions.pop(token, None)
+            db.end_session(token)
             return None
-        client = _Client(found[0], found[1], found[2] is not None)
-        sessions[token] = client
+        client.seen = now
+        if now - client.stored > 60.0:  # the database learns of use once a minute at most
+            client.stored = now
+            db.touch_session(token, now)
         return client
 
     app.state.lookup = lookup
 
+    def set_cookie(request: Request, response: Response, token: str) -> None:
+        secure = cfg.secure_cookies or request.url.scheme == "https"
+        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/", secure=secure)
+
+    def address(request: Request) -> str:
+        return request.client.host if request.client else "?"
+
     def ensure_session(request: Request, response: Response, kind: str = "web") -> _Client:
         client = lookup(request.cookies.get(COOKIE))
         if client is None:
+            rate = cfg.sessions_per_minute / 60.0
+            bucket = session_buckets.setdefault(
+                address(request), TokenBucket(rate, max(1, int(2 * cfg.sessions_per_minute)))
+            )
+            if not bucket.allow(time.monotonic()):
+                raise HTTPException(429, "too many new sessions from this address; wait a minute")
             token, sid = db.new_session(kind)
             client = _Client(sid, kind, False)
             sessions[token] = client
-            response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+            set_cookie(request, response, token)
         return client
 
-    def is_onboard(host: str | None, client: _Client | None) -> bool:
-        return host in cfg.onboard_hosts or (client is not None and client.staff)
+    def is_onboard(client: _Client | None) -> bool:
+        return client is not None and (client.kind == "onboard" or client.staff)
 
     def hub_for(name: str) -> RobotHub:
         if name not in hubs:
-            raise HTTPException(404, f"no robot {name!r}")
+            raise HTTPException(404, "no such robot")
         return hubs[name]
 
     # --- pages ---------------------------------------------------------------------------
@@ -289,11 +408,26 @@ def create_app(
 
     @app.get("/onboard", response_class=HTMLResponse)
     def onboard_page(request: Request) -> HTMLResponse:
-        client = lookup(request.cookies.get(COOKIE))
-        host = request.client.host if request.client else None
-        if not is_onboard(host, client):
-            raise HTTPException(403, "the on-board screen is served to the robot itself or to staff")
+        if not is_onboard(lookup(request.cookies.get(COOKIE))):
+            raise HTTPException(403, "the on-board screen is served to the paired robot screen or to staff")
         return page("onboard.html", request, "onboard")
+
+    @app.get("/onboard/pair")
+    def onboard_pair(request: Request, token: Annotated[str, Query(max_length=200)] = "") -> Response:
+        """Pair the robot's own screen: the right token gives this browser an on-board session."""
+        bucket = login_buckets.setdefault(
+            address(request), TokenBucket(cfg.login_attempts_per_minute / 60.0, 3)
+        )
+        if not bucket.allow(time.monotonic()):
+            raise HTTPException(429, "too many attempts; wait a minute")
+        expected = cfg.onboard_token
+        if not expected or not hmac.compare_digest(token.encode(), expected.encode()):
+            raise HTTPException(403, "wrong pairing token")
+        session, sid = db.new_session("onboard")
+        sessions[session] = _Client(sid, "onboard", False)
+        response = RedirectResponse("/onboard", status_code=303)
+        set_cookie(request, response, session)
+        return response
 
     @app.get("/admin", response_class=HTMLResponse)
     def admin_page(request: Request) -> HTMLResponse:
@@ -342,6 +476,7 @@ def create_app(
                 "origin": list(grid.origin),
                 "rows": grid.shape[0],
                 "cols": grid.shape[1],
+                "crop": map_crop,
             },
             "three": modules is not None,
         }
@@ -350,8 +485,8 @@ def create_app(
     def api_exhibit(slug: str) -> dict[str, object]:
         try:
             return db.exhibit(slug).as_dict()
-        except DatabaseError as exc:
-            raise HTTPException(404, str(exc)) from None
+        except DatabaseError:
+            raise HTTPException(404, "no such exhibit") from None
 
     @app.get("/api/map.png")
     def api_map_png() -> Response:
@@ -361,13 +496,15 @@ def create_app(
 
     @app.get("/api/walls")
     def api_walls() -> dict[str, Any]:
-        return {"runs": walls}
+        """The 3D view's walls: the map's occupied cells as merged boxes (:func:`wall_boxes`)."""
+        return {"boxes": walls, "cell": wall_cell}
 
     # --- staff ---------------------------------------------------------------------------
     @app.post("/api/login")
     def api_login(request: Request, body: _Login) -> JSONResponse:
-        host = request.client.host if request.client else "?"
-        bucket = login_buckets.setdefault(host, TokenBucket(cfg.login_attempts_per_minute / 60.0, 3))
+        bucket = login_buckets.setdefault(
+            address(request), TokenBucket(cfg.login_attempts_per_minute / 60.0, 3)
+        )
         if not bucket.allow(time.monotonic()):
             raise HTTPException(429, "too many login attempts; wait a minute")
         user = db.check_staff(body.username, body.password)
@@ -376,7 +513,7 @@ def create_app(
         token, sid = db.new_session("staff", user)
         sessions[token] = _Client(sid, "staff", True)
         response = JSONResponse({"ok": True, "user": body.username})
-        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/")
+        set_cookie(request, response, token)
         return response
 
     @app.post("/api/logout")
@@ -408,30 +545,30 @@ def create_app(
     def admin_place_exhibit(_: Staff, slug: str, body: _Place) -> dict[str, object]:
         try:
             return db.place_exhibit(slug, body.x, body.y, body.theta).as_dict()
-        except DatabaseError as exc:
-            raise HTTPException(404, str(exc)) from None
+        except DatabaseError:
+            raise HTTPException(404, "no such exhibit") from None
 
     @app.delete("/api/admin/exhibits/{slug}")
     def admin_delete_exhibit(_: Staff, slug: str) -> dict[str, bool]:
         try:
             db.delete_exhibit(slug)
-        except DatabaseError as exc:
-            raise HTTPException(404, str(exc)) from None
+        except DatabaseError:
+            raise HTTPException(404, "no such exhibit") from None
         return {"ok": True}
 
     @app.post("/api/admin/tours")
     def admin_save_tour(_: Staff, body: _TourIn) -> dict[str, object]:
         try:
             return db.save_tour(body.slug, body.name, body.exhibits, body.description).as_dict()
-        except DatabaseError as exc:
-            raise HTTPException(422, str(exc)) from None
+        except DatabaseError:
+            raise HTTPException(422, "a tour's exhibits must all exist") from None
 
     @app.delete("/api/admin/tours/{slug}")
     def admin_delete_tour(_: Staff, slug: str) -> dict[str, bool]:
         try:
             db.delete_tour(slug)
-        except DatabaseError as exc:
-            raise HTTPException(404, str(exc)) from None
+        except DatabaseError:
+            raise HTTPException(404, "no such tour") from None
         return {"ok": True}
 
     @app.get("/api/admin/stats")
@@ -463,8 +600,11 @@ def create_app(
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
-        hub.arbiter.staff_stop()
-        await hub.command(lambda link: link.stop())
+        hub.arbiter.staff_stop()  # web commands are refused from now on, whatever the robot says
+        try:
+            await hub.command(lambda link: link.stop())
+        except TourbotError:
+            raise HTTPException(503, "the robot did not answer; web control is stopped") from None
         await hub.announce("Stopped by staff.")
         return {"ok": True}
 
@@ -486,13 +626,13 @@ def create_app(
             await ws.close(code=1008, reason="no session: load the page first")
             return
         if name not in hubs:
-            await ws.close(code=1008, reason=f"no robot {name!r}")
+            await ws.close(code=1008, reason="no such robot")
             return
         hub = hubs[name]
-        host = ws.client.host if ws.client else None
+        host = ws.client.host if ws.client else "?"
         onboard = ws.query_params.get("screen") == "onboard"
-        if onboard and not is_onboard(host, client):
-            await ws.close(code=1008, reason="the on-board screen is for the robot itself")
+        if onboard and not is_onboard(client):
+            await ws.close(code=1008, reason="the on-board screen is for the paired robot screen")
             return
         await ws.accept()
         await hub.connect(client.session)
@@ -500,7 +640,7 @@ def create_app(
         sender = asyncio.create_task(_send_loop(ws, hub, client, onboard))
         try:
             await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
-            await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook)
+            await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook, host)
         except WebSocketDisconnect:
             pass
         finally:
@@ -578,6 +718,7 @@ async def _receive_loop(
     db: Database,
     buckets: dict[int, TokenBucket],
     phrasebook: PhraseBook | None,
+    host: str,
 ) -> None:
     bucket = buckets.setdefault(client.session, TokenBucket(cfg.guard.commands_per_second, cfg.guard.burst))
     refused = 0
@@ -596,16 +737,29 @@ async def _receive_loop(
             continue
         try:
             command = parse_command(raw or b"", cfg.guard)
-            answer = await _execute(command, hub, client, db, now, phrasebook)
-        except (CommandError, DatabaseError) as exc:
-            await _reply(ws, "error", message=str(exc))
+            answer = await _execute(command, hub, client, db, now, phrasebook, host)
+        except TourbotError as exc:
+            # a command's error names the rule; the database's would quote the client's slug
+            if isinstance(exc, CommandError):
+                text = str(exc)
+            elif isinstance(exc, DatabaseError):
+                text = "no such exhibit or tour"
+            else:  # the robot refused, or its process is restarting
+                text = f"the robot cannot do that now: {str(exc)[:200]}"
+            await _reply(ws, "error", message=text)
             continue
         if answer is not None:
             await ws.send_text(json.dumps(answer))
 
 
 async def _execute(
-    command: Any, hub: RobotHub, client: _Client, db: Database, now: float, phrasebook: PhraseBook | None
+    command: Any,
+    hub: RobotHub,
+    client: _Client,
+    db: Database,
+    now: float,
+    phrasebook: PhraseBook | None,
+    host: str = "?",
 ) -> dict[str, Any] | None:
     """Carry out one command; :class:`CommandError` when this client may not."""
     arbiter = hub.arbiter
@@ -615,7 +769,10 @@ async def _execute(
     if isinstance(command, Book):
         if phrasebook is not None:
             raise CommandError("the on-board screen does not book slots: it always has precedence")
-        arbiter.book(client.session, now)
+        if not arbiter.book(client.session, now, group=host):
+            raise CommandError(
+                f"this address already has {arbiter.config.places_per_group} places in the queue"
+            )
         await hub.slot_changed()
         return {"type": "ack", "command": "book"}
     if isinstance(command, Leave):

@@ -28,6 +28,7 @@ from sqlalchemy import (
     Text,
     create_engine,
     delete,
+    event,
     func,
     select,
 )
@@ -49,6 +50,7 @@ __all__ = [
     "TourStop",
     "Visit",
     "VisitorSession",
+    "check_link_url",
     "check_staff_password",
     "default_url",
     "migrate",
@@ -182,6 +184,17 @@ def migrate(engine: Engine, revision: str = "head") -> None:
 
 
 MIN_STAFF_PASSWORD = 8
+_SAFE_SCHEMES = ("http://", "https://")
+
+
+def check_link_url(url: str) -> None:
+    """Refuse a picture or link URL that is not ``http(s)://...`` or a path on this site
+    (``javascript:``, ``data:`` and protocol-relative ``//host`` links are never stored)."""
+    stripped = url.strip()
+    lowered = stripped.lower()
+    on_site = stripped.startswith("/") and not stripped.startswith(("//", "/\\"))
+    if not (lowered.startswith(_SAFE_SCHEMES) or on_site) or any(ord(c) < 32 for c in url):
+        raise DatabaseError("a link must start with http://, https:// or / (a page of this site)")
 
 
 def check_staff_password(password: str) -> None:
@@ -275,12 +288,18 @@ def _exhibit_data(e: Exhibit) -> ExhibitData:
 class Database:
     """The site database: content (exhibits, tours), sessions, bookings, statistics, staff."""
 
+    busy_timeout = 30.0  # SQLite: a writer waits this long (s) for another's lock, not failing
+
     def __init__(self, url: str) -> None:
         self.url = url
         try:
-            self.engine = create_engine(url, future=True, pool_pre_ping=True)
+            sqlite = sqlite_file(url) is not None
+            connect_args = {"timeout": self.busy_timeout} if sqlite else {}
+            self.engine = create_engine(url, future=True, pool_pre_ping=True, connect_args=connect_args)
         except Exception as exc:  # a malformed URL, an unknown driver
             raise DatabaseError(f"cannot open the database {url!r}: {exc}") from exc
+        if sqlite:
+            event.listen(self.engine, "connect", _sqlite_pragmas)
         self._sessions = sessionmaker(self.engine, expire_on_commit=False)
 
     @contextmanager
@@ -322,6 +341,8 @@ class Database:
         """Add the exhibit ``slug``, or replace its content and place if it exists."""
         if not slug or len(slug) > 64:
             raise DatabaseError(f"exhibit slug must have 1 to 64 characters, got {slug!r}")
+        for url, _ in [*pictures, *links]:
+            check_link_url(url)
         with self.session() as s:
             found = s.scalars(select(Exhibit).where(Exhibit.slug == slug)).first()
             if found is None:
@@ -415,16 +436,28 @@ class Database:
             s.flush()
             return token, row.id
 
-    def session_for(self, token: str) -> tuple[int, str, int | None] | None:
-        """``(id, kind, staff user)`` of the session holding ``token``, or None."""
+    def session_for(self, token: str, max_idle: float = float("inf")) -> tuple[int, str, int | None] | None:
+        """``(id, kind, staff user)`` of the session holding ``token``, or None; a session unused
+        for more than ``max_idle`` seconds is ended (None)."""
+        now = time.time()
         with self.session() as s:
             row = s.scalars(
                 select(VisitorSession).where(VisitorSession.token_hash == token_hash(token))
             ).first()
             if row is None:
                 return None
-            row.last_seen = time.time()
+            if now - row.last_seen > max_idle:
+                row.token_hash = f"ended-{row.id}"
+                return None
+            row.last_seen = now
             return row.id, row.kind, row.staff_user_id
+
+    def touch_session(self, token: str, now: float) -> None:
+        """Record that the session holding ``token`` was used at ``now``."""
+        with self.session() as s:
+            row = self._session_row(s, token)
+            if row is not None:
+                row.last_seen = now
 
     @staticmethod
     def _session_row(s: Session, token: str) -> VisitorSession | None:
@@ -511,6 +544,16 @@ def open_database(url: str | None = None, *, site: str = "site") -> Database:
         reason = str(getattr(exc, "orig", None) or exc).strip().splitlines()[0]
         raise DatabaseError(f"cannot prepare the database {db.url!r}: {reason}") from exc
     return db
+
+
+def _sqlite_pragmas(connection: object, _: object) -> None:
+    """Each SQLite connection: write-ahead log (readers never block the writer), a busy timeout
+    (a writer waits for the lock instead of failing with "database is locked")."""
+    cursor = connection.cursor()  # type: ignore[attr-defined]
+    cursor.execute("PRAGMA journal_mode=WAL")
+    cursor.execute(f"PRAGMA busy_timeout={int(Database.busy_timeout * 1000)}")
+    cursor.execute("PRAGMA synchronous=NORMAL")
+    cursor.close()
 
 
 def sqlite_file(url: str) -> Path | None:

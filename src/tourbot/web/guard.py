@@ -22,6 +22,7 @@ __all__ = [
     "CommandError",
     "GuardConfig",
     "TokenBucket",
+    "json_depth",
     "origin_allowed",
     "parse_command",
 ]
@@ -36,6 +37,7 @@ class GuardConfig:
     """Limits on what clients send: message size, command rate (sustained and burst)."""
 
     max_message_bytes: int = 2048
+    max_json_depth: int = 8  # a command is one flat object; deeper nesting is refused unparsed
     commands_per_second: float = 5.0
     burst: int = 10
 
@@ -114,24 +116,68 @@ Command = Annotated[
 _COMMAND: TypeAdapter[Command] = TypeAdapter(Command)
 
 
+def json_depth(text: str) -> int:
+    """The deepest nesting of arrays and objects in the JSON ``text`` (brackets inside strings are
+    not counted), found by one scan without parsing, so that no parser ever recurses on it."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for char in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif char == "\\":
+                escaped = True
+            elif char == '"':
+                in_string = False
+        elif char == '"':
+            in_string = True
+        elif char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}":
+            depth -= 1
+    return deepest
+
+
 def parse_command(raw: str | bytes, config: GuardConfig) -> Command:
-    """The command in ``raw``; :class:`CommandError` saying what is wrong otherwise."""
+    """The command in ``raw``; :class:`CommandError` saying what is wrong otherwise.
+
+    The error names what is wrong, never repeats the message (nor a part of it).
+    """
     if len(raw) > config.max_message_bytes:
         raise CommandError(f"message of {len(raw)} bytes refused: at most {config.max_message_bytes}")
     try:
-        data = json.loads(raw)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise CommandError(f"message is not JSON: {exc}") from None
+        text = raw.decode() if isinstance(raw, bytes) else raw
+    except UnicodeDecodeError:
+        raise CommandError("message is not JSON: not UTF-8 text") from None
+    if json_depth(text) > config.max_json_depth:
+        raise CommandError(f"message refused: nested deeper than {config.max_json_depth} levels")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        reason = exc.msg if isinstance(exc, json.JSONDecodeError) else "malformed"
+        raise CommandError(f"message is not JSON: {reason}") from None
     try:
         return _COMMAND.validate_python(data)
     except ValidationError as exc:
         first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "message"
-        raise CommandError(f"bad command ({where}): {first['msg']}") from None
+        # Never the input itself: pydantic quotes an unknown tag, and an extra field's name is the
+        # client's; the location of a known command's field is ours.
+        loc = [str(p) for p in first["loc"][:2]]
+        reason = first["msg"]
+        if first["type"] == "union_tag_invalid":
+            loc, reason = [], "unknown command type"
+        elif first["type"] == "extra_forbidden":
+            loc, reason = loc[:1], "unknown field"
+        raise CommandError(f"bad command ({'.'.join(loc) or 'message'}): {reason}") from None
 
 
-def origin_allowed(origin: str | None, host: str | None, allowed: tuple[str, ...] = ()) -> bool:
-    """A WebSocket may come from the server's own pages (same host) or an allowed origin only.
+def origin_allowed(
+    origin: str | None, host: str | None, allowed: tuple[str, ...] = (), scheme: str | None = None
+) -> bool:
+    """A request may come from the server's own pages (same host and port, and the same scheme
+    when ``scheme`` of the request is given: ``http``/``ws`` or ``https``/``wss``) or an allowed
+    origin only.
 
     Browsers always send ``Origin`` on WebSockets; a request without it is not from a page and
     is refused as well.
@@ -141,4 +187,6 @@ def origin_allowed(origin: str | None, host: str | None, allowed: tuple[str, ...
     if origin in allowed:
         return True
     parts = urlsplit(origin)
-    return parts.scheme in ("http", "https") and host is not None and parts.netloc == host
+    if parts.scheme not in ("http", "https") or host is None or parts.netloc != host:
+        return False
+    return scheme is None or parts.scheme == {"ws": "http", "wss": "https"}.get(scheme, scheme)

@@ -272,13 +272,16 @@ class RobotHub:
         self.connections[session] = self.connections.get(session, 0) + 1
 
     async def disconnect(self, session: int) -> None:
+        """A page closed. Its session keeps its slot or queue place for the arbiter's answer
+        timeout (the grace time): a reload, a second tab or a short network loss keeps control;
+        only a ``leave`` gives it up at once."""
         left = self.connections.get(session, 0) - 1
         if left > 0:
             self.connections[session] = left
             return
         self.connections.pop(session, None)
         now = time.time()
-        self.arbiter.leave(session, now)
+        self.arbiter.seen(session, now)  # the grace time runs from the last page's closing
         await self._sync_slots(now)
         await self.notify()
 

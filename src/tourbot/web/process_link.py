@@ -28,12 +28,12 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from tourbot.errors import TourbotError
 from tourbot.web.link import RobotLink, RobotView
 
-__all__ = ["ProcessLink", "RobotProcessError"]
+__all__ = ["ProcessLink", "RestartableFactory", "RobotProcessError"]
 
 log = logging.getLogger(__name__)
 
@@ -88,6 +88,15 @@ def _robot_main(
                 control.send(f"{type(exc).__name__}: {exc}")
 
 
+@runtime_checkable
+class RestartableFactory(Protocol):
+    """A robot factory that can build the same robot standing at another pose (a restart)."""
+
+    def __call__(self) -> RobotLink: ...
+
+    def at(self, pose: tuple[float, float, float]) -> Callable[[], RobotLink]: ...
+
+
 class ProcessLink:
     """A :class:`RobotLink` built by ``factory`` in a child process (``spawn``: ``factory`` must be
     picklable, e.g. a frozen dataclass with ``__call__``).
@@ -95,6 +104,12 @@ class ProcessLink:
     :meth:`step` does nothing: the robot steps itself, ``speedup`` times faster than its period.
     :meth:`view` returns the latest state the robot sent; commands wait for the robot's answer (at
     most ``command_timeout`` seconds) and raise its error as a :class:`TourbotError`.
+
+    Supervised: a robot process that dies (or whose step fails) is started again at once, from its
+    last estimated pose when the factory is a :class:`RestartableFactory`. The server's side (the
+    slots, the queue, the viewers) never notices more than a pause and a "restarting" status. At
+    most ``max_restarts`` restarts in ``restart_window`` seconds; past that the robot stays failed
+    (a robot that cannot run is not restarted forever).
     """
 
     def __init__(
@@ -104,58 +119,110 @@ class ProcessLink:
         speedup: float = 1.0,
         name: str = "robot",
         command_timeout: float = 10.0,
+        max_restarts: int = 5,
+        restart_window: float = 60.0,
     ) -> None:
-        ctx = multiprocessing.get_context("spawn")
-        self._state, child_state = ctx.Pipe(duplex=False)
-        self._control, child_control = ctx.Pipe()
-        self._process = ctx.Process(
+        self._ctx = multiprocessing.get_context("spawn")
+        self._factory = factory
+        self._speedup = speedup
+        self.name = name
+        self.period = 0.1
+        self.command_timeout = command_timeout
+        self.max_restarts = max_restarts
+        self.restart_window = restart_window
+        self.failure: str | None = None
+        self.restarts: list[float] = []  # monotonic times of the restarts
+        self.restarting = False
+        self._closing = False
+        self._view: RobotView | None = None
+        self._command_lock = threading.Lock()
+        self._reader: threading.Thread | None = None
+        self._spawn(factory)
+
+    def _spawn(self, factory: Callable[[], RobotLink]) -> None:
+        self._state, child_state = self._ctx.Pipe(duplex=False)
+        self._control, child_control = self._ctx.Pipe()
+        self._process = self._ctx.Process(
             target=_robot_main,
-            args=(factory, speedup, child_state, child_control),
-            name=f"tourbot-robot-{name}",
+            args=(factory, self._speedup, child_state, child_control),
+            name=f"tourbot-robot-{self.name}",
             daemon=True,
         )
         self._process.start()
         child_state.close()
         child_control.close()
-        self.name = name
-        self.period = 0.1
-        self.command_timeout = command_timeout
-        self.failure: str | None = None
-        self._view: RobotView | None = None
-        self._command_lock = threading.Lock()
-        self._reader: threading.Thread | None = None
+
+    def _ready(self, timeout: float) -> None:
+        """The first message of a new process: ``ready`` with its period and first view."""
+        if not self._state.poll(timeout):
+            raise RobotProcessError(f"robot {self.name}: not ready within {timeout:.0f} s")
+        try:
+            message = self._state.recv()
+        except (EOFError, OSError):
+            raise RobotProcessError(f"robot {self.name}: its process stopped while starting") from None
+        if message[0] != "ready":
+            raise RobotProcessError(f"robot {self.name} could not start: {message[1]}")
+        _, self.period, self._view = message
 
     def wait_ready(self, timeout: float = 600.0) -> None:
         """Wait until the robot has been built (the first run compiles kernels); then follow it."""
         if self._reader is not None:
             return
-        if not self._state.poll(timeout):
-            self.close()
-            raise RobotProcessError(f"robot {self.name}: not ready within {timeout:.0f} s")
         try:
-            message = self._state.recv()
-        except EOFError:
-            raise RobotProcessError(f"robot {self.name}: its process stopped while starting") from None
-        if message[0] != "ready":
+            self._ready(timeout)
+        except RobotProcessError:
             self.close()
-            raise RobotProcessError(f"robot {self.name} could not start: {message[1]}")
-        _, self.period, self._view = message
+            raise
         self._reader = threading.Thread(target=self._read, name=f"robot-{self.name}-state", daemon=True)
         self._reader.start()
 
     def _read(self) -> None:
+        """Follow the robot's states; restart a robot whose process stopped or whose step failed."""
         while True:
             try:
                 message = self._state.recv()
             except (EOFError, OSError):
-                if self.failure is None:
-                    self.failure = "the robot's process stopped"
-                return
+                message = ("failed", "the robot's process stopped")
             if message[0] == "view":
                 self._view = message[1]
-            else:
-                self.failure = str(message[1])
-                log.error("robot %s stopped: %s", self.name, self.failure)
+                continue
+            if self._closing:
+                return
+            self.failure = str(message[1])
+            log.error("robot %s stopped: %s", self.name, self.failure)
+            if not self._restart():
+                return
+
+    def _restart(self) -> bool:
+        """Start the robot again from its last estimated pose; False when it may not (or cannot)."""
+        now = time.monotonic()
+        self.restarts = [t for t in self.restarts if now - t < self.restart_window]
+        if len(self.restarts) >= self.max_restarts:
+            log.error("robot %s: %d restarts in %.0f s, it stays stopped", self.name, len(self.restarts),
+                      self.restart_window)  # fmt: skip
+            return False
+        self.restarts.append(now)
+        self.restarting = True
+        view = self._view
+        factory = self._factory
+        if view is not None and isinstance(factory, RestartableFactory):
+            factory = factory.at((view.x, view.y, view.theta))
+        with self._command_lock:
+            self._stop_process(5.0)
+            self._state.close()
+            if self._closing:
+                return False
+            self._spawn(factory)
+        try:
+            self._ready(120.0)
+        except RobotProcessError as exc:
+            self.failure = str(exc)
+            log.error("robot %s: restart failed: %s", self.name, exc)
+            return self._restart()
+        self.failure = None
+        self.restarting = False
+        log.warning("robot %s restarted", self.name)
+        return True
 
     # --- RobotLink ------------------------------------------------------------------------------
     def step(self) -> None:
@@ -167,7 +234,8 @@ class ProcessLink:
         view = self._view
         assert view is not None
         if self.failure is not None:
-            nav = replace(view.nav, state="failed", message=f"the robot stopped: {self.failure}")
+            what = "restarting" if self.restarting else "failed"
+            nav = replace(view.nav, state=what, message=f"the robot stopped: {self.failure}")
             return replace(view, v=0.0, omega=0.0, nav=nav)
         return view
 
@@ -196,15 +264,20 @@ class ProcessLink:
         if answer is not None:
             raise TourbotError(answer)
 
-    def close(self, timeout: float = 10.0) -> None:
-        """Stop the robot's process (idempotent)."""
-        with self._command_lock, contextlib.suppress(BrokenPipeError, OSError):
+    def _stop_process(self, timeout: float) -> None:
+        with contextlib.suppress(BrokenPipeError, OSError):
             self._control.send(None)
         self._process.join(timeout)
         if self._process.is_alive():
             self._process.terminate()
             self._process.join(timeout)
         self._control.close()
-        if self._reader is not None:
+
+    def close(self, timeout: float = 10.0) -> None:
+        """Stop the robot's process (idempotent); it is not restarted."""
+        self._closing = True
+        with self._command_lock:
+            self._stop_process(timeout)
+        if self._reader is not None and self._reader is not threading.current_thread():
             self._reader.join(timeout)
         self._state.close()

@@ -11,6 +11,7 @@ import secrets
 import socket
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fastapi import FastAPI
 from rich.console import Console
@@ -22,6 +23,9 @@ from tourbot.web.db import Database, default_url, open_database
 from tourbot.web.guard import GuardConfig
 from tourbot.web.link import RobotLink
 from tourbot.web.sitedata import import_site
+
+if TYPE_CHECKING:
+    import uvicorn
 
 __all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
@@ -44,6 +48,10 @@ class ServeSettings:
     speedup: float = 1.0  # the simulated robots run this many times faster than real time
     fresh_staff_password: bool = False  # a new generated password at each start (the demo's)
     robot_process: bool = True  # each simulated robot in its own process (see web.process_link)
+    certfile: Path | None = None  # TLS: serve HTTPS (and Secure cookies) with this certificate
+    keyfile: Path | None = None
+    trusted_proxies: tuple[str, ...] = ()  # addresses whose X-Forwarded-For/-Proto are believed
+    onboard_token: str | None = None  # pairs the robot's screen (default: a new one at each start)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -65,6 +73,11 @@ class SimulatedRobotFactory:
     seed: int
     mcl: MCLConfig
     speedup: float = 1.0
+    start: tuple[float, float, float] | None = None  # None: the site's start pose
+
+    def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
+        """The same robot standing at ``pose`` (its last estimate, when its process restarts)."""
+        return replace(self, start=pose)
 
     def __call__(self) -> RobotLink:
         from tourbot.app.simulated import SimulationSettings, simulated_runtime
@@ -74,7 +87,7 @@ class SimulatedRobotFactory:
 
         site = load_site(site_path(self.site))
         sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
-        robot = simulated_runtime(site, sim_settings, record=False)
+        robot = simulated_runtime(site, sim_settings, start=self.start, record=False)
         period = float(robot.simulator.dt) / self.speedup
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
 
@@ -129,13 +142,18 @@ def build_site_app(
     if links is None:
         links = simulated_links(settings)
     base = WebConfig()
+    onboard_token = settings.onboard_token or secrets.token_urlsafe(18)
     config = WebConfig(
         site_name=site.description.split(":")[0] if site.description else site.name,
         slots=replace(base.slots, slot_length=settings.slot_minutes * 60.0),
         speech_dir=settings.speech_dir,
         guard=GuardConfig(),
+        onboard_token=onboard_token,
+        secure_cookies=settings.certfile is not None,
     )
-    return create_app(links, db, site.grid, config), db
+    app = create_app(links, db, site.grid, config)
+    app.state.pairing = f"/onboard/pair?token={onboard_token}"
+    return app, db
 
 
 def listening_socket(host: str, port: int, fallback: bool) -> socket.socket:
@@ -157,19 +175,59 @@ def listening_socket(host: str, port: int, fallback: bool) -> socket.socket:
     return sock
 
 
-def addresses(host: str, port: int) -> dict[str, str]:
-    """The pages of a server listening on ``host:port``, by role."""
+def addresses(host: str, port: int, *, tls: bool = False, pairing: str = "/onboard") -> dict[str, str]:
+    """The pages of a server listening on ``host:port``, by role (``pairing``: the on-board
+    screen's pairing address, secret, to open once on the robot's own screen)."""
     shown = f"[{host}]" if ":" in host else host
-    base = f"http://{shown}:{port}"
+    base = f"{'https' if tls else 'http'}://{shown}:{port}"
     return {
         "visitor page": f"{base}/",
-        "on-board screen": f"{base}/onboard",
+        "on-board screen": f"{base}{pairing}",
         "staff (admin)": f"{base}/admin",
     }
 
 
+def uvicorn_config(
+    app: FastAPI,
+    *,
+    certfile: Path | None = None,
+    keyfile: Path | None = None,
+    trusted_proxies: tuple[str, ...] = (),
+) -> uvicorn.Config:
+    """The server's settings: forwarded headers believed only from ``trusted_proxies`` (by default
+    from nobody, so a client cannot choose its own address for the rate limits), TLS when a
+    certificate is given. WebSocket frames larger than 64 kB are refused by the protocol layer
+    before any parsing."""
+    import uvicorn
+
+    if (certfile is None) != (keyfile is None):
+        raise TourbotError("TLS needs both --certfile and --keyfile")
+    for path in (certfile, keyfile):
+        if path is not None and not path.is_file():
+            raise TourbotError(f"{path}: no such file")
+    return uvicorn.Config(
+        app,
+        log_level="warning",
+        ws_max_size=65536,
+        ws_per_message_deflate=True,
+        timeout_graceful_shutdown=5,
+        proxy_headers=bool(trusted_proxies),
+        forwarded_allow_ips=list(trusted_proxies) or None,
+        ssl_certfile=None if certfile is None else str(certfile),
+        ssl_keyfile=None if keyfile is None else str(keyfile),
+    )
+
+
 def run(
-    app: FastAPI, host: str, port: int, console: Console | None = None, *, fallback: bool = False
+    app: FastAPI,
+    host: str,
+    port: int,
+    console: Console | None = None,
+    *,
+    fallback: bool = False,
+    certfile: Path | None = None,
+    keyfile: Path | None = None,
+    trusted_proxies: tuple[str, ...] = (),
 ) -> None:
     """Serve until interrupted (Ctrl-C stops it cleanly); prints the addresses once it listens.
 
@@ -179,6 +237,7 @@ def run(
     import uvicorn
 
     out = console or Console()
+    config = uvicorn_config(app, certfile=certfile, keyfile=keyfile, trusted_proxies=trusted_proxies)
     sock = listening_socket(host, port, fallback)
     bound = int(sock.getsockname()[1])
     if port and bound != port:
@@ -188,14 +247,11 @@ def run(
         async def startup(self, sockets: list[socket.socket] | None = None) -> None:
             await super().startup(sockets)
             if self.started:
-                for role, url in addresses(host, bound).items():
+                pairing = str(getattr(app.state, "pairing", "/onboard"))
+                for role, url in addresses(host, bound, tls=certfile is not None, pairing=pairing).items():
                     out.print(f"{role + ':':17} [bold]{url}[/]", soft_wrap=True)
                 out.print("serving; press Ctrl-C to stop", highlight=False)
 
-    # Frames larger than 64 kB are refused by the protocol layer before any parsing.
-    config = uvicorn.Config(
-        app, log_level="warning", ws_max_size=65536, ws_per_message_deflate=True, timeout_graceful_shutdown=5
-    )
     try:
         _Server(config).run(sockets=[sock])
     except KeyboardInterrupt:  # uvicorn re-raises the Ctrl-C it handled, once it has shut down

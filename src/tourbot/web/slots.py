@@ -25,12 +25,17 @@ Client = TypeVar("Client", bound=Hashable)
 @dataclass(frozen=True)
 class SlotConfig:
     """Slot length: the paper's 10 minutes (section 6.1). Silence timeout: a holder whose page
-    stopped answering (closed laptop, lost network) frees the robot after this long. On-board hold:
-    how long a touch on the robot's own screen keeps web commands off."""
+        stopped answering (closed laptop, lost network) frees the robot after this long. On-board hold:
+        how long a touch on the robot's own screen keeps web commands off. Places per group: the queue
+    places (the slot included) that clients of one group (the server's: one network address) may hold
+    at once, so that one machine cannot fill the queue with fresh sessions. Each client has one place
+    at most (booking again changes nothing), and a holder whose page reloads keeps the slot: only
+    ``answer_timeout`` of silence ends it (the grace time of a lost connection)."""
 
     slot_length: float = 600.0
     answer_timeout: float = 20.0
     onboard_hold: float = 60.0
+    places_per_group: int = 3
 
 
 class Role(StrEnum):
@@ -81,14 +86,25 @@ class SlotArbiter(Generic[Client]):
     staff_stopped: bool = False
     _onboard_until: float = float("-inf")
     _last_seen: dict[Client, float] = field(default_factory=dict)
+    _groups: dict[Client, Hashable] = field(default_factory=dict)
     _events: list[SlotEvent] = field(default_factory=list)
 
-    def book(self, client: Client, now: float) -> None:
-        """``client`` asks for control: it joins the queue (again asking changes nothing)."""
-        self._last_seen[client] = now
-        if client != self.holder and client not in self.queue:
-            self.queue.append(client)
+    def book(self, client: Client, now: float, group: Hashable | None = None) -> bool:
+        """``client`` asks for control: it joins the queue (again asking changes nothing). False,
+        and nothing changes, when its ``group`` already holds ``places_per_group`` places."""
         self.update(now)
+        if client == self.holder or client in self.queue:
+            self._last_seen[client] = now
+            return True
+        if group is not None:
+            members = [c for c in [self.holder, *self.queue] if c is not None]
+            if sum(self._groups.get(c) == group for c in members) >= self.config.places_per_group:
+                return False
+            self._groups[client] = group
+        self._last_seen[client] = now
+        self.queue.append(client)
+        self.update(now)
+        return True
 
     def leave(self, client: Client, now: float) -> None:
         """``client`` gives up its slot or its place in the queue (or its page closed)."""
@@ -97,6 +113,7 @@ class SlotArbiter(Generic[Client]):
         elif client in self.queue:
             self.queue.remove(client)
         self._last_seen.pop(client, None)
+        self._groups.pop(client, None)
         self.update(now)
 
     def seen(self, client: Client, now: float) -> None:
@@ -144,6 +161,7 @@ class SlotArbiter(Generic[Client]):
             if now - self._last_seen.get(client, now) > timeout:
                 self.queue.remove(client)
                 self._last_seen.pop(client, None)
+                self._groups.pop(client, None)
         if self.holder is not None:
             if now - self._last_seen.get(self.holder, now) > timeout:
                 self._end("silent", now)
@@ -159,6 +177,7 @@ class SlotArbiter(Generic[Client]):
         assert self.holder is not None
         self._events.append(SlotEvent("ended", self.holder, reason))
         self._last_seen.pop(self.holder, None)
+        self._groups.pop(self.holder, None)
         self.holder = None
         self.holder_since = now
 

@@ -6,8 +6,10 @@ import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 const WALL_HEIGHT = 1.2;
 
 export class View3D {
-  constructor(canvas, site) {
+  // screenUp(): the world direction shown up on the 2D map; the bird's-eye views look the same way.
+  constructor(canvas, site, { screenUp = () => [0, 1] } = {}) {
     this.canvas = canvas;
+    this.screenUp = screenUp;
     this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(1);
     this.scene = new THREE.Scene();
@@ -26,7 +28,36 @@ export class View3D {
     this.center = new THREE.Vector3(0, 0, 0);
     if (site.map) this.buildSite(site);
     for (const e of site.exhibits) this.addExhibit(e);
+    this.fit();
+    new ResizeObserver(() => this.fit()).observe(canvas.parentElement);
     this.setPreset("bird");
+  }
+
+  // The canvas at its box's width, 16:9.
+  fit() {
+    const width = Math.max(100, this.canvas.parentElement.clientWidth);
+    if (width === this.fitted) return;
+    this.fitted = width;
+    const height = Math.round((width * 9) / 16);
+    this.renderer.setSize(width, height, false);
+    this.camera.aspect = width / height;
+    this.camera.updateProjectionMatrix();
+  }
+
+  // Where a world point is drawn, in normalised device coordinates (-1..1 across the canvas).
+  project(x, y, z = 0) {
+    this.camera.updateMatrixWorld();
+    const v = new THREE.Vector3(x, y, z).project(this.camera);
+    return { x: v.x, y: v.y, z: v.z };
+  }
+
+  // Camera above the point (x, y), back along the 2D map's "down" so that up on the screen is
+  // up on the map, at height h looking at the point.
+  lookDown(x, y, h, back) {
+    const [ux, uy] = this.screenUp();
+    this.camera.position.set(x - ux * back, y - uy * back, h);
+    this.camera.lookAt(x, y, 0);
+    this.controls.target.set(x, y, 0);
   }
 
   buildSite(site) {
@@ -42,18 +73,21 @@ export class View3D {
     const floor = new THREE.Mesh(new THREE.PlaneGeometry(w, h), new THREE.MeshLambertMaterial({ map: texture }));
     floor.position.set(w / 2, h / 2, 0);
     frame.add(floor);
-    fetch("/api/walls").then((r) => r.json()).then(({ runs }) => {
+    // Walls: the map's occupied cells merged into boxes [col0, row0, col1, row1) (see /api/walls).
+    fetch("/api/walls").then((r) => r.json()).then(({ boxes, cell }) => {
+      const size = cell * m.resolution;
       const geometry = new THREE.BoxGeometry(1, 1, 1);
       const material = new THREE.MeshLambertMaterial({ color: 0x8a8f99 });
-      const walls = new THREE.InstancedMesh(geometry, material, Math.max(1, runs.length));
+      const walls = new THREE.InstancedMesh(geometry, material, Math.max(1, boxes.length));
       const matrix = new THREE.Matrix4();
-      runs.forEach(([c0, row, c1], i) => {
-        const length = (c1 - c0) * m.resolution;
-        matrix.makeScale(length, m.resolution, WALL_HEIGHT);
-        matrix.setPosition((c0 * m.resolution) + length / 2, (row + 0.5) * m.resolution, WALL_HEIGHT / 2);
+      boxes.forEach(([c0, r0, c1, r1], i) => {
+        const w = (c1 - c0) * size, h = (r1 - r0) * size;
+        matrix.makeScale(w, h, WALL_HEIGHT);
+        matrix.setPosition(c0 * size + w / 2, r0 * size + h / 2, WALL_HEIGHT / 2);
         walls.setMatrixAt(i, matrix);
       });
-      walls.count = runs.length;
+      walls.count = boxes.length;
+      this.walls = walls;
       frame.add(walls);
     });
     this.scene.add(frame);
@@ -86,7 +120,13 @@ export class View3D {
     const nose = new THREE.Mesh(new THREE.ConeGeometry(0.08, 0.25, 12), new THREE.MeshLambertMaterial({ color: 0x222222 }));
     nose.rotation.z = -Math.PI / 2;
     nose.position.set(0.32, 0, 1.15);
-    robot.add(body, head, nose);
+    // a ring on the floor and a mast: the robot is found at once from above, in any crowd
+    const ring = new THREE.Mesh(new THREE.RingGeometry(0.55, 0.75, 32), new THREE.MeshBasicMaterial({ color: 0xff2020 }));
+    ring.position.z = 0.02;
+    const mast = new THREE.Mesh(new THREE.CylinderGeometry(0.05, 0.05, 1.2, 8), new THREE.MeshBasicMaterial({ color: 0xff2020 }));
+    mast.rotation.x = Math.PI / 2;
+    mast.position.z = 1.8;
+    robot.add(body, head, nose, ring, mast);
     return robot;
   }
 
@@ -103,13 +143,15 @@ export class View3D {
     return avatar;
   }
 
+  // bird: above the robot (about 16 m of floor in view), following it; orbit: the whole building,
+  // free to turn; robot: its own eyes; follow: behind it.
   setPreset(name) {
     this.preset = name;
-    this.controls.enabled = name === "orbit" || name === "bird";
-    if (name === "bird" || name === "orbit") {
+    this.controls.enabled = name === "orbit";
+    if (name === "orbit") {
       const d = this.extent || 20;
-      this.camera.position.set(this.center.x, this.center.y - d * 0.35, d * 0.9);
-      this.controls.target.copy(this.center);
+      const fit = (0.55 * d) / Math.tan((this.camera.fov * Math.PI) / 360) / Math.min(1, this.camera.aspect);
+      this.lookDown(this.center.x, this.center.y, fit * 0.95, fit * 0.3);
       this.controls.update();
     }
   }
@@ -139,7 +181,9 @@ export class View3D {
     }
     const r = this.robot.position, th = this.robot.rotation.z;
     const c = Math.cos(th), s = Math.sin(th);
-    if (this.preset === "robot") {
+    if (this.preset === "bird") {
+      this.lookDown(r.x, r.y, 14, 5);
+    } else if (this.preset === "robot") {
       this.camera.position.set(r.x + 0.35 * c, r.y + 0.35 * s, 1.3);
       this.camera.lookAt(r.x + 5 * c, r.y + 5 * s, 1.0);
     } else if (this.preset === "follow") {

@@ -6,9 +6,28 @@ import { MapView } from "./mapview.js";
 const $ = (id) => document.getElementById(id);
 const state = { site: null, live: null, role: "watcher", slotEnds: null, slot: null, view3d: null };
 
+// The message log, de-duplicated: a text already among the last few lines (two minutes at most)
+// is not written again; its line moves to the top with a count ("moving", "blocked", "moving"...).
+const REPEAT_LINES = 6;
+const REPEAT_MS = 120000;
 function message(text) {
-  const line = el("div", {}, `${new Date().toLocaleTimeString()}  ${text}`);
-  $("messages").prepend(line);
+  const log = $("messages");
+  const now = Date.now();
+  const lines = [...log.children].slice(0, REPEAT_LINES);
+  const same = lines.find((n) => n.dataset.text === text && now - Number(n.dataset.at) < REPEAT_MS);
+  if (same) {
+    const count = Number(same.dataset.count) + 1;
+    same.dataset.count = String(count);
+    same.dataset.at = String(now);
+    same.querySelector(".time").textContent = new Date().toLocaleTimeString();
+    same.querySelector(".count").textContent = `×${count}`;
+    log.prepend(same);
+    return;
+  }
+  const line = el("div", { "data-text": text, "data-at": String(now), "data-count": "1" },
+    el("span", { class: "time" }, new Date().toLocaleTimeString()), "  ", text, el("span", { class: "count" }, ""));
+  log.prepend(line);
+  while (log.children.length > 200) log.lastChild.remove();
 }
 
 function showExhibit(e) {
@@ -108,11 +127,12 @@ async function start() {
   $("book").addEventListener("click", () => state.live.send({ type: "book" }));
   $("leave").addEventListener("click", () => state.live.send({ type: "leave" }));
   $("stop").addEventListener("click", () => command({ type: "stop" }));
-  window.addEventListener("pagehide", () => state.live.send({ type: "leave" }));
+  // No leave at pagehide: a reload or a second tab keeps the slot (the server holds it for a
+  // grace time after the last page closes); "Leave" gives it up.
   if (site.three) {
     try {
       const { View3D } = await import("./view3d.js");
-      state.view3d = new View3D($("view3d"), site);
+      state.view3d = new View3D($("view3d"), site, { screenUp: () => map.screenUp });
       for (const b of document.querySelectorAll("[data-preset]")) {
         b.addEventListener("click", () => state.view3d.setPreset(b.dataset.preset));
       }
@@ -137,6 +157,8 @@ async function start() {
     if (now - lastSlot > 1000) { renderSlot(); lastSlot = now; }
   };
   requestAnimationFrame(frame);
+  state.map = map;
+  state.message = message;
   window.tourbot = state; // for tests and curious visitors
 }
 
