@@ -7,9 +7,9 @@ import math
 from dataclasses import replace
 
 import numpy as np
-from tourbot.runtime.interfaces import ScanShare
 
 from tourbot.geometry import compose, relative
+from tourbot.interfaces import ScanShare
 from tourbot.maps.objects import shapes_of_site
 from tourbot.objects.pipeline import estimate_log, rebuilt_odometry
 from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan

@@ -7,13 +7,15 @@ import math
 import numpy as np
 
 from tests.objects.conftest import make_scan
+from tourbot.interfaces import PoseBelief, ScanShare
 from tourbot.maps.objects import door_shape
 from tourbot.maps.raycast import DDACaster
 from tourbot.objects.estimator import ObjectStateEstimator
 from tourbot.objects.runtime import ObjectsEstimator
 from tourbot.records import Record, Scan
-from tourbot.runtime import PoseBelief, PoseEstimate, Runtime, ScanShare
+from tourbot.runtime import Runtime
 from tourbot.site.model import Site
+from tourbot.snapshot import PoseEstimate
 
 
 class ListSource:
