@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from tourbot.geometry import wrap_angle
 from tourbot.interfaces import Sink
 from tourbot.localization.mcl.config import MCLConfig
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
@@ -124,7 +125,7 @@ def time_to_recover(
             and snap.pose is not None
             and snap.truth is not None
             and error <= distance
-            and abs(math.remainder(snap.pose.theta - snap.truth.pose[2], 2 * math.pi)) <= heading
+            and abs(float(wrap_angle(snap.pose.theta - snap.truth.pose[2]))) <= heading
         )
         if not good:
             since = None

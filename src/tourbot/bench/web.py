@@ -32,6 +32,8 @@ from typing import Annotated, Any
 
 import typer
 
+from tourbot.geometry import wrap_angle
+
 __all__ = ["register"]
 
 TARGET_KBIT = 1.0
@@ -407,7 +409,7 @@ async def _latency(server: _Server, trials: int) -> dict[str, Any]:
         if start is None:
             return
         x0, y0, th0 = start
-        turned = abs(math.remainder(scene.robot.theta - th0, 2 * math.pi))
+        turned = abs(float(wrap_angle(scene.robot.theta - th0)))
         if (
             math.hypot(scene.robot.x - x0, scene.robot.y - y0) > 0.02
             or abs(scene.robot.vx) + abs(scene.robot.vy) > 0

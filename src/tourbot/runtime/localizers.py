@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from tourbot.geometry import wrap_angle
 from tourbot.interfaces import PoseBelief
 from tourbot.records import Odometry, Scan
 from tourbot.snapshot import PoseEstimate, SampleSummary
@@ -65,7 +66,7 @@ class MCLLocalizer:
         t0, o0 = self._last
         p = self.policy
         moved = math.hypot(odom[0] - o0[0], odom[1] - o0[1]) >= p.min_travel
-        turned = abs(math.remainder(odom[2] - o0[2], 2 * math.pi)) >= p.min_turn
+        turned = abs(float(wrap_angle(odom[2] - o0[2]))) >= p.min_turn
         return moved or turned or t - t0 >= p.max_interval
 
     def _decimate(self, scan: Scan) -> Scan:
