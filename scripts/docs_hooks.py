@@ -7,7 +7,8 @@
   beneath, recursively. So the page is true to the code on every build and needs no edit when a
   configuration gains, loses or regroups fields.
 - The result pages that branches drop into ``docs/results/`` appear in the navigation under
-  "Results" and are listed on ``docs/results.md``, without editing mkdocs.yml.
+  "Results" and are listed on ``docs/results.md``, and a new API page in ``docs/api/`` appears
+  under "API reference", without editing mkdocs.yml.
 
 - The API pages (``docs/api/``) name packages, ``<!-- tourbot:api tourbot.maps -->``; the hook
   turns each into mkdocstrings directives for the package and every module in it.
@@ -34,7 +35,8 @@ SRC = ROOT / "src"
 DOCS = ROOT / "docs"
 CONFIG_MARKER = "<!-- tourbot:config-reference -->"
 RESULTS_MARKER = "<!-- tourbot:results-pages -->"
-RESULTS_SECTION = "Results"
+# Navigation sections that list every page of a folder of docs/, those not named in mkdocs.yml last.
+NAV_FOLDERS = {"Results": "results", "API reference": "api"}
 API_MARKER = re.compile(r"^<!-- tourbot:api ([\w.]+) -->$", re.MULTILINE)
 _ROLE = re.compile(r":(?:class|meth|func|attr|mod|data|obj):`~?([^`]+)`")
 
@@ -50,25 +52,28 @@ def _title(path: Path) -> str:
     return path.stem.replace("-", " ").replace("_", " ").capitalize()
 
 
-def _result_pages() -> list[tuple[str, str]]:
-    """(title, path relative to docs/) of every page in docs/results/, sorted by file name."""
-    folder = DOCS / "results"
+def _pages(folder_name: str) -> list[tuple[str, str]]:
+    """(title, path relative to docs/) of every page in docs/FOLDER/, sorted by file name."""
+    folder = DOCS / folder_name
     if not folder.is_dir():
         return []
     return [(_title(p), p.relative_to(DOCS).as_posix()) for p in sorted(folder.glob("*.md"))]
 
 
+def _listed(section: list[Any]) -> set[str]:
+    return {item if isinstance(item, str) else next(iter(item.values())) for item in section}
+
+
 def on_config(config: Any) -> Any:
-    """Add the pages of docs/results/ to the "Results" section of the navigation."""
-    pages = _result_pages()
+    """Add the pages of docs/results/ and docs/api/ that mkdocs.yml does not list to their sections."""
     nav = config["nav"]
-    for entry in nav:
-        if isinstance(entry, dict) and RESULTS_SECTION in entry:
-            section = entry[RESULTS_SECTION]
-            listed = {next(iter(item.values())) for item in section if isinstance(item, dict)}
-            section.extend({title: path} for title, path in pages if path not in listed)
-            return config
-    raise ValueError(f"mkdocs.yml: the navigation has no {RESULTS_SECTION!r} section")
+    for section_name, folder in NAV_FOLDERS.items():
+        sections = [e[section_name] for e in nav if isinstance(e, dict) and section_name in e]
+        if not sections:
+            raise ValueError(f"mkdocs.yml: the navigation has no {section_name!r} section")
+        listed = _listed(sections[0])
+        sections[0].extend({title: path} for title, path in _pages(folder) if path not in listed)
+    return config
 
 
 # ---------------------------------------------------------------------------------------------
@@ -289,7 +294,7 @@ def on_page_markdown(markdown: str, page: Any, **_: Any) -> str:
         markdown = markdown.replace(CONFIG_MARKER, config_reference())
     if RESULTS_MARKER in markdown:
         here = Path(page.file.src_uri).parent
-        pages = _result_pages()
+        pages = _pages("results")
         listing = "\n".join(
             f"- [{title}]({Path(path).relative_to(here).as_posix() if here != Path('.') else path})"
             for title, path in pages
