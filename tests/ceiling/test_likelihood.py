@@ -45,7 +45,7 @@ def test_ceiling_likelihood_weighs_the_true_pose_highest_and_injects_hypotheses(
     lik.set_detections(det)
     rng = np.random.default_rng(0)
     samples = np.column_stack([rng.uniform(-8, 28, 500), rng.uniform(-12, 4, 500), rng.uniform(-3, 3, 500)])
-    samples[17] = [*truth, 0.05, -0.03, 0.01]
+    samples[17] = truth + np.array([0.05, -0.03, 0.01])
     mcl = _TinyMCL(samples.copy(), [lik])
     w = mcl.weigh()
     assert int(np.argmax(w)) == 17
