@@ -90,3 +90,31 @@ def test_scan_helper_sees_the_leaf(room: Site) -> None:
         np.array([[3.45, 2.0, math.pi / 2]]), np.array([0.0]), shape.segments(np.zeros((1, 1))), base
     )
     assert abs(float(r[0, 0, 0]) - (3.975 - 0.02 - 2.0)) < 1e-4
+
+
+def test_a_desk_seen_on_one_face_only_is_not_pinned_down() -> None:
+    from tourbot.maps.objects import furniture_shape
+    from tourbot.objects.estimator import ObjectBelief
+    from tourbot.site.model import Furniture
+
+    desk = furniture_shape(
+        Furniture(
+            name="desk",
+            outline=[(-0.7, -0.35), (0.7, -0.35), (0.7, 0.35), (-0.7, 0.35)],
+            poses=[(0.0, 2.0, 0.0)],
+        )
+    )
+    belief = ObjectBelief(desk, ObjectEstimatorConfig(), np.random.default_rng(0))
+    state = np.array([0.0, 2.0, 0.0])
+    angles = np.radians(np.arange(-90.0, 90.5, 1.0))
+
+    def readings(laser: np.ndarray) -> np.ndarray:
+        base = np.full((1, angles.size), 8.0)
+        return segment_ranges(laser[None], angles, desk.segments(state[None]), base)[0, 0].astype(np.float64)
+
+    front = np.array([0.0, 0.0, math.pi / 2])  # straight in front: only the south face
+    z = readings(front)
+    assert not belief._constrained(front, angles, z, state, np.full(angles.size, 8.0))
+    corner = np.array([1.6, 0.6, 2.0])  # from the side: the south and the east face
+    z = readings(corner)
+    assert belief._constrained(corner, angles, z, state, np.full(angles.size, 8.0))
