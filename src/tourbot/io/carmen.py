@@ -38,8 +38,8 @@ layout (checked against the data: consecutive scans at the reference poses must 
 :mod:`tourbot.io.beam_geometry`; a log no layout explains is refused) and the maximum range (a
 ``PARAM`` cap the readings exceed, or one beyond every reading, gives way to the readings).
 
-Lines are parsed one at a time (``iter_carmen`` streams); a scan is held back only until the
-odometry reading that follows it in time has been read.
+After the first pass (poses only), lines are parsed one at a time (``iter_carmen`` streams); a scan
+is held back only until the odometry reading that follows it in time has been read.
 """
 
 from __future__ import annotations
