@@ -1028,7 +1028,7 @@ def _settle_max_range(
         if beyond > 0.01:
             inferred = top
             warnings.append(
-                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is below "
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is exceeded by "
                 f"{100 * beyond:.0f} % of the readings (up to {top:g} m): read as a software cap, not "
                 f"the sensor's range; maximum range {inferred:g} m from the readings"
             )
