@@ -45,8 +45,8 @@ def test_first_seed_chooses_the_seeds(tmp_path: Path) -> None:
     payload = json.loads(out.read_text())
     assert payload["meta"]["first_seed"] == 3
     assert sorted(p.name for p in (tmp_path / "cache").glob("*.log.gz")) == [
-        "fhw25-peak-3.log.gz",
-        "fhw25-sparse-3.log.gz",
+        "fhw25-peak-3-rebuilt.log.gz",
+        "fhw25-sparse-3-rebuilt.log.gz",
     ]
     assert set(payload["rows"][0]["raw"]["kidnaps_per_seed"]) <= {"3"}
 

@@ -161,8 +161,11 @@ def test_log_info_says_what_it_inferred_and_how_the_odometry_was_read(
     assert "rebuilt" in out
     assert "inferred: beams: -90 to +89 deg" in " ".join(out.split())
     assert "inferred: max range: 51.05 m" in " ".join(out.split())
+    assert "odometry vs reference │ 26." in " ".join(out.split())  # README: about 26 m, aligned
     main(["log", "info", str(fhw_log_path), "--odometry-stream", "as-recorded"])
-    assert "re-anchored" in capsys.readouterr().out
+    out = " ".join(capsys.readouterr().out.split())
+    assert "re-anchored" in out
+    assert "odometry vs reference │ 0.07 m RMS" in out
 
 
 def test_log_info_never_prints_a_duration_it_cannot_know(

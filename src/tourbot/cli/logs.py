@@ -39,11 +39,12 @@ def register(app: typer.Typer) -> None:
         log: LogArg, lenient: LenientOpt = False, odometry_stream: OdometryOpt = OdometryStream.rebuilt
     ) -> None:
         """Summary of a log: scans, beams, duration, path length, warnings."""
+        import numpy as np
         from rich.console import Console
         from rich.table import Table
 
         from tourbot.io import load_log, log_kind
-        from tourbot.plotting import path_length
+        from tourbot.plotting import align_rigid, path_length
 
         console = Console()
         with console.status(f"reading {log}"):
@@ -70,6 +71,14 @@ def register(app: typer.Typer) -> None:
             table.add_row("path length (odometry)", f"{path_length(robot_log.odom_poses):.1f} m")
         if robot_log.has_reference:
             table.add_row("path length (reference)", f"{path_length(robot_log.reference_poses):.1f} m")
+            if not np.isnan(robot_log.odom_poses).any():
+                # the odometry moved onto the reference by the best rigid fit: its drift (evo's APE, aligned)
+                moved = align_rigid(robot_log.odom_poses, robot_log.reference_poses)
+                gap = np.hypot(*(moved[:, :2] - robot_log.reference_poses[:, :2]).T)
+                table.add_row(
+                    "odometry vs reference",
+                    f"{np.sqrt(np.mean(gap**2)):.2f} m RMS (aligned), {gap.max():.2f} m max",
+                )
         else:
             table.add_row("reference poses", "none")
         table.add_row("odometry", robot_log.odometry_kind)

@@ -33,7 +33,7 @@ MAX_PAIRS = 60
 #: Ranges beyond this (m) are left out: far end points are sparse and noisy.
 FAR = 30.0
 #: The best layout must make the scans agree to this median distance (m), else the log is refused.
-AGREEMENT = 0.25
+AGREEMENT = 0.15
 #: Another layout replaces the stated one only when it scores below this fraction of the stated's.
 CLEARLY_BETTER = 0.5
 

@@ -38,8 +38,8 @@ layout (checked against the data: consecutive scans at the reference poses must 
 :mod:`tourbot.io.beam_geometry`; a log no layout explains is refused) and the maximum range (a
 ``PARAM`` cap the readings exceed, or one beyond every reading, gives way to the readings).
 
-Lines are parsed one at a time (``iter_carmen`` streams); a scan is held back only until the
-odometry reading that follows it in time has been read.
+After the first pass (poses only), lines are parsed one at a time (``iter_carmen`` streams); a scan
+is held back only until the odometry reading that follows it in time has been read.
 """
 
 from __future__ import annotations
@@ -1028,7 +1028,7 @@ def _settle_max_range(
         if beyond > 0.01:
             inferred = top
             warnings.append(
-                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is below "
+                f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is exceeded by "
                 f"{100 * beyond:.0f} % of the readings (up to {top:g} m): read as a software cap, not "
                 f"the sensor's range; maximum range {inferred:g} m from the readings"
             )
