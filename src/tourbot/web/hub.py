@@ -124,6 +124,10 @@ class RobotHub:
         self.status_version = 0  # changes when the navigation status or the slots changed
         self._status_key: object = None
         self.path_message: str | None = None  # the path as the pages get it (JSON), shared
+        # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
+        self.truth_message: str | None = None
+        self.debug_viewers = 0
+        self._truth_at = 0.0
         self._path: list[tuple[float, float]] = []
         self._path_goal: object = None
         self._path_checked = 0.0
@@ -200,6 +204,10 @@ class RobotHub:
         self.stream.push(self.scene)
         self.nav_status = nav_status(view)
         self._publish_path(view, now)
+        if self.debug_viewers > 0 and now - self._truth_at >= 1.0:
+            self._truth_at = now
+            points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]
+            self.truth_message = json.dumps({"type": "truth", "people": points}, separators=(",", ":"))
         await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:

@@ -5,11 +5,12 @@ const PENDING_S = 5; // a command waits at most this long for the connection to 
 const PENDING_MAX = 16;
 
 export class Live {
-  constructor(robot, streamConfig, { screen = "web", onStatus, onPath, onSay, onReply, onOpen } = {}) {
+  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onSay, onReply, onOpen, onTruth } = {}) {
     this.robot = robot;
     this.config = streamConfig;
     this.screen = screen;
-    this.handlers = { onStatus, onPath, onSay, onReply, onOpen };
+    this.debug = debug;
+    this.handlers = { onStatus, onPath, onSay, onReply, onOpen, onTruth };
     this.decoder = new StreamDecoder(streamConfig);
     this.offset = null; // local clock minus server clock (s), smallest seen: the least delayed
     this.ws = null;
@@ -25,7 +26,7 @@ export class Live {
 
   connect() {
     const scheme = location.protocol === "https:" ? "wss" : "ws";
-    const query = this.screen === "onboard" ? "?screen=onboard" : "";
+    const query = this.screen === "onboard" ? "?screen=onboard" : this.debug ? "?debug=truth" : "";
     const ws = new WebSocket(`${scheme}://${location.host}/ws/${encodeURIComponent(this.robot)}${query}`);
     ws.binaryType = "arraybuffer";
     ws.onopen = () => {
@@ -60,6 +61,7 @@ export class Live {
     if (message.type === "status" && h.onStatus) h.onStatus(message);
     else if (message.type === "path" && h.onPath) h.onPath(message.points);
     else if (message.type === "say" && h.onSay) h.onSay(message);
+    else if (message.type === "truth" && h.onTruth) h.onTruth(message.people);
     else if (h.onReply) h.onReply(message);
   }
 
