@@ -195,7 +195,9 @@ class _Viewer:
         await self.ws.send(json.dumps(command))
 
     async def close(self) -> None:
+        """Leave (a slot held is given up at once, not after the server's grace time) and close."""
         with suppress(Exception):
+            await self.ws.send(json.dumps({"type": "leave"}))
             await self.ws.close()
 
 
@@ -268,6 +270,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         )
         await driver.run(time.monotonic() + warmup)
         wire_start, page_start = down[0], await page.evaluate("() => window.tourbot.live.bytes")
+        texts_start = await page.evaluate("() => window.tourbot.live.texts")
         start = time.monotonic()
         people: list[int] = []
         while time.monotonic() < start + seconds:
@@ -276,6 +279,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         elapsed = time.monotonic() - start
         wire = down[0] - wire_start
         payload = await page.evaluate("() => window.tourbot.live.bytes") - page_start
+        texts = await page.evaluate("() => window.tourbot.live.texts") - texts_start
         messages = await page.evaluate("() => document.getElementById('messages').children.length")
         await browser.close()
     await driver.close()
@@ -285,6 +289,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         "wire_bytes": wire,
         "kbit_s": 8 * wire / elapsed / 1000,
         "page_payload_kbit_s": 8 * payload / elapsed / 1000,
+        "page_text_kbit_s": 8 * texts / elapsed / 1000,
         "people_shown_mean": sum(people) / max(1, len(people)),
         "people_shown_max": max(people, default=0),
         "message_lines": messages,

@@ -14,6 +14,7 @@ import contextlib
 import json
 import logging
 import math
+import re
 import threading
 import time
 from collections import deque
@@ -57,8 +58,13 @@ def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1) -> Sce
     return Scene(t, robot, tuple(people.values()))
 
 
+_RUNNING_COUNT = re.compile(r" for \d+ s\b")
+
+
 def nav_status(view: RobotView | None) -> dict[str, Any]:
-    """The navigation part of the pages' status message."""
+    """The navigation part of the pages' status message. A navigator's running count ("blocked
+    for 12 s") is left out: the status is resent only when something a visitor cares about
+    changed, not once a second to every viewer."""
     if view is None:
         return {"state": "idle"}
     nav = view.nav
@@ -67,7 +73,7 @@ def nav_status(view: RobotView | None) -> dict[str, Any]:
         "exhibit": nav.exhibit,
         "tour": nav.tour,
         "progress": list(nav.tour_progress),
-        "message": nav.message,
+        "message": _RUNNING_COUNT.sub("", nav.message),
         "goal": None if nav.goal is None else [round(nav.goal[0], 2), round(nav.goal[1], 2)],
     }
 

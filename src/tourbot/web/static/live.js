@@ -16,7 +16,8 @@ export class Live {
     this.ws = null;
     this.closed = false;
     this.retry = 500;
-    this.bytes = 0;
+    this.bytes = 0; // payload received (binary stream and JSON texts)
+    this.texts = 0; // of which JSON texts
     // Commands given while the connection is (re)opening, sent once it opens: a visitor's click
     // is never lost to a connection that is not up yet; one older than PENDING_S is dropped.
     this.pending = [];
@@ -56,6 +57,7 @@ export class Live {
       return;
     }
     this.bytes += data.length;
+    this.texts += data.length;
     const message = JSON.parse(data);
     const h = this.handlers;
     if (message.type === "status" && h.onStatus) h.onStatus(message);
