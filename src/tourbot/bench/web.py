@@ -131,6 +131,7 @@ class _Viewer:
         self.ws: Any = None
         self.replies: asyncio.Queue[dict[str, Any]] = asyncio.Queue()
         self.on_frame: Any = None
+        self.role = "watcher"
 
     async def open(self, base: str, token: str | None = None) -> None:
         """Connect with a new session, or with ``token`` (many tabs of one browser: the server
@@ -168,6 +169,8 @@ class _Viewer:
                 data = json.loads(message)
                 if data.get("type") in ("ack", "error"):
                     self.replies.put_nowait(data)
+                elif data.get("type") == "status":
+                    self.role = data["slot"]["role"]
 
     async def watch(self) -> None:
         """Read until cancelled or closed, keeping only each frame's delay (no decoding: a
@@ -484,7 +487,10 @@ async def _latency(server: _Server, trials: int) -> dict[str, Any]:
             state["from"] = None
 
     holder.on_frame = on_frame
-    reader = asyncio.create_task(holder.run(time.monotonic() + 60 * trials))
+    reader = asyncio.create_task(holder.run(time.monotonic() + 60 * trials + 30))
+    deadline = time.monotonic() + 30.0  # a slot an earlier part left may still be in its grace time
+    while holder.role != "holder" and time.monotonic() < deadline:
+        await asyncio.sleep(0.2)
     acks, motions = [], []
     exhibits = site["exhibits"]
     for k in range(trials):
