@@ -37,16 +37,19 @@ def test_view_shows_the_estimate_and_the_confirmed_tracks() -> None:
     assert view.nav.path == ((1.0, 2.0), (3.0, 2.0))
 
 
-def test_without_a_tracker_the_simulators_people_are_shown_and_said_so() -> None:
+def test_the_simulators_people_are_never_the_perceived_people() -> None:
+    """Without a tracker the view has no people; the simulator's people are debug truth only."""
     snapshot = _snapshot()
     bare = StateSnapshot(
         time=snapshot.time, step=1, source="sim", pose=snapshot.pose, truth=snapshot.truth,
         navigation=NavigationStatus(mode=NavMode.DWELLING, current_exhibit="vase"),
     )  # fmt: skip
     view = view_of(bare)
-    assert [p.id for p in view.people] == [77]
-    assert "no tracker" in view.nav.message
+    assert view.people == ()
+    assert [p.id for p in view.truth] == [77]
+    assert "simulator" not in view.nav.message
     assert view.nav.state == "arrived"
+    assert [p.id for p in view_of(snapshot).truth] == [77]
 
 
 class _Runtime:

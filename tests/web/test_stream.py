@@ -85,10 +85,11 @@ def test_deltas_keep_every_body_within_tolerance(skips: list[bool], leave_at: in
             decoder.feed(message)
         shown = decoder.scene(t)
         tol = config.position_tolerance + 2 * config.position_quantum
+        person_tol = config.person_tolerance + 2 * config.position_quantum
         assert {p.id for p in shown.people} == {p.id for p in people}
         truth = {p.id: p for p in people}
         for p in shown.people:
-            assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= tol
+            assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= person_tol
         assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
         assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
 
@@ -129,10 +130,11 @@ def test_broadcast_keeps_every_viewer_within_tolerance(
                 decoders[v].feed(message)
             shown = decoders[v].scene(t)
             tol = config.position_tolerance + 2 * config.position_quantum
+            person_tol = config.person_tolerance + 2 * config.position_quantum
             truth = {p.id: p for p in people}
             assert {p.id for p in shown.people} == set(truth)
             for p in shown.people:
-                assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= tol
+                assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= person_tol
             assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
             assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
 

@@ -634,10 +634,12 @@ def create_app(
         if onboard and not is_onboard(client):
             await ws.close(code=1008, reason="the on-board screen is for the paired robot screen")
             return
+        debug = ws.query_params.get("debug") == "truth"  # the page's labelled debug overlay
         await ws.accept()
         await hub.connect(client.session)
+        hub.debug_viewers += debug
         phrasebook = _phrasebook(hub, cfg, db) if onboard else None
-        sender = asyncio.create_task(_send_loop(ws, hub, client, onboard))
+        sender = asyncio.create_task(_send_loop(ws, hub, client, onboard, debug))
         try:
             await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
             await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook, host)
@@ -647,6 +649,7 @@ def create_app(
             sender.cancel()
             with suppress(asyncio.CancelledError, Exception):
                 await sender
+            hub.debug_viewers -= debug
             await hub.disconnect(client.session)
 
     return app
@@ -661,7 +664,9 @@ def _phrasebook(hub: RobotHub, cfg: WebConfig, db: Database) -> PhraseBook:
     )
 
 
-async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: bool) -> None:
+async def _send_loop(
+    ws: WebSocket, hub: RobotHub, client: _Client, onboard: bool, debug: bool = False
+) -> None:
     """Stream to one client: each round takes the hub's latest state, so nothing piles up.
 
     Everything common to the viewers (the stream's bytes, the navigation status, the path message)
@@ -672,6 +677,7 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: boo
     last_status: dict[str, Any] | None = None
     status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
+    sent_truth: str | None = None
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
         seen = await hub.wait_change(seen)
@@ -699,6 +705,10 @@ async def _send_loop(ws: WebSocket, hub: RobotHub, client: _Client, onboard: boo
         if path is not None and path is not sent_path:
             await ws.send_text(path)
             sent_path = path
+        truth = hub.truth_message
+        if debug and truth is not None and truth is not sent_truth:
+            await ws.send_text(truth)
+            sent_truth = truth
         for item in hub.announcements:
             if item.seq > said:
                 audio = None if item.audio is None else f"/speech/{item.audio}"

@@ -14,6 +14,7 @@ import contextlib
 import json
 import logging
 import math
+import re
 import threading
 import time
 from collections import deque
@@ -57,8 +58,13 @@ def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1) -> Sce
     return Scene(t, robot, tuple(people.values()))
 
 
+_RUNNING_COUNT = re.compile(r" for \d+ s\b")
+
+
 def nav_status(view: RobotView | None) -> dict[str, Any]:
-    """The navigation part of the pages' status message."""
+    """The navigation part of the pages' status message. A navigator's running count ("blocked
+    for 12 s") is left out: the status is resent only when something a visitor cares about
+    changed, not once a second to every viewer."""
     if view is None:
         return {"state": "idle"}
     nav = view.nav
@@ -67,23 +73,23 @@ def nav_status(view: RobotView | None) -> dict[str, Any]:
         "exhibit": nav.exhibit,
         "tour": nav.tour,
         "progress": list(nav.tour_progress),
-        "message": nav.message,
+        "message": _RUNNING_COUNT.sub("", nav.message),
         "goal": None if nav.goal is None else [round(nav.goal[0], 2), round(nav.goal[1], 2)],
     }
 
 
 def path_points(view: RobotView) -> list[tuple[float, float]]:
-    """The planned path, thinned to at most 40 points at 10 cm (the page trims what is travelled)."""
+    """The planned path, thinned to at most 24 points at 10 cm (the page trims what is travelled)."""
     path = view.nav.path
     if not path:
         return []
-    step = max(1, math.ceil(len(path) / 40))
+    step = max(1, math.ceil(len(path) / 24))
     points = [*path[::step], path[-1]]
     return [(round(x, 1), round(y, 1)) for x, y in points]
 
 
 def path_moved(
-    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 0.5
+    new: list[tuple[float, float]], old: list[tuple[float, float]], tolerance: float = 1.0
 ) -> bool:
     """Whether a replanned path left the published one by more than ``tolerance`` (m)."""
     if not old:
@@ -112,7 +118,10 @@ class RobotHub:
     speak: Callable[[str], str | None] | None = None
     drive: bool = True
     stream_config: StreamConfig = field(default_factory=StreamConfig)
-    path_check_period: float = 2.0  # a replanned path is republished when it moved (checked this often)
+    path_check_period: float = 5.0  # a replanned path is republished when it moved (checked this often)
+    # moving <-> blocked (and the navigator's text with them) published once steady this long (s):
+    # in a crowd the robot is slowed and freed every second, and every viewer would get each flip
+    steady_time: float = 1.5
 
     def __post_init__(self) -> None:
         self.lock = threading.Lock()
@@ -124,6 +133,10 @@ class RobotHub:
         self.status_version = 0  # changes when the navigation status or the slots changed
         self._status_key: object = None
         self.path_message: str | None = None  # the path as the pages get it (JSON), shared
+        # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
+        self.truth_message: str | None = None
+        self.debug_viewers = 0
+        self._truth_at = 0.0
         self._path: list[tuple[float, float]] = []
         self._path_goal: object = None
         self._path_checked = 0.0
@@ -137,6 +150,7 @@ class RobotHub:
         self._task: asyncio.Task[None] | None = None
         self._changed: asyncio.Event | None = None  # set at a change, then replaced by a fresh one
         self._last_state: tuple[str, str | None] = ("idle", None)
+        self._pending_since: float | None = None
 
     # --- lifecycle --------------------------------------------------------------------------
     async def start(self) -> None:
@@ -198,14 +212,33 @@ class RobotHub:
         self.view = view
         self.scene = scene_of(view, now)
         self.stream.push(self.scene)
-        self.nav_status = nav_status(view)
+        self.nav_status = self._steady(nav_status(view), now)
         self._publish_path(view, now)
+        if self.debug_viewers > 0 and now - self._truth_at >= 1.0:
+            self._truth_at = now
+            points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]
+            self.truth_message = json.dumps({"type": "truth", "people": points}, separators=(",", ":"))
         await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
             await self._arrived(state[1])
         self._last_state = state
         await self.notify()
+
+    def _steady(self, status: dict[str, Any], now: float) -> dict[str, Any]:
+        """The status to publish: a change between ``moving`` and ``blocked`` on the same task
+        waits until it has held for ``steady_time``; anything else is published at once."""
+        published = self.nav_status
+        flapping = {"moving", "blocked"}
+        same_task = all(status[k] == published.get(k) for k in ("exhibit", "tour", "progress", "goal"))
+        if status == published or not (
+            same_task and status["state"] in flapping and published.get("state") in flapping
+        ):
+            self._pending_since = None
+            return status
+        if self._pending_since is None:
+            self._pending_since = now
+        return status if now - self._pending_since >= self.steady_time else published
 
     def _publish_path(self, view: RobotView, now: float) -> None:
         """A path message with a new goal, then only when a replan moved the path."""

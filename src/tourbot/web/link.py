@@ -46,7 +46,8 @@ class NavStatus:
 
 @dataclass(frozen=True)
 class RobotView:
-    """One instant of a robot as the web sees it: its estimated pose and velocity, the people."""
+    """One instant of a robot as the web sees it: its estimated pose and velocity, the people it
+    tracks (``people``), and for a simulated robot the true people (``truth``, debug only)."""
 
     t: float
     x: float
@@ -57,6 +58,7 @@ class RobotView:
     covariance: tuple[float, float, float] = (0.0, 0.0, 0.0)
     people: tuple[PersonView, ...] = ()
     nav: NavStatus = field(default_factory=NavStatus)
+    truth: tuple[PersonView, ...] = ()  # a simulator's true people: debug overlay only, never acted on
 
 
 @runtime_checkable

@@ -3,8 +3,9 @@
 The simulator runtime and a real robot's runtime both give a plain
 :class:`~tourbot.snapshot.StateSnapshot`; this adapter turns it into the web's
 :class:`RobotView` and passes goals, tours and stops on. It shows the *estimated* pose (what the
-robot acts on). People are the tracker's tracks when a tracking estimator runs; without one, a
-simulator's true people are shown (display only, never used for control) and the status says so.
+robot acts on) and the people tracker's confirmed tracks (what it perceives); without a tracker no
+people are shown. A simulator's true people travel apart, as debug truth, for the pages' labelled
+debug overlay only.
 """
 
 from __future__ import annotations
@@ -109,14 +110,12 @@ class RuntimeLink:
 def view_of(
     snapshot: StateSnapshot, exhibit: str | None = None, web_tour: tuple[str, int, int] | None = None
 ) -> RobotView:
-    """The web's view of a runtime snapshot (estimated pose, tracks or else true people)."""
+    """The web's view of a runtime snapshot: the estimated pose and the confirmed tracks; the
+    simulator's true people (if any) only as debug truth."""
     nav = snapshot.navigation
     pose = snapshot.pose
     message = nav.message
-    people = snapshot.people
-    if not people and snapshot.truth is not None:
-        people = snapshot.truth.people
-        message = (message + "; " if message else "") + "people shown from the simulator (no tracker)"
+    truth = () if snapshot.truth is None else snapshot.truth.people
     if pose is None:
         x = y = theta = 0.0
         cov = (0.0, 0.0, 0.0)
@@ -145,6 +144,7 @@ def view_of(
         v=nav.speed,
         omega=nav.turn_rate,
         covariance=cov,
-        people=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in people if p.confirmed),
+        people=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in snapshot.people if p.confirmed),
         nav=status,
+        truth=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in truth),
     )

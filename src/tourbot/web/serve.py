@@ -62,7 +62,8 @@ def _robot_names(n: int) -> list[str]:
 
 @dataclass(frozen=True)
 class SimulatedRobotFactory:
-    """Builds one simulated robot (site, crowd, MCL, navigator) behind a :class:`RuntimeLink`.
+    """Builds one simulated robot (site, crowd, MCL, people tracker, navigator) behind a
+    :class:`RuntimeLink`.
 
     Picklable, so that the robot can be built inside its own process (:class:`ProcessLink`).
     ``speedup`` shortens the link's period (for a robot stepped by the server's thread).
@@ -80,7 +81,10 @@ class SimulatedRobotFactory:
         return replace(self, start=pose)
 
     def __call__(self) -> RobotLink:
+        import numpy as np
+
         from tourbot.app.simulated import SimulationSettings, simulated_runtime
+        from tourbot.people.estimator import PeopleEstimator
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
         from tourbot.web.runtime_link import RuntimeLink
@@ -88,6 +92,9 @@ class SimulatedRobotFactory:
         site = load_site(site_path(self.site))
         sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
         robot = simulated_runtime(site, sim_settings, start=self.start, record=False)
+        # the people the pages show are the ones the robot perceives: its tracker on its laser
+        rng = np.random.default_rng(self.seed)
+        robot.runtime.add_estimator(PeopleEstimator(grid_map=site.grid, rng=rng))
         period = float(robot.simulator.dt) / self.speedup
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
 

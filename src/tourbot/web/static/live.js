@@ -5,17 +5,19 @@ const PENDING_S = 5; // a command waits at most this long for the connection to 
 const PENDING_MAX = 16;
 
 export class Live {
-  constructor(robot, streamConfig, { screen = "web", onStatus, onPath, onSay, onReply, onOpen } = {}) {
+  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onSay, onReply, onOpen, onTruth } = {}) {
     this.robot = robot;
     this.config = streamConfig;
     this.screen = screen;
-    this.handlers = { onStatus, onPath, onSay, onReply, onOpen };
+    this.debug = debug;
+    this.handlers = { onStatus, onPath, onSay, onReply, onOpen, onTruth };
     this.decoder = new StreamDecoder(streamConfig);
     this.offset = null; // local clock minus server clock (s), smallest seen: the least delayed
     this.ws = null;
     this.closed = false;
     this.retry = 500;
-    this.bytes = 0;
+    this.bytes = 0; // payload received (binary stream and JSON texts)
+    this.texts = 0; // of which JSON texts
     // Commands given while the connection is (re)opening, sent once it opens: a visitor's click
     // is never lost to a connection that is not up yet; one older than PENDING_S is dropped.
     this.pending = [];
@@ -25,7 +27,7 @@ export class Live {
 
   connect() {
     const scheme = location.protocol === "https:" ? "wss" : "ws";
-    const query = this.screen === "onboard" ? "?screen=onboard" : "";
+    const query = this.screen === "onboard" ? "?screen=onboard" : this.debug ? "?debug=truth" : "";
     const ws = new WebSocket(`${scheme}://${location.host}/ws/${encodeURIComponent(this.robot)}${query}`);
     ws.binaryType = "arraybuffer";
     ws.onopen = () => {
@@ -55,11 +57,13 @@ export class Live {
       return;
     }
     this.bytes += data.length;
+    this.texts += data.length;
     const message = JSON.parse(data);
     const h = this.handlers;
     if (message.type === "status" && h.onStatus) h.onStatus(message);
     else if (message.type === "path" && h.onPath) h.onPath(message.points);
     else if (message.type === "say" && h.onSay) h.onSay(message);
+    else if (message.type === "truth" && h.onTruth) h.onTruth(message.people);
     else if (h.onReply) h.onReply(message);
   }
 

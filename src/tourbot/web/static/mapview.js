@@ -8,6 +8,7 @@ export class MapView {
     this.image = null;
     this.path = [];
     this.marker = null;
+    this.truth = null; // debug overlay: the simulator's true people [[x, y], ...], drawn hollow
     this.turned = false;
     this.pixel = 1;
     this.labels = []; // the exhibit labels drawn last, as canvas rectangles (never overlapping)
@@ -213,6 +214,20 @@ export class MapView {
       ctx.beginPath();
       ctx.arc(px, py, Math.max(2.5 * px1, (0.22 / this.map.resolution) * k), 0, 2 * Math.PI);
       ctx.fill();
+    }
+    if (this.truth) {
+      ctx.strokeStyle = "#000a";
+      ctx.lineWidth = 1 * px1;
+      for (const [x, y] of this.truth) {
+        const [px, py] = this.toCanvas(x, y);
+        ctx.beginPath();
+        ctx.arc(px, py, Math.max(3 * px1, (0.22 / this.map.resolution) * k), 0, 2 * Math.PI);
+        ctx.stroke();
+      }
+      ctx.fillStyle = "#ffd400";
+      ctx.fillRect(0, 0, 150 * px1, 18 * px1);
+      ctx.fillStyle = "#000";
+      ctx.fillText("DEBUG: simulator truth", 4 * px1, 9 * px1);
     }
     // the robot last, on top of people and labels: a ring that shows it at any zoom, in a crowd
     this.robotAt = null;

@@ -117,7 +117,13 @@ async function start() {
       else { map.marker = world; command({ type: "goto", x: world.x, y: world.y }); }
     },
   });
+  // ?debug=truth: the simulator's true people drawn hollow over the map, labelled as such (the
+  // avatars are always the robot's own tracks)
+  const debug = new URLSearchParams(location.search).get("debug") === "truth";
+  if (debug) $("debug").hidden = false;
   state.live = new Live(robot, site.stream, {
+    debug,
+    onTruth: (points) => { map.truth = points; },
     onStatus,
     onPath: (points) => { map.path = points; },
     onSay: (say) => message(`Robot says: ${say.text}`),
