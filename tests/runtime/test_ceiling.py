@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from tourbot.runtime.interfaces import Estimator
 
 from tourbot.ceiling.minimize import CeilingLocalizer
 from tourbot.ceiling.rig import CeilingCamera
 from tourbot.ceiling.tracking import CeilingTracker
+from tourbot.interfaces import Estimator
 from tourbot.records import Odometry
 from tourbot.runtime.ceiling import CeilingEstimator
 from tourbot.sim.camera import CeilingCameraSim

@@ -1,4 +1,4 @@
-"""The ceiling camera's pose tracker as a runtime estimator (``tourbot.runtime.interfaces.Estimator``).
+"""The ceiling camera's pose tracker as a runtime estimator (``tourbot.interfaces.Estimator``).
 
 It follows the wheel odometry from the runtime's records and corrects the pose with each image of
 the upward camera given to :meth:`CeilingEstimator.on_image` (light detection, then
@@ -15,8 +15,8 @@ from numpy.typing import NDArray
 
 from tourbot.ceiling.detection import DetectionConfig, detect_lights
 from tourbot.ceiling.tracking import CeilingTracker, TrackState
+from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.records import Odometry, Scan
-from tourbot.runtime.interfaces import EstimatorOutput, PoseBelief, ScanShare
 
 __all__ = ["CeilingEstimator"]
 
