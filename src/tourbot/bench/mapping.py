@@ -20,8 +20,8 @@ import numpy as np
 import typer
 from numpy.typing import NDArray
 from rich.console import Console
-from scipy import ndimage
 
+from tourbot.mapping.metrics import map_agreement, occupied_distance
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog, Scan
 
@@ -40,34 +40,6 @@ __all__ = [
 LOGS = ("intel", "aces", "freiburg-079", "fhw")
 
 
-def _occupied_distance(reference: OccupancyGrid) -> NDArray[np.float64]:
-    """Distance (m) from each cell of ``reference`` to its nearest occupied cell."""
-    return np.asarray(ndimage.distance_transform_edt(~reference.occupied()) * reference.resolution)
-
-
-def _distance_at(
-    reference: OccupancyGrid, dist: NDArray[np.float64], points: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    cells = reference.world_to_cell(points)
-    inside = reference.inside(cells)
-    out = np.full(len(points), np.inf)
-    out[inside] = dist[cells[inside, 0], cells[inside, 1]]
-    return out
-
-
-def map_agreement(grid: OccupancyGrid, reference: OccupancyGrid, tolerance: float = 0.1) -> dict[str, float]:
-    """Precision and recall of ``grid``'s occupied cells against ``reference``'s, within ``tolerance`` m.
-
-    Both maps must be in the same world frame. Precision: the fraction of ``grid``'s occupied cells
-    within ``tolerance`` of an occupied reference cell; recall: the converse.
-    """
-    mine = grid.cell_to_world(np.argwhere(grid.occupied()))
-    theirs = reference.cell_to_world(np.argwhere(reference.occupied()))
-    precision = float(np.mean(_distance_at(reference, _occupied_distance(reference), mine) <= tolerance))
-    recall = float(np.mean(_distance_at(grid, _occupied_distance(grid), theirs) <= tolerance))
-    return {"precision": precision, "recall": recall}
-
-
 def people_cells(
     grid: OccupancyGrid, static: OccupancyGrid, person_cells: NDArray[np.bool_], tolerance: float = 0.05
 ) -> dict[str, int]:
@@ -78,7 +50,7 @@ def people_cells(
     that are farther than ``tolerance`` from the static map's occupied cells were caused by people.
     A static occupied cell is kept when ``grid`` has it occupied too.
     """
-    far = _occupied_distance(static) > tolerance
+    far = occupied_distance(static) > tolerance
     occupied = grid.occupied()
     return {
         "people": int(np.sum(occupied & person_cells & far)),
@@ -168,7 +140,7 @@ RANGE_BANDS = ((0.0, 4.0), (4.0, 8.0), (8.0, np.inf))  # the leg detector resolv
 
 def _by_range(grid: OccupancyGrid, clean: OccupancyGrid, nearest: NDArray[np.float64]) -> list[int]:
     """People cells of ``grid`` split by the range at which a visitor was seen there."""
-    cells = grid.occupied() & np.isfinite(nearest) & (_occupied_distance(clean) > 0.05)
+    cells = grid.occupied() & np.isfinite(nearest) & (occupied_distance(clean) > 0.05)
     return [int(np.sum(cells & (nearest >= lo) & (nearest < hi))) for lo, hi in RANGE_BANDS]
 
 
@@ -367,7 +339,7 @@ def _people_maps(
     truth = np.isfinite(nearest)
     # the endpoints alone (the paper's Fig. 10 draws them): cells far from the walls holding the
     # endpoint of a visitor's beam, before and after the filter left its beams out
-    far = _occupied_distance(clean) > 0.05
+    far = occupied_distance(clean) > 0.05
     kept = np.isfinite(_person_cells(crowded, corrupted & ~left_out, clean))
     returned = np.stack([_returned(s) for s in crowded.scans])
     others = returned & ~corrupted
@@ -618,7 +590,7 @@ def _draw_people_maps(
 
     from tourbot.plotting import draw_map
 
-    far = _occupied_distance(clean) > 0.05
+    far = occupied_distance(clean) > 0.05
     fig, axes = plt.subplots(1, 2, figsize=(12, 7), constrained_layout=True)
     panels = ((axes[0], plain, "without people filtering"), (axes[1], filtered, "with people filtering"))
     for ax, grid, title in panels:
