@@ -28,48 +28,62 @@ __all__ = ["rebuild_odometry", "with_rebuilt_odometry"]
 FloatArray = NDArray[np.float64]
 
 
-def rebuild_odometry(path: str | Path) -> tuple[FloatArray, FloatArray]:
-    """Times ``(R,)`` and rebuilt poses ``(R, 3)`` of the timestamped ``ODOM`` readings of a log."""
+_LASERS = ("FLASER", "RLASER")
+
+
+def rebuild_odometry(path: str | Path) -> tuple[list[str], FloatArray]:
+    """For each ``FLASER``/``RLASER`` line of a log, in file order: its kind, and the rebuilt
+    odometry pose of the latest reading before it ``(S, 3)`` (record order: these logs'
+    timestamps go backwards in places, and re-anchoring lines carry zero or garbage ones).
+
+    A re-anchoring line is an ``ODOM`` line with timestamp zero, or one that repeats the corrected
+    pose of the laser line just before it."""
     p = Path(path)
     opener = gzip.open if p.suffix == ".gz" else open
-    times: list[float] = []
-    poses: list[FloatArray] = []
-    anchor: FloatArray | None = None  # where the raw increments of the next reading start from
+    kinds: list[str] = []
+    at_scan: list[FloatArray] = []
+    anchor: FloatArray | None = None  # where the raw increment of the next reading starts from
     current: FloatArray | None = None
+    laser_pose: tuple[str, str, str] | None = None  # the corrected pose of the laser line just read
     with opener(p, "rt") as fh:
         for line in fh:
-            if not line.startswith("ODOM "):
-                continue
             tok = line.split()
+            if not tok:
+                continue
+            if tok[0] in _LASERS:
+                n = int(tok[1])
+                laser_pose = (tok[2 + n], tok[3 + n], tok[4 + n])
+                kinds.append(tok[0])
+                at_scan.append(np.full(3, np.nan) if current is None else current.copy())
+                continue
+            if tok[0] != "ODOM":
+                continue
             raw = np.array([float(tok[1]), float(tok[2]), float(tok[3])])
-            if float(tok[7]) == 0.0:  # a re-anchoring line: the next increment starts here
+            repeat = laser_pose is not None and tuple(tok[1:4]) == laser_pose
+            laser_pose = None
+            if float(tok[7]) == 0.0 or repeat:  # re-anchoring: the next increment starts here
                 anchor = raw
                 continue
             if current is None:
                 current = raw.copy()
             elif anchor is not None:
                 current = compose(current, relative(anchor, raw))
-            times.append(float(tok[7]))
-            poses.append(current)
             anchor = raw
-    return np.asarray(times, dtype=np.float64), np.asarray(poses, dtype=np.float64).reshape(-1, 3)
+    return kinds, np.asarray(at_scan, dtype=np.float64).reshape(-1, 3)
 
 
 def with_rebuilt_odometry(log: RobotLog, path: str | Path) -> RobotLog:
-    """``log`` with each scan's odometry replaced by the rebuilt odometry at the scan's time."""
-    times, poses = rebuild_odometry(path)
-    if len(times) < 2:
-        raise ValueError(f"{path}: fewer than two timestamped ODOM readings: no odometry to rebuild")
-    order = np.argsort(times, kind="stable")
-    times, poses = times[order], poses[order]
-    theta = np.unwrap(poses[:, 2])
-    t = log.times
-    x = np.interp(t, times, poses[:, 0])
-    y = np.interp(t, times, poses[:, 1])
-    th = np.interp(t, times, theta)
-    th = (th + np.pi) % (2 * np.pi) - np.pi
+    """``log`` (read from the CARMEN file ``path``) with each scan's odometry replaced by the
+    rebuilt odometry at that scan."""
+    kinds, poses = rebuild_odometry(path)
+    if len(kinds) != len(log.scans) or any(k != s.sensor for k, s in zip(kinds, log.scans, strict=False)):
+        raise ValueError(f"{path}: the laser lines do not match the log's {len(log.scans)} scans")
+    if len(poses) and np.isnan(poses).all():
+        raise ValueError(f"{path}: no timestamped ODOM readings before the scans: no odometry to rebuild")
+    first = int(np.argmax(np.isfinite(poses[:, 0]))) if len(poses) else 0
+    poses[:first] = poses[first]  # scans before the first reading: the first reading's pose
     scans = [
-        replace(s, odom=(float(a), float(b), float(c)))
-        for s, a, b, c in zip(log.scans, x, y, th, strict=True)
+        replace(s, odom=(float(q[0]), float(q[1]), float(q[2])))
+        for s, q in zip(log.scans, poses, strict=True)
     ]
     return RobotLog(source=log.source, scans=scans, odometry=log.odometry, warnings=list(log.warnings))

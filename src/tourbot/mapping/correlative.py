@@ -31,6 +31,7 @@ __all__ = [
     "SearchWindow",
     "Submap",
     "angular_step",
+    "refine",
     "search",
     "search_reference",
 ]
@@ -171,6 +172,21 @@ def search_reference(
     if arg is None:
         return None
     return Match(_pose(submap, g, float(thetas[arg[0]]), arg[1], arg[2]), best)
+
+
+def refine(submap: Submap, points: FloatArray, pose: FloatArray) -> FloatArray:
+    """The branch-and-bound pose (whole cells, whole angular steps) refined to continuous values by
+    hill climbing on the interpolated likelihood grid (:func:`tourbot.mapping.scan_matching.
+    hill_climb`, no prior to speak of)."""
+    from tourbot.mapping.scan_matching import MatchParams, hill_climb
+
+    res = submap.resolution
+    origin = np.array([submap.origin[0], submap.origin[1], 0.0])
+    start = np.asarray(pose, dtype=np.float64) - origin
+    params = MatchParams(steps=(res / 2, res / 2, 0.005), halvings=5)
+    wide = np.array([1e3, 1e3, 1e3])
+    best, _ = hill_climb(submap.grid, res, start, points, np.ones(len(points)), start, wide, params)
+    return best + origin
 
 
 @numba.njit(cache=True)
