@@ -55,8 +55,8 @@ def read_g2o(path: str | Path) -> G2oGraph:
                         )
                     edges.append((int(tok[1]), int(tok[2])))
                     meas.append((float(tok[3]), float(tok[4]), float(tok[5])))
-                    a, b, c, d, e, f = (float(t) for t in tok[6:12])
-                    info.append(np.array([[a, b, c], [b, d, e], [c, e, f]]))
+                    u = [float(t) for t in tok[6:12]]
+                    info.append(np.array([[u[0], u[1], u[2]], [u[1], u[3], u[4]], [u[2], u[4], u[5]]]))
                 else:
                     raise LogFormatError(f"unknown record {tok[0][:20]!r}", path=p, line=lineno)
             except (ValueError, IndexError) as exc:

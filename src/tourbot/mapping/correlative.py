@@ -70,8 +70,8 @@ class Submap:
         hi = pts.max(axis=0) + margin
         self.origin = np.floor(lo / resolution) * resolution  # world (x, y) of cell (0, 0)'s corner
         shape = (
-            int(math.ceil((hi[1] - self.origin[1]) / resolution)) + 1,
-            int(math.ceil((hi[0] - self.origin[0]) / resolution)) + 1,
+            math.ceil((hi[1] - self.origin[1]) / resolution) + 1,
+            math.ceil((hi[0] - self.origin[0]) / resolution) + 1,
         )
         cells = np.floor((pts - self.origin) / resolution).astype(np.int64)
         hit = np.zeros(shape, bool)
@@ -113,14 +113,14 @@ def _candidates(
     (column, row) and the half-width of the shifts in cells."""
     res = submap.resolution
     step = angular_step(points, res)
-    n_rot = int(math.ceil(window.angular / step))
+    n_rot = math.ceil(window.angular / step)
     thetas = guess[2] + step * np.arange(-n_rot, n_rot + 1)
     c, s = np.cos(thetas)[:, None], np.sin(thetas)[:, None]
     wx = guess[0] + c * points[None, :, 0] - s * points[None, :, 1]
     wy = guess[1] + s * points[None, :, 0] + c * points[None, :, 1]
     cols = np.floor((wx - submap.origin[0]) / res).astype(np.int64)
     rows = np.floor((wy - submap.origin[1]) / res).astype(np.int64)
-    half = int(math.ceil(window.linear / res))
+    half = math.ceil(window.linear / res)
     return thetas, np.stack([cols, rows], axis=-1), half
 
 
@@ -139,7 +139,7 @@ def search(
         return None
     thetas, cells, half = _candidates(submap, pts, np.asarray(guess, dtype=np.float64), window)
     levels = submap.pyramid.shape[0] - 1
-    top = min(levels, max(0, int(math.ceil(math.log2(2 * half + 1)))))
+    top = min(levels, max(0, math.ceil(math.log2(2 * half + 1))))
     k, dx, dy, best = _branch_and_bound(submap.pyramid, cells, half, top, float(min_score))
     if k < 0:
         return None

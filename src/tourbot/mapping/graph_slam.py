@@ -289,7 +289,7 @@ class GraphSlam:
         if best is None:
             return False
         score, node, delta = best
-        return self._try_closure(node, k, delta, score)
+        return self.propose_closure(node, k, delta, score)
 
     def _graph_distances(self, k: int) -> FloatArray:
         """Path length (m) from node ``k`` to every node through the graph, loop edges counting
@@ -307,7 +307,7 @@ class GraphSlam:
         m = coo_matrix((w, (i, j)), shape=(n, n)).tocsr()
         return np.asarray(dijkstra(m, directed=False, indices=k), dtype=np.float64)
 
-    def _try_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
+    def propose_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
         """Add the loop edge if the graph can take it: optimised with the edge (plain quadratic
         cost), the total squared whitened error may grow by at most ``gate`` over the graph's
         without it (a closure that contradicts the chain's uncertainty is rejected); accepted

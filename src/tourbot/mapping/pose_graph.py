@@ -108,9 +108,8 @@ class PoseGraph:
         m = gtsam.noiseModel.mEstimator
         kernel = m.Cauchy.Create(p.scale) if p.kernel == "cauchy" else m.Huber.Create(p.scale)
         for e in self.edges:
-            noise = gtsam.noiseModel.Gaussian.Information(e.information)
-            if e.robust:
-                noise = gtsam.noiseModel.Robust.Create(kernel, noise)
+            gauss = gtsam.noiseModel.Gaussian.Information(e.information)
+            noise = gtsam.noiseModel.Robust.Create(kernel, gauss) if e.robust else gauss
             graph.add(gtsam.BetweenFactorPose2(e.i, e.j, gtsam.Pose2(*e.delta), noise))
         lm = gtsam.LevenbergMarquardtParams()
         lm.setMaxIterations(p.max_iterations)
