@@ -185,3 +185,18 @@ def test_slam_bad_leg_model_is_one_clear_line_before_mapping(
     assert expected in err
     assert "nope.log" not in err  # refused before the log is read
     assert not out.exists()
+
+
+@pytest.mark.parametrize("flag", ["--loop-closure", "--no-loop-closure"])
+def test_slam_with_and_without_loop_closure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], flag: str
+) -> None:
+    log = drive(building(), n=60)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "map.yaml"
+    main(["slam", str(path), "-o", str(out), flag])
+    assert read_map(out).occupied().sum() > 100
+    said = capsys.readouterr().out
+    assert ("loop closures:" in said) == (flag == "--loop-closure")
