@@ -26,6 +26,11 @@ def test_site_new_writes_a_valid_site(tmp_path: Path, capsys: pytest.CaptureFixt
     assert site.grid.occupied().sum() > 200
     assert "site hall:" in capsys.readouterr().out
     assert sorted(p.name for p in (tmp_path / "sites").iterdir()) == ["hall"]  # nothing half-made beside
+    assert [e.name for e in site.exhibits] == site.tour("highlights").exhibits
+    # the simulator accepts it at once
+    main(["simulate", "--site", str(out), "--duration", "3", "--crowd", "empty",
+          "--write-log", str(tmp_path / "sim" / "s.log.gz")])  # fmt: skip
+    assert (tmp_path / "sim" / "s.log.gz").exists()
 
 
 def test_too_few_scans_is_one_line_and_no_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

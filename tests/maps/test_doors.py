@@ -12,8 +12,8 @@ def _two_rooms(gap: float) -> OccupancyGrid:
     prob = np.zeros((80, 160), np.float32)
     prob[0, :] = prob[-1, :] = prob[:, 0] = prob[:, -1] = 1.0
     prob[:, 80] = 1.0
-    lo = 40 - int(round(gap / res / 2))
-    prob[lo : lo + int(round(gap / res)), 80] = 0.0
+    lo = 40 - round(gap / res / 2)
+    prob[lo : lo + round(gap / res), 80] = 0.0
     return OccupancyGrid(prob, res)
 
 

@@ -37,7 +37,7 @@ def add_new(site_app: typer.Typer) -> None:
         from tourbot.io import load_log
         from tourbot.io.mapserver import write_map
         from tourbot.maps.doors import suggest_doorways
-        from tourbot.site.from_log import check_log, map_log, site_document
+        from tourbot.site.from_log import check_log, map_log, site_document, tour_stops
         from tourbot.site.model import load_site
 
         if not name.strip():
@@ -57,7 +57,7 @@ def add_new(site_app: typer.Typer) -> None:
         try:  # written beside, checked, then renamed: never a half-made site folder
             partial.mkdir()
             write_map(grid, partial / "map.yaml")
-            doc = site_document(name, log.name, doorways)
+            doc = site_document(name, log.name, doorways, tour_stops(slam.poses))
             (partial / "site.yaml").write_text(yaml.safe_dump(doc, sort_keys=False), encoding="utf-8")
             load_site(partial / "site.yaml").grid  # noqa: B018 - the site and its map read back
             if output.exists():

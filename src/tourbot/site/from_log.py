@@ -21,7 +21,7 @@ from tourbot.maps.doors import Doorway
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
-__all__ = ["MIN_SCANS", "check_log", "map_log", "site_document"]
+__all__ = ["MIN_SCANS", "check_log", "map_log", "site_document", "tour_stops"]
 
 MIN_SCANS = 50  # fewer scans than this do not make a building's map
 
@@ -53,9 +53,32 @@ def map_log(log: RobotLog, seed: int = 0, resolution: float = 0.05) -> tuple[Occ
     return slam.grid(), slam
 
 
-def site_document(name: str, source: str, doorways: list[Doorway]) -> dict[str, Any]:
-    """The site file's content: the map next to it, and a door in each suggested doorway (hinged
-    at one end, closed across the gap, open to start with, changing every ten minutes)."""
+def tour_stops(poses: np.ndarray, count: int = 4) -> list[tuple[float, float, float]]:
+    """``count`` poses of the mapped path, evenly spread along it (the robot stood there, so they
+    are free): provisional viewing poses until the staff place the real exhibits."""
+    p = np.asarray(poses, dtype=np.float64)
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(p[:, 0]), np.diff(p[:, 1])))])
+    marks = along[-1] * (np.arange(count) + 0.5) / count
+    idx = np.searchsorted(along, marks).clip(0, len(p) - 1)
+    return [(float(p[i, 0]), float(p[i, 1]), float(p[i, 2])) for i in idx]
+
+
+def site_document(
+    name: str, source: str, doorways: list[Doorway], stops: list[tuple[float, float, float]]
+) -> dict[str, Any]:
+    """The site file's content: the map next to it, a door in each suggested doorway (hinged at
+    one end, closed across the gap, open to start with, changing every ten minutes), and
+    provisional exhibits at ``stops`` (each 1 m ahead of its viewing pose) in a tour
+    ``highlights``, so that the simulator and the web site can run at once."""
+    exhibits = [
+        {
+            "name": f"stop-{k + 1}",
+            "position": [round(x + math.cos(th), 3), round(y + math.sin(th), 3)],
+            "viewing_pose": [round(x, 3), round(y, 3), round(th, 4)],
+            "text": "A provisional stop on the mapped path: place the real exhibit in the admin page.",
+        }
+        for k, (x, y, th) in enumerate(stops)
+    ]
     doors = []
     for k, d in enumerate(doorways):
         direction = math.atan2(d.b[1] - d.a[1], d.b[0] - d.a[0])
@@ -74,5 +97,7 @@ def site_document(name: str, source: str, doorways: list[Doorway]) -> dict[str, 
         "description": f"Mapped from the log {source} by `tourbot site new` (graph SLAM, people filtered); "
         f"{len(doors)} doors suggested where the walls have a door-wide gap.",
         "map": {"grid": "map.yaml"},
+        "exhibits": exhibits,
+        "tours": [{"name": "highlights", "exhibits": [e["name"] for e in exhibits]}] if exhibits else [],
         "doors": doors,
     }
