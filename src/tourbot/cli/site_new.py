@@ -36,8 +36,8 @@ def add_new(site_app: typer.Typer) -> None:
         from tourbot.errors import InputError
         from tourbot.io import load_log
         from tourbot.io.mapserver import write_map
-        from tourbot.maps.doors import suggest_doorways
         from tourbot.mapping.new_site import check_log, map_log, site_document, tour_stops
+        from tourbot.maps.doors import suggest_doorways
         from tourbot.site.model import load_site
 
         if not name.strip():
