@@ -11,12 +11,14 @@ deviations with how poorly the scan fitted (its alignment objective below ``-sm_
 scales them by ``-objective / sm_score_scale``), so that loop closures can bend the graph where
 the front end slipped. Consecutive runs of scans form
 *submaps* (their endpoints at the graph's poses, in the frame of the submap's first node). Every
-few scans, the finished submaps the robot may be back in (the current graph pose, within the
-position uncertainty grown along the path since the last closure) are searched for the scan with
-the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match whose score
-passes the threshold becomes a loop edge with a robust (Cauchy) kernel, the graph is optimised with
-GTSAM, and closures that the optimised graph does not agree with (whitened error above a chi-square
-gate: the geometric consistency check) are removed and the graph optimised again.
+few scans, the finished submaps the robot may be back in (the current graph pose, within a window
+that grows with the path length between submap and scan through the graph) are searched for the
+scan with the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match
+whose score passes the threshold is refined and attached to the submap node nearest the scan.
+Geometric consistency decides whether it stays: the graph is optimised with GTSAM with the closure
+under the plain quadratic cost, and the closure is rejected (the graph put back) when the total
+squared whitened error grows by more than a chi-square gate; an accepted closure keeps a robust
+(Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
 PeopleFilteredMapper` as front end, the beams it leaves out as people are left out of the submaps,
@@ -60,8 +62,8 @@ class GraphSlamParams:
     of path between the submap and the scan through the graph (an accepted closure counts
     ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
     ``min_score``: a match's mean likelihood (0-1) to be proposed; ``loop_sigma_*``: the loop
-    edge's standard deviations; ``gate``: the squared whitened error (3 degrees of freedom,
-    99.9 %: 16.3) above which the optimised graph rejects a closure.
+    edge's standard deviations; ``gate``: how much the graph's total squared whitened error may
+    grow when a closure is added (chi-square, 3 degrees of freedom, 99.9 %: 16.3).
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
