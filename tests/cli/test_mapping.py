@@ -262,3 +262,18 @@ def test_slam_refuses_four_odometry_readings_for_hundreds_of_scans(
     (error,) = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
     assert "only 4 odometry readings for 488 scans" in error
     assert not (tmp_path / "m.yaml").exists()
+
+
+@pytest.mark.parametrize("flag", ["--loop-closure", "--no-loop-closure"])
+def test_slam_with_and_without_loop_closure(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], flag: str
+) -> None:
+    log = drive(building(), n=60)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out = tmp_path / "map.yaml"
+    main(["slam", str(path), "-o", str(out), flag])
+    assert read_map(out).occupied().sum() > 100
+    said = capsys.readouterr().out
+    assert ("loop closures:" in said) == (flag == "--loop-closure")

@@ -12,7 +12,7 @@ which beams hit a visitor.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -20,9 +20,9 @@ import numpy as np
 import typer
 from numpy.typing import NDArray
 from rich.console import Console
-from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.metrics.maps import map_agreement, occupied_distance
 from tourbot.records import RobotLog, Scan
 
 if TYPE_CHECKING:
@@ -40,34 +40,6 @@ __all__ = [
 LOGS = ("intel", "aces", "freiburg-079", "fhw")
 
 
-def _occupied_distance(reference: OccupancyGrid) -> NDArray[np.float64]:
-    """Distance (m) from each cell of ``reference`` to its nearest occupied cell."""
-    return np.asarray(ndimage.distance_transform_edt(~reference.occupied()) * reference.resolution)
-
-
-def _distance_at(
-    reference: OccupancyGrid, dist: NDArray[np.float64], points: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    cells = reference.world_to_cell(points)
-    inside = reference.inside(cells)
-    out = np.full(len(points), np.inf)
-    out[inside] = dist[cells[inside, 0], cells[inside, 1]]
-    return out
-
-
-def map_agreement(grid: OccupancyGrid, reference: OccupancyGrid, tolerance: float = 0.1) -> dict[str, float]:
-    """Precision and recall of ``grid``'s occupied cells against ``reference``'s, within ``tolerance`` m.
-
-    Both maps must be in the same world frame. Precision: the fraction of ``grid``'s occupied cells
-    within ``tolerance`` of an occupied reference cell; recall: the converse.
-    """
-    mine = grid.cell_to_world(np.argwhere(grid.occupied()))
-    theirs = reference.cell_to_world(np.argwhere(reference.occupied()))
-    precision = float(np.mean(_distance_at(reference, _occupied_distance(reference), mine) <= tolerance))
-    recall = float(np.mean(_distance_at(grid, _occupied_distance(grid), theirs) <= tolerance))
-    return {"precision": precision, "recall": recall}
-
-
 def people_cells(
     grid: OccupancyGrid, static: OccupancyGrid, person_cells: NDArray[np.bool_], tolerance: float = 0.05
 ) -> dict[str, int]:
@@ -78,7 +50,7 @@ def people_cells(
     that are farther than ``tolerance`` from the static map's occupied cells were caused by people.
     A static occupied cell is kept when ``grid`` has it occupied too.
     """
-    far = _occupied_distance(static) > tolerance
+    far = occupied_distance(static) > tolerance
     occupied = grid.occupied()
     return {
         "people": int(np.sum(occupied & person_cells & far)),
@@ -168,7 +140,7 @@ RANGE_BANDS = ((0.0, 4.0), (4.0, 8.0), (8.0, np.inf))  # the leg detector resolv
 
 def _by_range(grid: OccupancyGrid, clean: OccupancyGrid, nearest: NDArray[np.float64]) -> list[int]:
     """People cells of ``grid`` split by the range at which a visitor was seen there."""
-    cells = grid.occupied() & np.isfinite(nearest) & (_occupied_distance(clean) > 0.05)
+    cells = grid.occupied() & np.isfinite(nearest) & (occupied_distance(clean) > 0.05)
     return [int(np.sum(cells & (nearest >= lo) & (nearest < hi))) for lo, hi in RANGE_BANDS]
 
 
@@ -178,9 +150,13 @@ class _Run:
     grid: OccupancyGrid
     seconds: float  # wall clock
     cpu_seconds: float  # this process's CPU time (the machine is shared: less noisy)
+    closures: list[tuple[int, int, tuple[float, float, float]]] = field(default_factory=list)
+    rejected: int = 0
 
 
 def _read(name: str, max_scans: int | None) -> RobotLog:
+    """A corrected log with its odometry rebuilt from the increments (the reader's default: the
+    stream as stored is re-anchored to the reference at every scan)."""
     from tourbot.data import find_data
     from tourbot.io.carmen import read_carmen
 
@@ -190,19 +166,63 @@ def _read(name: str, max_scans: int | None) -> RobotLog:
     return log
 
 
-def _slam(log: RobotLog, start: NDArray[np.float64]) -> _Run:
-    """Incremental scan matching over ``log`` from the pose ``start`` (it fixes the map's frame)."""
+def _slam(log: RobotLog, start: NDArray[np.float64], loop_closure: bool = False) -> _Run:
+    """Incremental scan matching over ``log`` from the pose ``start`` (it fixes the map's frame);
+    with ``loop_closure``, graph SLAM on top of it."""
+    from tourbot.mapping.graph_slam import GraphSlam
     from tourbot.mapping.incremental import IncrementalMapper
 
     warm = IncrementalMapper(start=start)
     for scan in log.scans[:3]:  # the numba kernels load before the clock starts
         warm.add_scan(scan)
-    mapper = IncrementalMapper(start=start)
+    if not loop_closure:
+        mapper = IncrementalMapper(start=start)
+        t0, c0 = time.perf_counter(), time.process_time()
+        for scan in log.scans:
+            mapper.add_scan(scan)
+        seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+        return _Run(np.asarray(mapper.poses), mapper.grid(), seconds, cpu)
+    slam = GraphSlam(start=start)
     t0, c0 = time.perf_counter(), time.process_time()
     for scan in log.scans:
-        mapper.add_scan(scan)
+        slam.add_scan(scan)
+    poses = slam.finish()
+    grid = slam.grid()  # drawing the final map counts: it is part of the run
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
-    return _Run(np.asarray(mapper.poses), mapper.grid(), seconds, cpu)
+    closures = [(c.anchor, c.node, c.delta) for c in slam.closures]
+    return _Run(poses, grid, seconds, cpu, closures, slam.rejected)
+
+
+def _map_at(log: RobotLog, poses: NDArray[np.float64], seconds: float) -> _Run:
+    """The map of ``log``'s scans at ``poses`` (a peer's path), as a run of ``seconds``."""
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    mapper = IncrementalMapper(start=poses[0])
+    for scan, pose in zip(log.scans, poses, strict=True):
+        mapper.integrate(scan, pose, into="map")
+    return _Run(poses, mapper.grid(), seconds, seconds)
+
+
+def _false_closures(
+    closures: list[tuple[int, int, tuple[float, float, float]]], ref: NDArray[np.float64]
+) -> int:
+    """Accepted closures that the reference contradicts (off by more than 0.3 m or 3 degrees)."""
+    from tourbot.geometry import relative
+
+    bad = 0
+    for i, j, delta in closures:
+        err = relative(relative(ref[i], ref[j]), np.asarray(delta))
+        bad += int(np.hypot(err[0], err[1]) > 0.3 or abs(err[2]) > np.radians(3.0))
+    return bad
+
+
+# whole-log relation error (m) published for these logs: Kummerle et al. 2009 (graph mapping) and
+# Hess et al. 2016 (Cartographer)
+ANCHORS = {
+    "intel": {"kummerle_graph": 0.031, "cartographer": 0.023},
+    "aces": {"kummerle_graph": 0.044, "cartographer": 0.038},
+    "freiburg-079": {"kummerle_graph": 0.056, "cartographer": 0.045},
+}
 
 
 def register(bench: typer.Typer) -> None:
@@ -238,60 +258,87 @@ def register(bench: typer.Typer) -> None:
                 "the first is drawn and used for scan matching."
             ),
         ] = "checked,paper",
+        kiss: Annotated[
+            bool, typer.Option("--kiss/--no-kiss", help="Also run the KISS-ICP peer (pip install kiss-icp).")
+        ] = True,
     ) -> None:
-        """Relative pose error, map agreement and speed of scan-matching SLAM on real logs."""
+        """Relation errors, aligned error, map agreement and speed of SLAM on real logs (rebuilt odometry)."""
         from tourbot.bench._report import BenchReport
         from tourbot.maps.reference import build_reference_map
-        from tourbot.metrics import relative_pose_error
+        from tourbot.metrics.relative import aligned_trajectory_error, relation_error, sample_pairs
 
         console = Console()
         report = BenchReport(
             "mapping",
-            ["log", "scans", "trans err (m)", "rot err (deg)", "trans err, odom start (m)",
-             "rot err, odom start (deg)", "odom trans (m)", "odom rot (deg)",
-             "precision", "recall", "ms/scan", "x real time", "cpu ms/scan", "x real time (cpu)"],
+            ["log", "method", "scans", "sep trans (m)", "sep rot (deg)", "revisit trans (m)",
+             "revisit rot (deg)", "consec trans (m)", "consec rot (deg)", "ATE (m)", "precision",
+             "recall", "x real time", "x real time (cpu)", "closures", "false closures"],
         )  # fmt: skip
         for name in [n.strip() for n in logs.split(",") if n.strip()]:
             console.print(f"mapping {name} ...")
             log_obj = _read(name, max_scans)
             ref = log_obj.reference_poses
-            # the reference's first pose puts the map in the reference map's frame, so that the maps
-            # can be compared; `tourbot slam` starts at the first odometry pose instead, and the
-            # relative error depends on the start (a different start changes which few scans are
-            # misaligned), so both are reported
-            run = _slam(log_obj, ref[0])
-            err = relative_pose_error(run.poses, ref)
-            from_odom = relative_pose_error(_slam(log_obj, log_obj.odom_poses[0]).poses, ref)
-            odo = relative_pose_error(log_obj.odom_poses, ref)
-            agree = map_agreement(run.grid, build_reference_map(log_obj))
+            pairs = sample_pairs(ref)
+            reference_map = build_reference_map(log_obj)
             duration = float(log_obj.times[-1] - log_obj.times[0])
-            report.add(
-                **{
-                    "log": name,
-                    "scans": len(log_obj),
-                    "trans err (m)": err.trans_mean,
-                    "rot err (deg)": float(np.degrees(err.rot_mean)),
-                    "trans err, odom start (m)": from_odom.trans_mean,
-                    "rot err, odom start (deg)": float(np.degrees(from_odom.rot_mean)),
-                    "odom trans (m)": odo.trans_mean,
-                    "odom rot (deg)": float(np.degrees(odo.rot_mean)),
-                    "precision": agree["precision"],
-                    "recall": agree["recall"],
-                    "ms/scan": 1000.0 * run.seconds / len(log_obj),
-                    "x real time": duration / run.seconds,
-                    "cpu ms/scan": 1000.0 * run.cpu_seconds / len(log_obj),
-                    "x real time (cpu)": duration / run.cpu_seconds,
-                    "trans err std (m)": err.trans_std,
-                    "rot err std (deg)": float(np.degrees(err.rot_std)),
-                }
-            )
+            # the reference's first pose puts the map in the reference map's frame, so that the
+            # maps can be compared (`tourbot slam` starts at the first odometry pose instead)
+            runs: list[tuple[str, NDArray[np.float64], _Run | None, float, float]] = [
+                ("odometry (rebuilt)", log_obj.odom_poses, None, float("nan"), float("nan"))
+            ]
+            for method, closing in (("front end", False), ("graph SLAM", True)):
+                done = _slam(log_obj, ref[0], loop_closure=closing)
+                runs.append((method, done.poses, done, duration / done.seconds, duration / done.cpu_seconds))
+            if kiss:
+                from tourbot.bench.peers.kiss_icp_adapter import kiss_icp_path
+
+                t0, c0 = time.perf_counter(), time.process_time()
+                path = kiss_icp_path(log_obj.scans, ref[0])
+                seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+                peer = _map_at(log_obj, path, seconds)
+                runs.append(("KISS-ICP (peer)", path, peer, duration / seconds, duration / cpu))
+            for method, poses, run, speed, cpu_speed in runs:
+                sep = relation_error(poses, ref, pairs["separation"])
+                rev = relation_error(poses, ref, pairs["revisit"])
+                con = relation_error(poses, ref, pairs["consecutive"])
+                agree = map_agreement(run.grid, reference_map) if run is not None else {}
+                report.add(
+                    **{
+                        "log": name,
+                        "method": method,
+                        "scans": len(log_obj),
+                        "sep trans (m)": sep.trans_mean,
+                        "sep rot (deg)": float(np.degrees(sep.rot_mean)),
+                        "revisit trans (m)": rev.trans_mean,
+                        "revisit rot (deg)": float(np.degrees(rev.rot_mean)),
+                        "consec trans (m)": con.trans_mean,
+                        "consec rot (deg)": float(np.degrees(con.rot_mean)),
+                        "ATE (m)": aligned_trajectory_error(poses, ref).rmse,
+                        "precision": agree.get("precision", float("nan")),
+                        "recall": agree.get("recall", float("nan")),
+                        "x real time": speed,
+                        "x real time (cpu)": cpu_speed,
+                        "closures": len(run.closures) if run is not None and run.closures else 0,
+                        "false closures": _false_closures(run.closures, ref) if run is not None else 0,
+                        "rejected closures": run.rejected if run is not None else 0,
+                        "separation pairs": sep.pairs,
+                        "revisit pairs": rev.pairs,
+                        **{f"anchor {k}": v for k, v in ANCHORS.get(name, {}).items()},
+                    }
+                )
         report.notes.append(
-            "errors: mean relative error between consecutive scan poses vs the corrected reference, "
-            "started at the reference's first pose (odom start: at the first odometry pose, as "
-            "`tourbot slam` does; precision, recall and times are of the reference start) "
-            "(Kummerle et al. 2009 report 0.220 m scan matching / 0.070 m RBPF on Intel); "
-            "precision/recall: occupied cells within 10 cm of those of the reference map "
-            "(built from the corrected poses)"
+            "every run from the odometry rebuilt from its increments (the logs' stream is re-anchored "
+            "to the reference at every scan); relation error (Kummerle et al. 2009): mean over pose "
+            "pairs drawn from the reference path (seed 0): 'sep' 2000 draws 1-50 m apart along the "
+            "path, 'revisit' up to 2000 pairs within 1 m of each other after >= 10 m of travel, "
+            "'consec' consecutive scans; ATE: RMS position error after SE(2) alignment; "
+            "precision/recall: occupied cells within 10 cm of those of the reference map (built "
+            "from the corrected poses); false closures: accepted closures off the reference by "
+            "> 0.3 m or 3 deg. Targets: whole-log relation error below Cartographer's (0.023 / "
+            "0.038 / 0.045 m on Intel / ACES / FR079), precision and recall >= 0.90, ATE <= 5 cm "
+            "on Intel, >= 20x real time, no false closure. KISS-ICP: its prediction is the "
+            "odometry increment, no loop closure. x real time: log duration over wall-clock time of "
+            "the run (cpu: over this process's CPU time; the machine is shared)."
         )
         if people:
             modes = [m.strip() for m in people_modes.split(",") if m.strip()]
@@ -373,7 +420,7 @@ def _people_maps(
     truth = np.isfinite(nearest)
     # the endpoints alone (the paper's Fig. 10 draws them): cells far from the walls holding the
     # endpoint of a visitor's beam, before and after the filter left its beams out
-    far = _occupied_distance(clean) > 0.05
+    far = occupied_distance(clean) > 0.05
     kept = np.isfinite(_person_cells(crowded, corrupted & ~left_out, clean))
     returned = np.stack([_returned(s) for s in crowded.scans])
     others = returned & ~corrupted
@@ -624,7 +671,7 @@ def _draw_people_maps(
 
     from tourbot.plotting import draw_map
 
-    far = _occupied_distance(clean) > 0.05
+    far = occupied_distance(clean) > 0.05
     fig, axes = plt.subplots(1, 2, figsize=(12, 7), constrained_layout=True)
     panels = ((axes[0], plain, "without people filtering"), (axes[1], filtered, "with people filtering"))
     for ax, grid, title in panels:

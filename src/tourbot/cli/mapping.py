@@ -41,6 +41,13 @@ def register(app: typer.Typer) -> None:
                 "behind cleared) or paper (tracks and person features only, Burgard et al. Sec. 5)."
             ),
         ] = "checked",
+        loop_closure: Annotated[
+            bool,
+            typer.Option(
+                "--loop-closure/--no-loop-closure",
+                help="Close loops: a pose graph over the scan matcher, optimised with GTSAM (graph SLAM).",
+            ),
+        ] = True,
         resolution: Annotated[float, typer.Option(help="Cell size of the map, metres.")] = 0.05,
         lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
         seed: Annotated[int, typer.Option(help="Seed of the people tracker's particle filters.")] = 0,
@@ -55,7 +62,8 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
     ) -> None:
-        """Build a map by incremental scan matching (Burgard et al. Sec. 2.1), with progress.
+        """Build a map by incremental scan matching (Burgard et al. Sec. 2.1) and, by default, close
+        its loops (graph SLAM), with progress.
 
         Uses only the raw odometry and the scans; the path starts at the first odometry pose.
         """
@@ -67,6 +75,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.mapserver import check_map_output, write_map
         from tourbot.io.output import check_output
         from tourbot.io.tum import write_tum
+        from tourbot.mapping.graph_slam import GraphSlam, GraphSlamParams
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError
         from tourbot.mapping.people_filter import (
             FILTER_MODES,
@@ -111,11 +120,16 @@ def register(app: typer.Typer) -> None:
             else None
         )
         mapper = filtered.mapper if filtered is not None else IncrementalMapper(params)
+        graph = GraphSlam(GraphSlamParams(mapper=params), people=filtered) if loop_closure else None
+        if graph is not None:
+            mapper = graph.front
         done = 0
         try:
             with ScanProgress(f"mapping {log.name}", len(robot_log.scans)) as progress:
                 for scan in robot_log.scans:
-                    if filtered is not None:
+                    if graph is not None:
+                        graph.add_scan(scan)
+                    elif filtered is not None:
                         filtered.add_scan(scan)
                     else:
                         mapper.add_scan(scan)
@@ -123,6 +137,7 @@ def register(app: typer.Typer) -> None:
                     progress.advance()
         except KeyboardInterrupt:
             if keep_partial and done > 0:
+                # the scan matcher's map and path so far (loops not closed: the graph is not finished)
                 write_map(mapper.grid(), output, mode=map_mode)  # type: ignore[arg-type]
                 if trajectory is not None:
                     write_tum(trajectory, robot_log.times[:done], np.asarray(mapper.poses)[:done])
@@ -130,15 +145,22 @@ def register(app: typer.Typer) -> None:
                     f"interrupted: wrote the map of the {done} scans mapped so far: {output}", err=True
                 )
             raise
-        if filtered is not None:
-            filtered.finish()
-        grid = filtered.grid() if filtered is not None else mapper.grid()
+        if graph is not None:
+            poses = graph.finish()
+            grid = graph.grid()
+        else:
+            if filtered is not None:
+                filtered.finish()
+            grid = filtered.grid() if filtered is not None else mapper.grid()
+            poses = np.asarray(mapper.poses)
         write_map(grid, output, mode=map_mode)  # type: ignore[arg-type]
         typer.echo(f"map: {output}")
+        if graph is not None:
+            typer.echo(f"loop closures: {len(graph.closures)} accepted, {graph.rejected} rejected")
         if filtered is not None:
             typer.echo(f"beams left out as people: {filtered.removed_beams}")
-            if filtered.params.consistency is not None:
+            if filtered.params.consistency is not None and graph is None:
                 typer.echo(f"cells cleared as specks the map contradicts: {filtered.cleared_cells}")
         if trajectory is not None:
-            write_tum(trajectory, robot_log.times, np.asarray(mapper.poses))
+            write_tum(trajectory, robot_log.times, poses)
             typer.echo(f"trajectory: {trajectory}")

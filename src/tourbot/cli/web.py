@@ -67,6 +67,9 @@ def register(app: typer.Typer) -> None:
         help="Author a site's exhibits and tours (the web database).", no_args_is_help=True
     )
     app.add_typer(site_app, name="site")
+    from tourbot.cli.site_new import add_new
+
+    add_new(site_app)
 
     @app.command()
     def serve(

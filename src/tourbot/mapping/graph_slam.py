@@ -1,0 +1,334 @@
+"""Graph SLAM: the incremental scan matcher as front end, loop closures, a pose graph optimised.
+
+The incremental mapper (Burgard et al. Sec. 2.1, :mod:`tourbot.mapping.incremental`) aligns each
+scan to the map of the last scans; it is locally accurate but drifts, and a building's loops do not
+close. Here each scan becomes a node of a pose graph (:mod:`tourbot.mapping.pose_graph`), linked to
+the previous one by the front end's aligned motion (scan matching, which already fused the
+odometry as its prior: a second, odometry edge would count the wheels twice and bend the graph
+by their bias, as measured on Intel) or, where the scan could not be aligned, by the raw
+odometry; each edge's covariance grows with the motion, and a scan-matching edge's standard
+deviations with how poorly the scan fitted (its alignment objective below ``-sm_score_scale``
+scales them by ``-objective / sm_score_scale``), so that loop closures can bend the graph where
+the front end slipped. Consecutive runs of scans form
+*submaps* (their endpoints at the graph's poses, in the frame of the submap's first node). Every
+few scans, the finished submaps the robot may be back in (the current graph pose, within a window
+that grows with the path length between submap and scan through the graph) are searched for the
+scan with the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match
+whose score passes the threshold is refined and attached to the submap node nearest the scan.
+Geometric consistency decides whether it stays: the graph is optimised with GTSAM with the closure
+under the plain quadratic cost, and the closure is rejected (the graph put back) when the total
+squared whitened error grows by more than a chi-square gate; an accepted closure keeps a robust
+(Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the map.
+
+People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
+PeopleFilteredMapper` as front end, the beams it leaves out as people are left out of the submaps,
+the loop queries and the final map, which is drawn from every scan at the optimised poses.
+
+Online use (a robot mapping while it tours): :meth:`GraphSlam.add_scan` per scan, :attr:`poses`
+and :meth:`grid` at any time; offline: the same over a log, then :meth:`finish`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from tourbot.geometry import compose, relative, transform_points, wrap_angle
+from tourbot.mapping.correlative import SearchWindow, Submap, refine, search
+from tourbot.mapping.incremental import IncrementalMapper, MapperParams
+from tourbot.mapping.people_filter import PeopleFilteredMapper, beam_endpoints
+from tourbot.mapping.pose_graph import OptimizerParams, PoseGraph, edge_errors
+from tourbot.maps.grid import OccupancyGrid
+from tourbot.records import Scan
+
+__all__ = ["Closure", "GraphSlam", "GraphSlamParams"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class GraphSlamParams:
+    """Parameters of graph SLAM (front end, submaps, loop closure, optimisation).
+
+    Edge standard deviations grow with the motion: ``sm_sigma_xy + sm_k_xy * |translation|`` (m)
+    and ``sm_sigma_theta + sm_k_theta * |rotation|`` (rad) for the scan-matching edge; ``odom_*``
+    likewise for the odometry edge. A submap holds ``submap_scans`` scans. Every ``query_every``-th
+    scan is searched in the finished submaps at least ``recent_path`` m back along the path whose
+    centre is within reach of its pose; the window's half-widths grow from ``window_linear`` m
+    and ``window_angular`` rad by ``window_k_linear`` m and ``window_k_angular`` rad per metre
+    of path between the submap and the scan through the graph (an accepted closure counts
+    ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
+    ``min_score``: a match's mean likelihood (0-1) to be proposed; ``loop_sigma_*``: the loop
+    edge's standard deviations; ``gate``: how much the graph's total squared whitened error may
+    grow when a closure is added (chi-square, 3 degrees of freedom, 99.9 %: 16.3).
+    """
+
+    mapper: MapperParams = field(default_factory=MapperParams)
+    sm_sigma_xy: float = 0.01
+    sm_k_xy: float = 0.02
+    sm_sigma_theta: float = 0.002
+    sm_k_theta: float = 0.02
+    sm_score_scale: float = 40.0
+    odom_sigma_xy: float = 0.1
+    odom_k_xy: float = 0.3
+    odom_sigma_theta: float = 0.1
+    odom_k_theta: float = 0.3
+    submap_scans: int = 30
+    query_every: int = 3
+    recent_path: float = 8.0
+    loop_resolution: float = 0.05
+    loop_sigma: float = 0.05
+    loop_max_range: float = 15.0
+    loop_points: int = 200
+    min_score: float = 0.55
+    window_linear: float = 1.0
+    window_k_linear: float = 0.05
+    max_linear: float = 6.0
+    window_angular: float = 0.15
+    window_k_angular: float = 0.005
+    max_angular: float = 0.6
+    loop_sigma_xy: float = 0.1
+    closure_length: float = 1.0
+    loop_sigma_theta: float = 0.02
+    gate: float = 16.3
+    optimizer: OptimizerParams = field(default_factory=OptimizerParams)
+
+
+@dataclass(frozen=True)
+class Closure:
+    """An accepted loop closure: scan ``node`` seen in the submap anchored at node ``anchor``."""
+
+    anchor: int
+    node: int
+    delta: tuple[float, float, float]
+    score: float
+
+
+@dataclass
+class _Submap:
+    first: int
+    last: int
+    grid: Submap
+    poses: list[FloatArray]  # the graph's poses of its nodes when it was built
+
+
+class GraphSlam:
+    """Builds a pose graph from scans and odometry, one scan at a time, and closes its loops."""
+
+    def __init__(
+        self,
+        params: GraphSlamParams | None = None,
+        start: FloatArray | None = None,
+        people: PeopleFilteredMapper | None = None,
+    ) -> None:
+        self.params = params or GraphSlamParams()
+        self.people = people
+        self.front = (
+            people.mapper if people is not None else IncrementalMapper(self.params.mapper, start=start)
+        )
+        self.graph = PoseGraph()
+        self.closures: list[Closure] = []
+        self.rejected = 0  # closures proposed and then rejected by the consistency gate
+        self.proposed = 0
+        self._scans: list[Scan] = []
+        self._front_poses: list[FloatArray] = []
+        self._odom: list[FloatArray] = []
+        self._along: list[float] = [0.0]  # path length travelled (front end) up to each node
+        self._submaps: list[_Submap] = []
+        self._processed = 0  # nodes whose people masks are known and that have been handled
+
+    # ------------------------------------------------------------------------------------------
+    @property
+    def poses(self) -> FloatArray:
+        """The graph's current pose of every scan so far, ``(N, 3)``."""
+        return self.graph.array()
+
+    def add_scan(self, scan: Scan) -> FloatArray:
+        """Align ``scan`` (front end), add its node and edges; try loop closures; its pose now."""
+        matched, quality = True, 1.0
+        if self.people is not None:
+            front = np.asarray(self.people.add_scan(scan), dtype=np.float64)
+        else:
+            step_ = self.front.add_scan(scan)
+            front = np.asarray(step_.pose, dtype=np.float64)
+            matched = step_.score != 0.0  # too few beams to align: the odometry's prediction
+            quality = max(1.0, -step_.score / self.params.sm_score_scale)
+        odom = np.asarray(scan.odom, dtype=np.float64)
+        n = len(self._scans)
+        if n == 0:
+            self.graph.add_node(front)
+        else:
+            prev = self.graph.poses[-1]
+            step = relative(self._front_poses[-1], front)
+            self.graph.add_node(compose(prev, step))
+            if matched:
+                self.graph.add_edge(n - 1, n, step, self._information(step, odometry=False) / quality**2)
+            else:
+                odo = relative(self._odom[-1], odom)
+                self.graph.add_edge(n - 1, n, odo, self._information(odo, odometry=True))
+            self._along.append(self._along[-1] + float(np.hypot(step[0], step[1])))
+        self._scans.append(scan)
+        self._front_poses.append(front)
+        self._odom.append(odom)
+        self._process(final=False)
+        return self.graph.poses[-1].copy()
+
+    def finish(self) -> FloatArray:
+        """Handle the scans still waiting (people filter) and optimise a last time; the poses."""
+        if self.people is not None:
+            self.people.finish()
+        self._process(final=True)
+        if len(self.graph.poses) > 1:
+            self.graph.optimize(self.params.optimizer)
+        return self.poses
+
+    def left_out(self, index: int) -> NDArray[np.bool_]:
+        """The beams of scan ``index`` left out as people (none without the people filter)."""
+        if self.people is not None and index < len(self.people.left_out):
+            return np.asarray(self.people.left_out[index], dtype=bool)
+        return np.zeros(self._scans[index].geometry.num_beams, bool)
+
+    def grid(self) -> OccupancyGrid:
+        """The map of every scan so far at the graph's poses (people's beams left out)."""
+        first = self.graph.poses[0] if self.graph.poses else None
+        out = IncrementalMapper(self.params.mapper, start=first)
+        keep_free = self.people is not None and self.people.params.keep_free_space
+        for k, (scan, pose) in enumerate(zip(self._scans, self.graph.poses, strict=True)):
+            person = self.left_out(k)
+            if keep_free:
+                out.integrate(scan, pose, free_only=person, into="map")
+            else:
+                out.integrate(scan, pose, keep=~person, into="map")
+        return out.grid()
+
+    # ------------------------------------------------------------------------------------------
+    def _information(self, step: FloatArray, *, odometry: bool) -> FloatArray:
+        p = self.params
+        trans = float(np.hypot(step[0], step[1]))
+        rot = abs(float(wrap_angle(step[2])))
+        if odometry:
+            sxy, sth = p.odom_sigma_xy + p.odom_k_xy * trans, p.odom_sigma_theta + p.odom_k_theta * rot
+        else:
+            sxy, sth = p.sm_sigma_xy + p.sm_k_xy * trans, p.sm_sigma_theta + p.sm_k_theta * rot
+        return np.diag([1.0 / sxy**2, 1.0 / sxy**2, 1.0 / sth**2])
+
+    def _ready(self) -> int:
+        """How many nodes have known people masks."""
+        if self.people is None:
+            return len(self._scans)
+        return min(len(self.people.left_out), len(self._scans))
+
+    def _process(self, *, final: bool) -> None:
+        p = self.params
+        ready = self._ready()
+        while self._processed < ready:
+            k = self._processed
+            self._processed += 1
+            first = self._submaps[-1].last + 1 if self._submaps else 0
+            if k - first + 1 >= p.submap_scans:
+                self._submaps.append(self._build_submap(first, k))
+            if k % p.query_every == 0:
+                self._query(k)
+        if final:
+            first = self._submaps[-1].last + 1 if self._submaps else 0
+            if first < len(self._scans):
+                self._submaps.append(self._build_submap(first, len(self._scans) - 1))
+
+    def _points(self, k: int, cap: float) -> FloatArray:
+        """Scan ``k``'s returned beams not left out, within ``cap`` m, in the robot frame."""
+        scan = self._scans[k]
+        pts, hit = beam_endpoints(scan, np.zeros(3))
+        r = np.asarray(scan.ranges, dtype=np.float64)
+        return pts[hit & ~self.left_out(k) & (r < cap)]
+
+    def _build_submap(self, first: int, last: int) -> _Submap:
+        anchor = self.graph.poses[first]
+        pts = [
+            transform_points(
+                relative(anchor, self.graph.poses[k]), self._points(k, self.params.mapper.max_match_range)
+            )
+            for k in range(first, last + 1)
+        ]
+        allp = np.concatenate([np.zeros((0, 2)), *pts])
+        if len(allp) == 0:
+            allp = np.zeros((1, 2))
+        grid = Submap(allp, self.params.loop_resolution, self.params.loop_sigma)
+        return _Submap(first, last, grid, [q.copy() for q in self.graph.poses[first : last + 1]])
+
+    def _query(self, k: int) -> bool:
+        """Search scan ``k`` in the finished submaps it may be back in; True when a closure was added."""
+        p = self.params
+        pts = self._points(k, p.loop_max_range)
+        if len(pts) < 20:
+            return False
+        if len(pts) > p.loop_points:
+            pts = pts[np.linspace(0, len(pts) - 1, p.loop_points).astype(np.int64)]
+        apart = self._graph_distances(k)
+        pose_k = self.graph.poses[k]
+        best: tuple[float, int, FloatArray] | None = None
+        for sub in self._submaps:
+            if self._along[k] - self._along[sub.last] < p.recent_path:
+                continue
+            since = float(apart[sub.first : sub.last + 1].min())
+            linear = min(p.max_linear, p.window_linear + p.window_k_linear * since)
+            angular = min(p.max_angular, p.window_angular + p.window_k_angular * since)
+            anchor = self.graph.poses[sub.first]
+            guess = relative(anchor, pose_k)
+            if math.hypot(*(guess[:2] - sub.grid.centre)) > sub.grid.radius + linear:
+                continue
+            m = search(sub.grid, pts, guess, SearchWindow(linear, angular), p.min_score)
+            if m is None or (best is not None and m.score <= best[0]):
+                continue
+            found = refine(sub.grid, pts, m.pose)
+            # the edge goes to the submap's node nearest the scan: the submap's inside as it was
+            # built, seen from that node, so that the graph moving the anchor later bends it less
+            inside = [relative(sub.poses[0], q) for q in sub.poses]
+            near = int(np.argmin([math.hypot(*(q[:2] - found[:2])) for q in inside]))
+            best = (m.score, sub.first + near, relative(inside[near], found))
+        if best is None:
+            return False
+        score, node, delta = best
+        return self.propose_closure(node, k, delta, score)
+
+    def _graph_distances(self, k: int) -> FloatArray:
+        """Path length (m) from node ``k`` to every node through the graph, loop edges counting
+        ``closure_length``: how far the relative pose of two nodes has been chained, which sets
+        how uncertain it is."""
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        n = len(self.graph.poses)
+        along = np.asarray(self._along[:n])
+        i = np.array([e.i for e in self.graph.edges], dtype=np.int64)
+        j = np.array([e.j for e in self.graph.edges], dtype=np.int64)
+        robust = np.array([e.robust for e in self.graph.edges], dtype=bool)
+        w = np.where(robust, self.params.closure_length, np.abs(along[j] - along[i]) + 1e-6)
+        m = coo_matrix((w, (i, j)), shape=(n, n)).tocsr()
+        return np.asarray(dijkstra(m, directed=False, indices=k), dtype=np.float64)
+
+    def propose_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
+        """Add the loop edge if the graph can take it: optimised with the edge (plain quadratic
+        cost), the total squared whitened error may grow by at most ``gate`` over the graph's
+        without it (a closure that contradicts the chain's uncertainty is rejected); accepted
+        edges keep the robust kernel from then on."""
+        p = self.params
+        self.proposed += 1
+        before = [q.copy() for q in self.graph.poses]
+        cost_before = float(edge_errors(self.graph.array(), self.graph.edges).sum())
+        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
+        edge = self.graph.add_edge(anchor, node, delta, info, robust=False)
+        poses = self.graph.optimize(p.optimizer)
+        cost_after = float(edge_errors(poses, self.graph.edges).sum())
+        self.graph.edges.pop()
+        if cost_after - cost_before > p.gate:
+            self.graph.poses = before
+            self.rejected += 1
+            return False
+        self.graph.edges.append(replace(edge, robust=True))
+        self.closures.append(
+            Closure(anchor, node, (float(delta[0]), float(delta[1]), float(delta[2])), score)
+        )
+        return True
