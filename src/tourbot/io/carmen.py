@@ -1017,7 +1017,9 @@ def _settle_max_range(
         top = _infer_max_range(scans) or float(ranges.max(initial=0.0))
         # returns beyond the stated range, short of the sensor's own "no return" value
         beyond = float(np.mean((ranges > stated * 1.001) & (ranges < top * 0.999))) if ranges.size else 0.0
-        if stated > 2.0 * top and _infer_max_range(scans) is not None:
+        # a PARAM far beyond a pile-up of readings that most readings stay below (the "no return")
+        returns_below = float(np.mean(ranges < top * 0.999)) if ranges.size else 0.0
+        if stated > 2.0 * top and returns_below >= 0.5 and _infer_max_range(scans) is not None:
             warnings.append(
                 f"{reader.path}: PARAM {params.max_range_param} {stated:g} m is beyond every reading, which "
                 f"pile up at {top:g} m (the sensor's 'no return'; the PARAM is in another unit or wrong); "
