@@ -9,6 +9,7 @@ from tourbot.cli.main import main
 from tourbot.io.carmen import write_carmen
 from tourbot.io.mapserver import write_map
 from tourbot.io.tum import read_tum
+from tourbot.localization.profile import FHW_PROFILE
 from tourbot.records import RobotLog
 
 from ..localization.conftest import room_with_boxes, simulate, waypoints_path
@@ -80,7 +81,10 @@ def test_localize_grid_says_it_builds_the_table_and_caches_it(
     log, room, truth = files
     out = tmp_path / "traj.tum"
     cache = tmp_path / "tables"
-    args = ["localize", str(log), "--map", str(room), "--method", "grid", "--start-from-reference"]
+    # the FHW profile: the paper's plain product of the beams' likelihoods (the default) is far
+    # too confident for the grid (GridMarkovConfig.likelihood_power)
+    profile = ["--config", str(FHW_PROFILE)]
+    args = ["localize", str(log), "--map", str(room), "--method", "grid", "--start-from-reference", *profile]
     main([*args, "--table-cache", str(cache), "-o", str(out)])
     first = " ".join(capsys.readouterr().err.split())  # the console may wrap lines
     assert "expected-range table" in first

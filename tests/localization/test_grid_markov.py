@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from tourbot.localization.grid_markov import (
     layer_kernels,
 )
 from tourbot.localization.motion_model import OdometryMotionModel
+from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import DistanceCaster
 from tourbot.records import LaserGeometry, RobotLog, Scan
@@ -88,8 +90,11 @@ def _odometry(truth: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return np.array(odom)
 
 
+_FHW = LocalizationProfile.load(FHW_PROFILE).grid  # the values these scenes were written for
+
+
 def _localizer(room: OccupancyGrid, **cfg: object) -> GridMarkovLocalization:
-    return GridMarkovLocalization(room, GridMarkovConfig(**cfg))  # type: ignore[arg-type]
+    return GridMarkovLocalization(room, replace(_FHW, **cfg))  # type: ignore[arg-type]
 
 
 def _errors(est_pose: np.ndarray, truth: np.ndarray) -> tuple[float, float]:
@@ -102,6 +107,8 @@ def test_default_config_is_the_papers_grid() -> None:
     assert math.degrees(cfg.angle_step) == pytest.approx(2.0)
     assert cfg.filters.theta == 0.99
     assert cfg.beam_filter == BeamFilter.NOVELTY
+    assert cfg.likelihood_power == 1.0  # the paper's plain product; the FHW profile damps it
+    assert _FHW.likelihood_power == 0.1
 
 
 @pytest.mark.parametrize(
@@ -276,7 +283,7 @@ def test_max_range_readings_are_never_used(room: OccupancyGrid, caster: Distance
 @given(st.floats(0.02, 0.07))
 def test_small_motions_accumulate_instead_of_rounding_away(step: float) -> None:
     # Steps below half a cell are held back and applied once they add up: no motion is lost.
-    loc = GridMarkovLocalization(_room(), GridMarkovConfig())
+    loc = GridMarkovLocalization(_room(), _FHW)
     start = np.array([2.0, 1.0, 0.0])
     loc.reset_tracking(start, np.diag([0.01, 0.01, 0.01]) ** 2)
     mean0 = _belief_mean(loc)
@@ -323,7 +330,7 @@ def fhw_start(fhw_log_path: Path) -> tuple[RobotLog, GridMarkovLocalization]:
     log = read_carmen(fhw_log_path)
     log.scans = log.scans[:18]
     # a smaller recovery sweep than the default keeps the test short; the tracking is the same
-    loc = GridMarkovLocalization(build_reference_map(log), GridMarkovConfig(sweep_poses=20_000))
+    loc = GridMarkovLocalization(build_reference_map(log), replace(_FHW, sweep_poses=20_000))
     loc.prepare(log.scans[0].geometry.max_range)
     return log, loc
 
@@ -376,7 +383,7 @@ def test_unknown_cells_need_not_be_walls(room: OccupancyGrid, caster: DistanceCa
     rng = np.random.default_rng(9)
     truth = _path((-0.3, 0.3, 0.0), 12, step=0.35, turn=0.03)
     odom = _odometry(truth, rng)
-    loc = GridMarkovLocalization(patched, GridMarkovConfig(unknown_blocks=False))
+    loc = GridMarkovLocalization(patched, replace(_FHW, unknown_blocks=False))
     loc.reset_tracking(truth[0])
     for i, pose in enumerate(truth):
         est = loc.update(odom[i], _scan(caster, pose, float(i), rng))

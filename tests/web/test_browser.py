@@ -242,14 +242,15 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     in the robot's own process (4x real time, so that the test stays short), served as by
     ``tourbot demo``. A visitor books, sends the robot to the Alexander map (12 m away), sees it
     arrive, and the robot drawn on the page stands at the exhibit."""
-    from tourbot.localization.mcl import MCLConfig
+    from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
     from tourbot.web.serve import ServeSettings, build_site_app
 
     if find_node_modules() is None:
         pytest.skip("three.js is not installed (npm ci)")
     monkeypatch.chdir(tmp_path)
+    mcl = LocalizationProfile.load(FHW_PROFILE).mcl.with_samples(200)  # the site's profile
     settings = ServeSettings(
-        site="fhw", database=sqlite_url, crowd="5", mcl=MCLConfig().with_samples(200), speedup=4.0,
+        site="fhw", database=sqlite_url, crowd="5", mcl=mcl, speedup=4.0,
         staff_password="s3cret-pass", speech_dir=tmp_path / "speech",
     )  # fmt: skip
     app, db = build_site_app(settings)

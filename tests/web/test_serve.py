@@ -17,7 +17,7 @@ from tests.web.fakes import FakeRobot
 from tests.web.live import LiveServer
 from tests.web.test_app import connect, new_session, role_is, wait_for
 from tourbot.errors import TourbotError
-from tourbot.localization.mcl import MCLConfig
+from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.web.app import WebConfig, create_app
 from tourbot.web.db import open_database
 from tourbot.web.serve import ServeSettings, build_site_app, uvicorn_config
@@ -29,7 +29,7 @@ def test_serve_fhw_drives_the_simulated_robot(sqlite_url: str, tmp_path: Path) -
         site="fhw",
         database=sqlite_url,
         crowd="7",
-        mcl=MCLConfig().with_samples(200),
+        mcl=LocalizationProfile.load(FHW_PROFILE).mcl.with_samples(200),
         staff_password="s3cret-pass",
         speech_dir=tmp_path / "speech",
     )

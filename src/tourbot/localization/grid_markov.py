@@ -124,8 +124,9 @@ class GridMarkovConfig:
     - ``likelihood_power``: Eq. 2 takes the product of ``p(s_b | l)`` over the used beams as if
       they were independent; their errors are not (neighbouring beams share the map's errors, the
       crowd's bodies and the lattice's 15 cm x 2 deg rounding), so the product is overconfident
-      by far. It is raised to this power (0.1: about one independent beam per 10 degrees;
-      Probabilistic Robotics Sec. 6.3.4 suggests such damping). With the full product (1.0) the
+      by far. It may be raised to this power (Probabilistic Robotics Sec. 6.3.4 suggests such
+      damping; the default 1 is the paper's plain product; the FHW profile's 0.1 is about one
+      independent beam per 10 degrees). With the full product (1.0) the
       belief collapses to a handful of poses, and on a scan where the truth explains the beams a
       little worse than a pose elsewhere (readings *longer* than the map predicts, which no filter
       drops, or the few beams the crowd leaves), the recovery sweep takes the whole belief there:
@@ -153,7 +154,7 @@ class GridMarkovConfig:
     unknown_blocks: bool = True
     mode_radius: float = 0.5
     mode_angle: float = math.radians(20.0)
-    likelihood_power: float = 0.1
+    likelihood_power: float = 1.0
 
     def __post_init__(self) -> None:
         for name in ("cell_size", "angle_step", "table_angle_step", "range_bin"):
