@@ -140,7 +140,7 @@ def _run_real(seed: int, share: Any, figure: Path | None) -> Trial:
     from tourbot.io import load_log
     from tourbot.maps.objects import shapes_of_site
     from tourbot.objects.picture import draw_objects_figure
-    from tourbot.objects.pipeline import estimate_log, rebuilt_odometry
+    from tourbot.objects.pipeline import estimate_log
     from tourbot.sim.object_overlay import overlay_objects
     from tourbot.sim.overlay import OverlayConfig, overlay_crowd
     from tourbot.site.default import site_path
@@ -148,7 +148,7 @@ def _run_real(seed: int, share: Any, figure: Path | None) -> Trial:
 
     t0 = time.perf_counter()
     site = load_site(site_path("fhw-doors"))
-    log = rebuilt_odometry(load_log(find_data("carmen/fhw-corrected.log.gz")))
+    log = load_log(find_data("carmen/fhw-corrected.log.gz"))  # odometry rebuilt (the default)
     shapes = shapes_of_site(site.doors, site.furniture)
     poses: list[Any] = [[] for _ in site.doors] + [f.poses for f in site.furniture]
     with_objects, truth = overlay_objects(log, shapes, poses, seed=seed)

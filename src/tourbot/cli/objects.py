@@ -111,7 +111,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io import load_log
         from tourbot.io.output import check_output, write_text_whole
         from tourbot.objects.picture import draw_objects_figure
-        from tourbot.objects.pipeline import estimate_log, rebuilt_odometry
+        from tourbot.objects.pipeline import estimate_log
         from tourbot.sim.object_overlay import object_truth_path, read_object_truth
         from tourbot.site.model import load_site
 
@@ -146,8 +146,6 @@ def register(app: typer.Typer) -> None:
                 raise InputError("a trajectory needs at least two poses", path=trajectory)
             poses = np.column_stack([np.interp(robot_log.times, times, tum[:, i]) for i in range(3)])
             poses[:, 2] = np.interp(robot_log.times, times, np.unwrap(tum[:, 2]))
-        else:
-            robot_log = rebuilt_odometry(robot_log)
         truth = None
         truth_file = object_truth_path(log)
         if truth_file.exists():

@@ -30,7 +30,7 @@ import math
 from collections import defaultdict
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numba
 import numpy as np
@@ -39,8 +39,34 @@ from numpy.typing import ArrayLike, NDArray
 from tourbot.geometry import wrap_angle
 from tourbot.maps.grid import MapError
 
-if TYPE_CHECKING:
-    from tourbot.site.model import Door, Furniture
+
+class Door(Protocol):
+    """What a door's shape needs of the site's door (:class:`tourbot.site.model.Door`)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def hinge(self) -> tuple[float, float]: ...
+    @property
+    def leaf_length(self) -> float: ...
+    @property
+    def thickness(self) -> float: ...
+    @property
+    def closed_direction(self) -> float: ...
+    @property
+    def opening_angle(self) -> float: ...
+
+
+class Furniture(Protocol):
+    """What a piece of furniture's shape needs of the site's (:class:`tourbot.site.model.Furniture`)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def outline(self) -> Sequence[tuple[float, float]]: ...
+    @property
+    def poses(self) -> Sequence[tuple[float, float, float]]: ...
+
 
 __all__ = [
     "ObjectIndex",

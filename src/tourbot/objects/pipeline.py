@@ -29,7 +29,7 @@ from tourbot.objects.estimator import ObjectEstimate, ObjectEstimatorConfig, Obj
 from tourbot.records import RobotLog
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 
-__all__ = ["ObjectRun", "estimate_log", "rebuilt_odometry"]
+__all__ = ["ObjectRun", "estimate_log"]
 
 FloatArray = NDArray[np.float64]
 
@@ -120,39 +120,3 @@ def _mean_pose(samples: FloatArray, weights: FloatArray) -> tuple[float, float, 
     y = float(w @ samples[:, 1])
     th = math.atan2(float(w @ np.sin(samples[:, 2])), float(w @ np.cos(samples[:, 2])))
     return (x, y, th)
-
-
-def rebuilt_odometry(log: RobotLog) -> RobotLog:
-    """The log with each scan's ``odom`` rebuilt from the odometry increments.
-
-    A stand-in until the reader's rebuild lands (branch ``odometry``), then to be replaced by it:
-    the corrected logs restart their odometry stream from the corrected pose at every scan
-    (``../shared/data/README.md``), so the increments between consecutive readings are chained,
-    except across a scan, where the step (which holds the jump onto the corrected pose) is
-    replaced by the readings' velocities times the time between them.
-    """
-    from dataclasses import replace
-
-    odom = sorted(log.odometry, key=lambda o: o.timestamp)
-    if len(odom) < 2:
-        return log
-    t = np.array([o.timestamp for o in odom])
-    raw = np.array([o.pose for o in odom])
-    scan_t = np.array([s.timestamp for s in log.scans])
-    crosses = np.searchsorted(scan_t, t[1:], side="left") > np.searchsorted(scan_t, t[:-1], side="left")
-    poses = np.empty_like(raw)
-    poses[0] = raw[0]
-    for i in range(1, len(odom)):
-        if crosses[i - 1]:
-            dt = t[i] - t[i - 1]
-            tv, rv = odom[i - 1].tv, odom[i - 1].rv
-            step = np.array([tv * dt * math.cos(rv * dt / 2), tv * dt * math.sin(rv * dt / 2), rv * dt])
-        else:
-            step = relative(raw[i - 1], raw[i])
-        poses[i] = compose(poses[i - 1], step)
-    idx = np.clip(np.searchsorted(t, scan_t, side="right") - 1, 0, len(t) - 1)
-    scans = [
-        replace(s, odom=(float(poses[k, 0]), float(poses[k, 1]), float(poses[k, 2])))
-        for s, k in zip(log.scans, idx, strict=True)
-    ]
-    return RobotLog(source=log.source, scans=scans, odometry=list(log.odometry), warnings=list(log.warnings))
