@@ -195,7 +195,7 @@ class GraphSlam:
         """The map of every scan so far at the graph's poses (people's beams left out)."""
         first = self.graph.poses[0] if self.graph.poses else None
         out = IncrementalMapper(self.params.mapper, start=first)
-        keep_free = self.people is not None and self.people.params.keep_free_space
+        keep_free = self.people is not None and self.people.params.beams.keep_free_space
         for k, (scan, pose) in enumerate(zip(self._scans, self.graph.poses, strict=True)):
             person = self.left_out(k)
             if keep_free:

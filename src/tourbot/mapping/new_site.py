@@ -16,7 +16,7 @@ import numpy as np
 
 from tourbot.mapping.graph_slam import GraphSlam, GraphSlamParams
 from tourbot.mapping.incremental import MapperParams, MappingError
-from tourbot.mapping.people_filter import PeopleFilteredMapper
+from tourbot.mapping.people_filter import PeopleFilteredMapper, PeopleMappingConfig
 from tourbot.maps.doors import Doorway
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
@@ -45,7 +45,7 @@ def check_log(log: RobotLog, source: str) -> None:
 def map_log(log: RobotLog, seed: int = 0, resolution: float = 0.05) -> tuple[OccupancyGrid, GraphSlam]:
     """The people-filtered, loop-closed map of ``log`` (its frame: the first odometry pose)."""
     params = MapperParams(resolution=resolution)
-    people = PeopleFilteredMapper.create(params, seed=seed)
+    people = PeopleFilteredMapper.create(PeopleMappingConfig(mapper=params), seed=seed)
     slam = GraphSlam(GraphSlamParams(mapper=params), people=people)
     for scan in log.scans:
         slam.add_scan(scan)
