@@ -92,9 +92,12 @@ class FakeRobot:
 
 @dataclass(frozen=True)
 class FakeFactory:
-    """A picklable :class:`FakeRobot` maker for a robot process; ``at`` restarts it at a pose."""
+    """A picklable :class:`FakeRobot` maker for a robot process; ``at`` restarts it at a pose.
+    ``restart_time`` is how long a restarted robot takes to build (a real one loads its map and
+    kernels for seconds; a forked fake is ready at once, before a page could see it restarting)."""
 
     start: tuple[float, float, float] | None = None
+    restart_time: float = 0.0
 
     def at(self, pose: tuple[float, float, float]) -> FakeFactory:
         return replace(self, start=pose)
@@ -102,5 +105,6 @@ class FakeFactory:
     def __call__(self) -> FakeRobot:
         robot = FakeRobot()
         if self.start is not None:
+            time.sleep(self.restart_time)
             robot.x, robot.y, robot.theta = self.start
         return robot

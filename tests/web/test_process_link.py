@@ -116,7 +116,7 @@ def test_a_robot_process_that_dies_too_often_shows_as_failed() -> None:
 def test_slots_and_queue_outlive_a_restarted_robot(db: Database, tmp_path: Path) -> None:
     """The server keeps the holder and the queue while the robot's process is killed and restarted;
     the holder drives the new process."""
-    link = ProcessLink(FakeFactory(), name="lefkos")
+    link = ProcessLink(FakeFactory(restart_time=2.0), name="lefkos")
     link.wait_ready(60)
     try:
         with TestClient(create_app({"lefkos": link}, db, None, WebConfig(speech_dir=tmp_path))) as client:
