@@ -175,17 +175,34 @@ def test_a_bad_staff_password_file_is_one_line(
 def test_the_staff_password_comes_from_a_file_the_environment_or_a_prompt(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from tourbot.cli.web import _staff_password
+    from tourbot.cli.web import read_staff_password
     from tourbot.errors import InputError
 
     monkeypatch.delenv("TOURBOT_STAFF_PASSWORD", raising=False)
     file = tmp_path / "password"
     file.write_text("from the file\nignored\n")
-    assert _staff_password(file, False) == "from the file"
-    assert _staff_password(None, False) is None
+    assert read_staff_password(file, False) == "from the file"
+    assert read_staff_password(None, False) is None
     monkeypatch.setattr("typer.prompt", lambda *_, **__: "typed, hidden")
-    assert _staff_password(None, True) == "typed, hidden"
+    assert read_staff_password(None, True) == "typed, hidden"
     monkeypatch.setenv("TOURBOT_STAFF_PASSWORD", "from the environment")
-    assert _staff_password(None, False) == "from the environment"
+    assert read_staff_password(None, False) == "from the environment"
     with pytest.raises(InputError, match="one way"):
-        _staff_password(file, False)
+        read_staff_password(file, False)
+
+
+def test_the_demo_takes_the_staff_password_as_serve_does(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``demo`` serves the same staff pages: no ``--staff-password`` in its argv either, and a
+    short password from its file is refused before anything is built."""
+    out = tmp_path / "demo"
+    assert _run(["demo", "--out", str(out), "--staff-password", "s3cret-pass"]) == 2
+    assert "No such option" in capsys.readouterr().err
+    short = tmp_path / "short"
+    short.write_text("short\n")
+    assert _run(["demo", "--out", str(out), "--staff-password-file", str(short)]) == 2
+    err = capsys.readouterr().err
+    assert "at least 8 characters" in err
+    assert "Traceback" not in err
+    assert not out.exists()

@@ -56,11 +56,16 @@ def register(app: typer.Typer) -> None:
         database: str | None = typer.Option(
             None, help="SQLAlchemy URL of the site database (default OUT/tourbot-SITE.db, never wiped)."
         ),
-        staff_password: str | None = typer.Option(
-            None,
-            envvar="TOURBOT_STAFF_PASSWORD",
-            help="Password of the staff login 'staff' (default: a new one, printed at start).",
-        ),
+        staff_password_file: Annotated[
+            Path | None,
+            typer.Option(
+                help="A file whose first line is the password of user 'staff' (or set "
+                "$TOURBOT_STAFF_PASSWORD; default: a new one, printed at start)."
+            ),
+        ] = None,
+        ask_staff_password: Annotated[
+            bool, typer.Option("--ask-staff-password", help="Ask for the password of user 'staff' (hidden).")
+        ] = False,
     ) -> None:
         """The simulated crowded museum with its web pages (visitors, on-board screen, staff) until Ctrl-C."""
         from tourbot.errors import InputError
@@ -75,7 +80,14 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        from tourbot.cli.web import read_staff_password
         from tourbot.localization.profile import LocalizationProfile
+
+        staff_password = None if record else read_staff_password(staff_password_file, ask_staff_password)
+        if staff_password is not None:
+            from tourbot.web.db import check_staff_password
+
+            check_staff_password(staff_password)
 
         mcl = LocalizationProfile.load(config).mcl
         if particles is not None:

@@ -34,7 +34,7 @@ def _db(database: str | None, site: str) -> Database:
     return db
 
 
-def _staff_password(file: Path | None, ask: bool) -> str | None:
+def read_staff_password(file: Path | None, ask: bool) -> str | None:
     """The staff password from one of: ``$TOURBOT_STAFF_PASSWORD``, the first line of ``file``, a
     hidden prompt (``ask``); None when none is given. Never from the command line, which every
     user of the machine can read (``ps``)."""
@@ -128,7 +128,7 @@ def register(app: typer.Typer) -> None:
         for name, path in (("--certfile", certfile), ("--keyfile", keyfile)):
             if path is not None and not path.is_file():
                 raise InputError(f"{path}: no such file", field=name)
-        staff_password = _staff_password(staff_password_file, ask_staff_password)
+        staff_password = read_staff_password(staff_password_file, ask_staff_password)
         if staff_password is not None:
             check_staff_password(staff_password)
 
