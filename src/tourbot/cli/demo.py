@@ -43,7 +43,11 @@ def register(app: typer.Typer) -> None:
         ),
         config: Annotated[
             Path | None,
-            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+            typer.Option(
+                "--config",
+                help="Localization profile of the robot (YAML; tourbot config show; default: the site's "
+                "localization.yaml when it ships one, else the papers' values).",
+            ),
         ] = None,
         dwell_scale: float = typer.Option(0.5, help="Scale the exhibits' presentation times (--record)."),
         site: str = typer.Option("fhw", help="Shipped site name or site file."),
@@ -89,7 +93,12 @@ def register(app: typer.Typer) -> None:
 
             check_staff_password(staff_password)
 
-        mcl = LocalizationProfile.load(config).mcl
+        from tourbot.site.default import site_path
+
+        profile, profile_file = LocalizationProfile.for_site(site_path(site), config)
+        mcl = profile.mcl
+        applied = str(profile_file) if profile_file else "the papers' defaults"
+        typer.echo(f"localization profile: {applied}", err=True)
         if particles is not None:
             mcl = mcl.with_samples(particles)
         if record:

@@ -23,7 +23,11 @@ def register(app: typer.Typer) -> None:
         ),
         config: Annotated[
             Path | None,
-            typer.Option("--config", help="Localization profile of the robot (YAML; tourbot config show)."),
+            typer.Option(
+                "--config",
+                help="Localization profile (YAML; default: the site's localization.yaml, else the papers' "
+                "values).",
+            ),
         ] = None,
         camera: bool = typer.Option(
             False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
@@ -55,7 +59,7 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
         console = Console()
         the_site = load_site(site_path(site))
-        mcl = LocalizationProfile.load(config).mcl
+        mcl = LocalizationProfile.for_site(site_path(site), config)[0].mcl
         settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, sim=SimConfig(record=True))
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime

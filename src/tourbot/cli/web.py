@@ -105,13 +105,19 @@ def register(app: typer.Typer) -> None:
             ),
         ] = True,
         config: Annotated[
-            Path | None, typer.Option("--config", help="Localization profile of the robots (YAML).")
+            Path | None,
+            typer.Option(
+                "--config",
+                help="Localization profile of the robots (YAML; default: the site's localization.yaml "
+                "when it ships one, else the papers' values).",
+            ),
         ] = None,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
         from tourbot.app.simulated import crowd_config
         from tourbot.errors import InputError
         from tourbot.localization.profile import LocalizationProfile
+        from tourbot.site.default import site_path
         from tourbot.web.db import check_staff_password
         from tourbot.web.serve import ServeSettings, build_site_app, run
 
@@ -136,7 +142,7 @@ def register(app: typer.Typer) -> None:
         settings = ServeSettings(
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
-            mcl=LocalizationProfile.load(config).mcl,
+            mcl=LocalizationProfile.for_site(site_path(site), config)[0].mcl,
             certfile=certfile, keyfile=keyfile, trusted_proxies=proxies,
         )  # fmt: skip
         web, _ = build_site_app(settings)

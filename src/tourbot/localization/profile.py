@@ -17,7 +17,8 @@ from tourbot.localization.mcl.config import MCLConfig
 __all__ = ["FHW_PROFILE", "LocalizationProfile"]
 
 #: the profile tuned on the FHW museum log
-FHW_PROFILE = Path(__file__).resolve().parents[1] / "sites" / "fhw" / "localization.yaml"
+SITE_PROFILE = "localization.yaml"  # a site folder's localization profile, beside its site.yaml
+FHW_PROFILE = Path(__file__).resolve().parents[1] / "sites" / "fhw" / SITE_PROFILE
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,16 @@ class LocalizationProfile:
             return cls()
         sections = load_yaml(path, {"mcl": MCLConfig, "grid": GridMarkovConfig})
         return cls(mcl=sections["mcl"], grid=sections["grid"])
+
+    @classmethod
+    def for_site(cls, site_file: Path, path: Path | None) -> tuple[LocalizationProfile, Path | None]:
+        """The profile a robot on the site at ``site_file`` runs with, and the file it came from:
+        ``path`` when given, else the site's own ``localization.yaml`` beside its site file (its
+        values tuned on that building), else the papers' defaults (None)."""
+        if path is None:
+            shipped = site_file.parent / SITE_PROFILE
+            path = shipped if shipped.is_file() else None
+        return cls.load(path), path
 
     def to_yaml(self) -> str:
         """The whole effective configuration as YAML."""
