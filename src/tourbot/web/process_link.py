@@ -188,6 +188,7 @@ class ProcessLink:
                 continue
             if self._closing:
                 return
+            self.restarting = True  # until _restart decides otherwise: never shown "failed" meanwhile
             self.failure = str(message[1])
             log.error("robot %s stopped: %s", self.name, self.failure)
             if not self._restart():
@@ -198,6 +199,7 @@ class ProcessLink:
         now = time.monotonic()
         self.restarts = [t for t in self.restarts if now - t < self.restart_window]
         if len(self.restarts) >= self.max_restarts:
+            self.restarting = False
             log.error("robot %s: %d restarts in %.0f s, it stays stopped", self.name, len(self.restarts),
                       self.restart_window)  # fmt: skip
             return False
