@@ -75,6 +75,7 @@ __all__ = [
     "distance_to_segments",
     "door_shape",
     "furniture_shape",
+    "nearest_edge",
     "segment_ranges",
     "segment_ranges_reference",
     "segments_of",
@@ -308,6 +309,28 @@ def segment_ranges_reference(
     return np.asarray(np.minimum(near, b[:, None, :]), dtype=np.float64)
 
 
+@numba.njit(cache=True, inline="always")
+def nearest_edge(segs: FloatArray, k: int, x: float, y: float, dx: float, dy: float, best: float) -> float:
+    """The distance along the unit direction ``(dx, dy)`` from ``(x, y)`` to the nearest of the
+    edges ``segs[k]`` (rows ``x0, y0, x1, y1``), or ``best`` when none is nearer: one beam against
+    one object state, the inner loop of both numba kernels of the objects' sensor model."""
+    for m in range(segs.shape[1]):
+        ex = segs[k, m, 2] - segs[k, m, 0]
+        ey = segs[k, m, 3] - segs[k, m, 1]
+        den = dx * ey - dy * ex
+        if den == 0.0:
+            continue
+        px = segs[k, m, 0] - x
+        py = segs[k, m, 1] - y
+        t = (px * ey - py * ex) / den
+        if t < 0.0 or t >= best:
+            continue
+        u = (px * dy - py * dx) / den
+        if 0.0 <= u <= 1.0:
+            best = t
+    return best
+
+
 @numba.njit(cache=True)
 def _segment_ranges(
     x: FloatArray,
@@ -319,29 +342,14 @@ def _segment_ranges(
     out: Float32Array,
 ) -> None:
     n, nb = base.shape
-    ns, nm = segs.shape[0], segs.shape[1]
+    ns = segs.shape[0]
     for i in range(n):
         for b in range(nb):
             a = theta[i] + angles[b]
             dx = math.cos(a)
             dy = math.sin(a)
             for k in range(ns):
-                best = base[i, b]
-                for m in range(nm):
-                    ex = segs[k, m, 2] - segs[k, m, 0]
-                    ey = segs[k, m, 3] - segs[k, m, 1]
-                    den = dx * ey - dy * ex
-                    if den == 0.0:
-                        continue
-                    px = segs[k, m, 0] - x[i]
-                    py = segs[k, m, 1] - y[i]
-                    t = (px * ey - py * ex) / den
-                    if t < 0.0 or t >= best:
-                        continue
-                    u = (px * dy - py * dx) / den
-                    if 0.0 <= u <= 1.0:
-                        best = t
-                out[i, k, b] = best
+                out[i, k, b] = nearest_edge(segs, k, x[i], y[i], dx, dy, base[i, b])
 
 
 def segment_ranges(poses: ArrayLike, angles: ArrayLike, segs: ArrayLike, base: ArrayLike) -> Float32Array:

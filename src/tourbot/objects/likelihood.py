@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.beam_model import BeamModel, beam_probability_one
-from tourbot.maps.objects import segment_ranges_reference
+from tourbot.maps.objects import nearest_edge, segment_ranges_reference
 
 __all__ = ["log_likelihoods", "log_likelihoods_reference"]
 
@@ -63,7 +63,7 @@ def _log_likelihoods(
     out: FloatArray,
 ) -> None:
     n, nb = base.shape
-    ns, nm = segs.shape[0], segs.shape[1]
+    ns = segs.shape[0]
     short_z = np.empty(nb)
     for b in range(nb):
         short_z[b] = w_short * lambda_short * math.exp(-lambda_short * measured[b])
@@ -75,21 +75,7 @@ def _log_likelihoods(
             dy = math.sin(a)
             z = measured[b]
             for k in range(ns):
-                best = base[i, b]
-                for m in range(nm):
-                    ex = segs[k, m, 2] - segs[k, m, 0]
-                    ey = segs[k, m, 3] - segs[k, m, 1]
-                    den = dx * ey - dy * ex
-                    if den == 0.0:
-                        continue
-                    px = segs[k, m, 0] - x[i]
-                    py = segs[k, m, 1] - y[i]
-                    t = (px * ey - py * ex) / den
-                    if t < 0.0 or t >= best:
-                        continue
-                    u = (px * dy - py * dx) / den
-                    if 0.0 <= u <= 1.0:
-                        best = t
+                best = nearest_edge(segs, k, x[i], y[i], dx, dy, base[i, b])
                 p = beam_probability_one(
                     float(np.float32(best)),
                     z,
