@@ -5,6 +5,7 @@ from __future__ import annotations
 import enum
 import math
 import time
+from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Protocol
 
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from rich.console import Console
 
+    from tourbot.io.mcap_out import McapRun
     from tourbot.localization.beam_filters import BeamFilter
     from tourbot.localization.estimate import LocalizationEstimate
     from tourbot.localization.profile import LocalizationProfile
@@ -103,6 +105,14 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Grid: read / keep the expected-range table in --table-cache."),
         ] = True,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        mcap: Annotated[
+            Path | None,
+            typer.Option(
+                "--mcap",
+                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, map, estimate, "
+                "particles, beams) for Foxglove; an existing file is replaced only with --force.",
+            ),
+        ] = None,
         force: ForceOpt = False,
         keep_partial: Annotated[
             bool,
@@ -140,6 +150,10 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must be at least 1, got {particles}", field="--particles")
         from tourbot.localization.profile import LocalizationProfile
 
+        if mcap is not None:
+            from tourbot.io.mcap_out import check_mcap_output
+
+            check_mcap_output(mcap, force=force)
         profile = LocalizationProfile.load(config)
         console = Console(stderr=True)
         with console.status(f"reading {log}"):
@@ -186,10 +200,17 @@ def register(app: typer.Typer) -> None:
         done = 0
         times = robot_log.times
         try:
-            with ScanProgress(f"localize ({method.value} + {kind.value})", len(robot_log.scans)) as progress:
+            with (
+                ScanProgress(f"localize ({method.value} + {kind.value})", len(robot_log.scans)) as progress,
+                _mcap_run(mcap) as run,
+            ):
+                if run is not None:
+                    run.write_map(grid, float(times[0]))
                 for i, scan in enumerate(robot_log.scans):
                     assert scan.odom is not None
                     est = localizer.update(scan.odom, scan)
+                    if run is not None:
+                        _record(run, scan, scan.odom, est, localizer)
                     poses[i] = est.pose
                     used[i] = est.n_used_beams / max(1, scan.geometry.num_beams)
                     done = i + 1
@@ -201,6 +222,8 @@ def register(app: typer.Typer) -> None:
             raise
         took = time.perf_counter() - start_time
         write_tum(output, times, poses)
+        if mcap is not None:
+            console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)", highlight=False)
         span, why = robot_log.duration()
         speed = (
             f"{span / took:.0f}x real time" if span is not None and took > 0 else f"real time unknown ({why})"
@@ -221,6 +244,30 @@ def register(app: typer.Typer) -> None:
                 f"{100 * failure_rate(err):.2f}% of scans > 45 cm off",
                 highlight=False,
             )
+
+
+def _mcap_run(path: Path | None) -> AbstractContextManager[McapRun | None]:
+    """The MCAP recording of ``--mcap`` (nothing without it)."""
+    if path is None:
+        return nullcontext()
+    from tourbot.io.mcap_out import McapRun
+
+    return McapRun(path)
+
+
+def _record(
+    run: McapRun, scan: Scan, odom: tuple[float, float, float], est: LocalizationEstimate, localizer: object
+) -> None:
+    """One update into the MCAP file: the scan, the odometry used, the estimate, samples and beams."""
+    from tourbot.localization.mcl import MonteCarloLocalization
+
+    run.write_scan(scan)
+    run.write_odometry(odom, scan.timestamp)
+    run.write_estimate(est.pose, est.covariance, odom, scan.timestamp)
+    if isinstance(localizer, MonteCarloLocalization):
+        run.write_particles(localizer.samples, scan.timestamp)
+    if est.updated:
+        run.write_beams(scan, est.used_beams)
 
 
 def _prepare_grid(
