@@ -211,3 +211,45 @@ def test_localize_refuses_a_bad_mcap_path(
         assert "--mcap" in error
     assert mcap.stat().st_mtime_ns == before
     assert not (tmp_path / "t.tum").exists()
+
+
+def test_simulate_writes_the_run_as_mcap(tmp_path: Path) -> None:
+    log_path, mcap = tmp_path / "sim.log.gz", tmp_path / "sim.mcap"
+    args = ["simulate", "--crowd", "empty", "--duration", "6", "--write-log", str(log_path)]
+    main([*args, "--mcap", str(mcap)])
+    log = read_carmen(log_path)
+    msgs = _decode(mcap)
+    assert set(msgs) == set(TOPICS) - {"/beams"}
+    scans = [m for _, m in msgs["/scan"]]
+    assert len(scans) == len(log.scans) > 0
+    for scan, m in zip(log.scans, scans, strict=True):
+        np.testing.assert_allclose(m.ranges, scan.ranges, atol=5e-3)
+    stamps = [s for s, _ in msgs["/scan"]]
+    assert [s for s, _ in msgs["/odom"]] == stamps
+    assert msgs["/estimate"]
+    assert {s for s, _ in msgs["/estimate"]} <= set(stamps)
+    # the TF chain at each estimate's time composes to the estimate
+    by_stamp: dict[tuple[int, str], np.ndarray] = {}
+    for stamp, m in msgs["/tf"]:
+        for tf in m.transforms:
+            by_stamp[(stamp, tf.child_frame_id)] = _tf_pose(tf)
+    for stamp, m in msgs["/estimate"]:
+        chain = compose(by_stamp[(stamp, "odom")], by_stamp[(stamp, "base_link")])
+        est = _pose(m.pose.pose)
+        np.testing.assert_allclose(chain[:2], est[:2], atol=1e-9)
+        assert abs(_wrap(chain[2] - est[2])) < 1e-9
+    # the robot is where the simulator says (a real run, started at the tour's start pose)
+    truth = log.reference_poses[[stamps.index(s) for s, _ in msgs["/estimate"]]]
+    est = np.array([_pose(m.pose.pose) for _, m in msgs["/estimate"]])
+    assert np.hypot(*(est[:, :2] - truth[:, :2]).T).max() < 0.5
+    # the map MCL localized in: the site's
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    ((_, grid_msg),) = msgs["/map"]
+    site_grid = load_site(site_path("fhw")).grid
+    assert (grid_msg.info.height, grid_msg.info.width) == site_grid.prob.shape
+    assert np.array_equal(grid_msg.data, grid_cells(site_grid))
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--mcap", str(mcap)])
+    assert exc.value.code == 2

@@ -3,9 +3,16 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
+
+if TYPE_CHECKING:
+    from types import TracebackType
+
+    from tourbot.app.simulated import SimulatedRobot
+    from tourbot.io.mcap_out import McapRun
+    from tourbot.runtime.localizers import MCLLocalizer
 
 __all__ = ["register"]
 
@@ -32,6 +39,15 @@ def register(app: typer.Typer) -> None:
         camera: bool = typer.Option(
             False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
         ),
+        mcap: Annotated[
+            Path | None,
+            typer.Option(
+                "--mcap",
+                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, map, estimate, "
+                "particles) for Foxglove; an existing file is replaced only with --force.",
+            ),
+        ] = None,
+        force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
         """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
 
@@ -57,6 +73,10 @@ def register(app: typer.Typer) -> None:
 
         if not duration > 0:
             raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
+        if mcap is not None:
+            from tourbot.io.mcap_out import check_mcap_output
+
+            check_mcap_output(mcap, force=force)
         console = Console()
         the_site = load_site(site_path(site))
         mcl = LocalizationProfile.for_site(site_path(site), config)[0].mcl
@@ -71,12 +91,13 @@ def register(app: typer.Typer) -> None:
             from tourbot.sim.camera import CeilingCameraSim
 
             ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
-        with Progress(console=console) as progress:
+        with Progress(console=console) as progress, _McapRecorder(mcap, robot) as recorder:
             task = progress.add_task("simulating", total=duration)
             while rt.snapshot().time < duration:
                 snap = rt.step()
                 if snap is None:
                     break
+                recorder.after_step()
                 progress.update(task, completed=min(snap.time, duration))
                 if ceiling_sim is not None and ceiling_sim.due(snap.time):
                     s = robot.simulator
@@ -104,3 +125,62 @@ def register(app: typer.Typer) -> None:
         console.print(
             f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
         )
+        if mcap is not None:
+            console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)")
+
+
+class _McapRecorder:
+    """``--mcap``: after each runtime step, the new scans (with the odometry pose each was taken at)
+    and any new estimate.
+
+    An estimate is written at the time of the scan it integrated, with that scan's odometry pose
+    (for the map -> odom transform) and the localizer's samples. The beams are not written: the
+    runtime localizer integrates a decimated scan and does not hand out which beams it used.
+    """
+
+    def __init__(self, path: Path | None, robot: SimulatedRobot) -> None:
+        self.path = path
+        self.robot = robot
+        self.run: McapRun | None = None
+        self.localizer: MCLLocalizer | None = None
+        self._seen = 0
+        self._updates = 0
+
+    def __enter__(self) -> _McapRecorder:
+        from tourbot.io.mcap_out import McapRun
+        from tourbot.runtime.localizers import MCLLocalizer
+
+        if self.path is not None:
+            localizer = self.robot.runtime.localizer
+            if not isinstance(localizer, MCLLocalizer):
+                raise TypeError(f"--mcap needs the simulator's MCL localizer, got {type(localizer).__name__}")
+            self.localizer = localizer
+            self.run = McapRun(self.path).__enter__()
+            self.run.write_map(localizer.mcl.grid, self.robot.simulator.time)
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if self.run is not None:
+            self.run.__exit__(kind, value, tb)
+
+    def after_step(self) -> None:
+        from tourbot.records import Scan
+
+        run, localizer = self.run, self.localizer
+        if run is None or localizer is None:
+            return
+        records = self.robot.simulator.records
+        for r in records[self._seen :]:
+            if isinstance(r, Scan) and r.odom is not None:
+                run.write_scan(r)
+                run.write_odometry(r.odom, r.timestamp)
+        self._seen = len(records)
+        last = localizer.last_update
+        est = localizer.mcl.last_estimate
+        if localizer.updates != self._updates and last is not None and est is not None:
+            self._updates = localizer.updates
+            stamp, odom = last
+            run.write_estimate(est.pose, est.covariance, odom, stamp)
+            run.write_particles(localizer.mcl.samples, stamp)

@@ -77,6 +77,11 @@ class MCLLocalizer:
         geometry = replace(g, num_beams=len(range(0, g.num_beams, k)), angle_increment=g.angle_increment * k)
         return replace(scan, ranges=np.ascontiguousarray(scan.ranges[::k]), geometry=geometry)
 
+    @property
+    def last_update(self) -> tuple[float, tuple[float, float, float]] | None:
+        """``(scan time, odometry pose)`` of the last scan integrated (None before the first)."""
+        return self._last
+
     def on_odometry(self, odom: Odometry) -> None:
         self._odom = odom.pose
 
