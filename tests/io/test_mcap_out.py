@@ -253,3 +253,19 @@ def test_simulate_writes_the_run_as_mcap(tmp_path: Path) -> None:
     with pytest.raises(SystemExit) as exc:
         main([*args, "--mcap", str(mcap)])
     assert exc.value.code == 2
+
+
+def test_an_unwritable_folder_is_refused_naming_file_and_option(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # the tests may run as root, for whom every folder is writable: the permission check is faked
+    from tourbot.errors import InputError
+    from tourbot.io import mcap_out
+
+    target = tmp_path / "r.mcap"
+    assert mcap_out.check_mcap_output(target, force=False) == target
+    monkeypatch.setattr(mcap_out.os, "access", lambda *_a, **_k: False)
+    with pytest.raises(InputError, match="is not writable") as exc:
+        mcap_out.check_mcap_output(target, force=False)
+    assert "--mcap" in str(exc.value)
+    assert str(target) in str(exc.value)
