@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from contextlib import ExitStack
 from dataclasses import replace
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
+from tourbot.app.mcap_recording import McapRecorder
 from tourbot.app.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
 from tourbot.errors import TourbotError
 from tourbot.io.output import write_text_whole
@@ -91,6 +93,7 @@ def run_tour(
     dwell_scale: float,
     out: Path,
     animation: bool,
+    mcap: Path | None = None,
     console: Console | None = None,
 ) -> SimulatedRobot:
     console = console or Console()
@@ -98,6 +101,8 @@ def run_tour(
     the_site.tour(tour)  # a clear error before anything starts
     settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, speedup=speedup or None)
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=dwell_scale))
+    if mcap is not None:  # the recorder reads the simulator's sensor stream
+        settings = replace(settings, sim=replace(settings.sim, record=True))
     t0 = time.perf_counter()
     with console.status("building the simulated museum (first run compiles the kernels)..."):
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour))
@@ -107,8 +112,10 @@ def run_tour(
     rt = robot.runtime
     rt.start_tour(tour)
     title = f"tourbot demo: {the_site.name} / {tour} / crowd {crowd} / seed {seed}"
-    with Live(console=console, refresh_per_second=4, transient=False) as live:
+    with Live(console=console, refresh_per_second=4, transient=False) as live, ExitStack() as stack:
         rt.add_sink(TerminalView(live, title))
+        if mcap is not None:
+            rt.add_sink(stack.enter_context(McapRecorder(mcap, robot)))
         final = rt.run(
             max_time=duration,
             until=lambda s: s.navigation.mode in (NavMode.FINISHED, NavMode.FAILED),
@@ -148,6 +155,8 @@ def run_tour(
             )
         console.print(f"animation: {gif}")
     console.print(f"summary: {out / 'summary.json'}")
+    if mcap is not None:
+        console.print(f"mcap: {mcap} (the run as ROS 2 messages)")
     verdict = "completed" if metrics.success else "NOT completed"
     console.print(
         f"tour {verdict}: {len(metrics.visited)}/{metrics.exhibits_total} exhibits "

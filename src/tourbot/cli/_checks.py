@@ -20,7 +20,17 @@ from tourbot.errors import InputError
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
-__all__ = ["ForceOpt", "LogChecks", "check_before_work", "log_problems", "map_problem"]
+__all__ = ["ForceOpt", "LogChecks", "McapOpt", "check_before_work", "log_problems", "map_problem"]
+
+McapOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--mcap",
+        help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, map, estimate, particles; "
+        "beams where the localizer gives them) for Foxglove; an existing file is replaced only with "
+        "--force.",
+    ),
+]
 
 ForceOpt = Annotated[
     bool,

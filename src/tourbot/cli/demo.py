@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from tourbot.cli._checks import McapOpt
+
 if TYPE_CHECKING:
     from tourbot.localization.mcl.config import MCLConfig
 
@@ -55,6 +57,8 @@ def register(app: typer.Typer) -> None:
             "out/demo", help="Folder for the recording, summary and animation; when serving, the database."
         ),
         animation: bool = typer.Option(True, help="Write the tour's animation (GIF, --record)."),
+        mcap: McapOpt = None,
+        force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
         host: str = typer.Option("127.0.0.1", help="Address the web server listens on."),
         port: int = typer.Option(8000, help="TCP port (a free one is chosen when it is taken)."),
         database: str | None = typer.Option(
@@ -101,6 +105,12 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"localization profile: {applied}", err=True)
         if particles is not None:
             mcl = mcl.with_samples(particles)
+        if mcap is not None:
+            if not record:
+                raise InputError("is written by a recorded tour only: add --record", field="--mcap")
+            from tourbot.io.mcap_out import check_mcap_output
+
+            check_mcap_output(mcap, force=force)
         if record:
             from tourbot.app.demo import run_tour
 
@@ -115,6 +125,7 @@ def register(app: typer.Typer) -> None:
                 dwell_scale=dwell_scale,
                 out=Path(out),
                 animation=animation,
+                mcap=mcap,
             )
             return
         _serve(

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Annotated, Protocol
 
 import typer
 
-from tourbot.cli._checks import ForceOpt
+from tourbot.cli._checks import ForceOpt, McapOpt
 from tourbot.cli.logs import OdometryOpt, OdometryStream
 
 if TYPE_CHECKING:
@@ -105,14 +105,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(help="Grid: read / keep the expected-range table in --table-cache."),
         ] = True,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
-        mcap: Annotated[
-            Path | None,
-            typer.Option(
-                "--mcap",
-                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, map, estimate, "
-                "particles, beams) for Foxglove; an existing file is replaced only with --force.",
-            ),
-        ] = None,
+        mcap: McapOpt = None,
         force: ForceOpt = False,
         keep_partial: Annotated[
             bool,

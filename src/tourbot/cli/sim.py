@@ -2,17 +2,13 @@
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
-if TYPE_CHECKING:
-    from types import TracebackType
-
-    from tourbot.app.simulated import SimulatedRobot
-    from tourbot.io.mcap_out import McapRun
-    from tourbot.runtime.localizers import MCLLocalizer
+from tourbot.cli._checks import McapOpt
 
 __all__ = ["register"]
 
@@ -39,14 +35,7 @@ def register(app: typer.Typer) -> None:
         camera: bool = typer.Option(
             False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
         ),
-        mcap: Annotated[
-            Path | None,
-            typer.Option(
-                "--mcap",
-                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, map, estimate, "
-                "particles) for Foxglove; an existing file is replaced only with --force.",
-            ),
-        ] = None,
+        mcap: McapOpt = None,
         force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
         """Simulate a tour and write the sensor stream as a CARMEN log, plus ground truth beside it.
@@ -91,13 +80,16 @@ def register(app: typer.Typer) -> None:
             from tourbot.sim.camera import CeilingCameraSim
 
             ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
-        with Progress(console=console) as progress, _McapRecorder(mcap, robot) as recorder:
+        with Progress(console=console) as progress, ExitStack() as stack:
+            if mcap is not None:
+                from tourbot.app.mcap_recording import McapRecorder
+
+                rt.add_sink(stack.enter_context(McapRecorder(mcap, robot)))
             task = progress.add_task("simulating", total=duration)
             while rt.snapshot().time < duration:
                 snap = rt.step()
                 if snap is None:
                     break
-                recorder.after_step()
                 progress.update(task, completed=min(snap.time, duration))
                 if ceiling_sim is not None and ceiling_sim.due(snap.time):
                     s = robot.simulator
@@ -127,60 +119,3 @@ def register(app: typer.Typer) -> None:
         )
         if mcap is not None:
             console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)")
-
-
-class _McapRecorder:
-    """``--mcap``: after each runtime step, the new scans (with the odometry pose each was taken at)
-    and any new estimate.
-
-    An estimate is written at the time of the scan it integrated, with that scan's odometry pose
-    (for the map -> odom transform) and the localizer's samples. The beams are not written: the
-    runtime localizer integrates a decimated scan and does not hand out which beams it used.
-    """
-
-    def __init__(self, path: Path | None, robot: SimulatedRobot) -> None:
-        self.path = path
-        self.robot = robot
-        self.run: McapRun | None = None
-        self.localizer: MCLLocalizer | None = None
-        self._seen = 0
-        self._updates = 0
-
-    def __enter__(self) -> _McapRecorder:
-        from tourbot.io.mcap_out import McapRun
-        from tourbot.runtime.localizers import MCLLocalizer
-
-        if self.path is not None:
-            localizer = self.robot.runtime.localizer
-            if not isinstance(localizer, MCLLocalizer):
-                raise TypeError(f"--mcap needs the simulator's MCL localizer, got {type(localizer).__name__}")
-            self.localizer = localizer
-            self.run = McapRun(self.path).__enter__()
-            self.run.write_map(localizer.mcl.grid, self.robot.simulator.time)
-        return self
-
-    def __exit__(
-        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        if self.run is not None:
-            self.run.__exit__(kind, value, tb)
-
-    def after_step(self) -> None:
-        from tourbot.records import Scan
-
-        run, localizer = self.run, self.localizer
-        if run is None or localizer is None:
-            return
-        records = self.robot.simulator.records
-        for r in records[self._seen :]:
-            if isinstance(r, Scan) and r.odom is not None:
-                run.write_scan(r)
-                run.write_odometry(r.odom, r.timestamp)
-        self._seen = len(records)
-        last = localizer.last_update
-        est = localizer.mcl.last_estimate
-        if localizer.updates != self._updates and last is not None and est is not None:
-            self._updates = localizer.updates
-            stamp, odom = last
-            run.write_estimate(est.pose, est.covariance, odom, stamp)
-            run.write_particles(localizer.mcl.samples, stamp)
