@@ -99,16 +99,16 @@ def test_two_workers_write_the_serial_json(tmp_path: Path) -> None:
     # Each (log, seed, method) task draws its randomness from its own seed, so a pool of two
     # processes (spawned: nothing inherited) writes what one process writes, timings apart. Two
     # seeds and two methods are four tasks, spread over both workers; the kidnap rate is raised
-    # so the 30 scans hold kidnaps.
+    # so the 20 scans hold kidnaps.
     written = {}
     for workers in (1, 2):
         out = tmp_path / f"loc-{workers}.json"
         main(
             [
-                "bench", "localization", "--scans", "30", "--seeds", "2", "--first-seed", "1",
-                "--methods", "mcl-none,mcl-novelty", "--kidnap-rate", "0.1", "--cache",
-                str(tmp_path / "cache"), "--global-scans", "8", "--speed-scans", "3", "--no-figure",
-                "--workers", str(workers), "-o", str(out),
+                "bench", "localization", "--scans", "20", "--seeds", "2", "--first-seed", "1",
+                "--particles", "500", "--methods", "mcl-none,mcl-novelty", "--kidnap-rate", "0.15",
+                "--cache", str(tmp_path / "cache"), "--global-scans", "8", "--speed-scans", "3",
+                "--no-figure", "--workers", str(workers), "-o", str(out),
             ]
         )  # fmt: skip
         written[workers] = json.loads(out.read_text())
@@ -118,3 +118,16 @@ def test_two_workers_write_the_serial_json(tmp_path: Path) -> None:
     assert len(rows[0]["raw"]["fail_peak"]) == 2
     assert rows[0]["raw"]["kidnaps_per_seed"], "the test run should hold kidnaps"
     assert _without_timing(written[2]) == _without_timing(written[1])
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failing_task_is_one_error_naming_it(workers: int) -> None:
+    # No data was installed for log "fhw": the task fails, in this process or in a worker.
+    from tourbot.bench.localization import run_tasks
+    from tourbot.errors import TourbotError
+
+    with pytest.raises(TourbotError) as error:
+        run_tasks({}, [("fhw", 3, "mcl-none")], workers, lambda _: False)
+    message = str(error.value)
+    assert message.startswith("task (log fhw, seed 3, method mcl-none) failed: KeyError")
+    assert len(message.splitlines()) == 1

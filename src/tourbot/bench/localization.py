@@ -410,11 +410,11 @@ def register(bench: typer.Typer) -> None:
     ) -> None:
         """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
         from rich.console import Console
-        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
         from tourbot.bench.peers.amcl_adapter import amcl_available
         from tourbot.data import data_dir
         from tourbot.io import read_carmen
+        from tourbot.io.progress import ScanProgress
         from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
 
         console = Console()
@@ -476,31 +476,23 @@ def register(bench: typer.Typer) -> None:
         sweeps: dict[str, Sweep] = {}
         bases: dict[str, Any] = {}
         seed_list = list(range(first_seed, first_seed + n_seeds))
-        columns = (
-            TextColumn("{task.description}"),
-            BarColumn(),
-            MofNCompleteColumn(),
-            TextColumn("{task.fields[running]}"),
-            TimeRemainingColumn(),
-        )
-        with Progress(*columns, console=console) as progress:
-            for name in names:
-                base = read_carmen(root / "carmen" / LOGS[name])
-                grid = _map(base, name, cache)  # the whole log's reference map
-                if limit:
-                    base = replace(base, scans=base.scans[:limit])
-                bases[name] = base
-                ref = base.reference_poses
-                path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
-                per_seed: dict[int, SeedData] = {}
-                fractions: list[tuple[float, float]] = []
-                longest: list[float] = []
-                task = progress.add_task(f"{name}: crowds", total=2 * n_seeds, running="")
+        for name in names:
+            base = read_carmen(root / "carmen" / LOGS[name])
+            grid = _map(base, name, cache)  # the whole log's reference map
+            if limit:
+                base = replace(base, scans=base.scans[:limit])
+            bases[name] = base
+            ref = base.reference_poses
+            path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
+            per_seed: dict[int, SeedData] = {}
+            fractions: list[tuple[float, float]] = []
+            longest: list[float] = []
+            with ScanProgress(f"{name}: crowds", 2 * n_seeds, unit="crowds") as crowds:
                 for seed in seed_list:
                     sparse, sparse_truth = _crowded(base, grid, name, "sparse", seed, cache)
-                    progress.advance(task)
+                    crowds.advance()
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
-                    progress.advance(task)
+                    crowds.advance()
                     kid_rng = np.random.default_rng(KIDNAP_SEED_OFFSET + seed)
                     kidnaps = plan_kidnaps(
                         ref, base.times, kid_rng, KidnapConfig(probability_per_metre=kidnap_rate)
@@ -510,54 +502,49 @@ def register(bench: typer.Typer) -> None:
                     )
                     fractions.append((float(sparse_truth.fraction.mean()), float(peak_truth.fraction.mean())))
                     longest.append(peak_truth.longest_above(0.5))
-                sweeps[name] = Sweep(
-                    grid=grid,
-                    ref=ref,
-                    times=np.asarray(base.times, dtype=np.float64),
-                    path=path,
-                    duration=float(base.times[-1] - base.times[0]),
-                    particles=particles,
-                    global_scans=g_scans,
-                    profile=profile,
-                    seeds=per_seed,
-                )
-                report.meta["crowd"][name] = {
-                    "sparse_mean_corrupted": mean_ci([f[0] for f in fractions]),
-                    "peak_mean_corrupted": mean_ci([f[1] for f in fractions]),
-                    "peak_longest_above_50_s": mean_ci(longest),
-                    "kidnaps": [per_seed[s].kidnaps for s in seed_list],
-                }
-            tasks = [(name, seed, method) for name in names for method in chosen for seed in seed_list]
-            bar = progress.add_task(
-                f"{len(tasks)} tasks, {workers} worker{'s' if workers > 1 else ''}",
-                total=len(tasks),
-                running="",
+            sweeps[name] = Sweep(
+                grid=grid,
+                ref=ref,
+                times=np.asarray(base.times, dtype=np.float64),
+                path=path,
+                duration=float(base.times[-1] - base.times[0]),
+                particles=particles,
+                global_scans=g_scans,
+                profile=profile,
+                seeds=per_seed,
             )
-
-            def advance(running: int) -> None:
-                progress.update(bar, advance=1, running=f"{running} running")
-
+            report.meta["crowd"][name] = {
+                "sparse_mean_corrupted": mean_ci([f[0] for f in fractions]),
+                "peak_mean_corrupted": mean_ci([f[1] for f in fractions]),
+                "peak_longest_above_50_s": mean_ci(longest),
+                "kidnaps": [per_seed[s].kidnaps for s in seed_list],
+            }
+        tasks = [(name, seed, method) for name in names for method in chosen for seed in seed_list]
+        label = f"{len(tasks)} tasks, {workers} worker{'s' if workers > 1 else ''}"
+        with ScanProgress(label, len(tasks), unit="tasks") as done:
             # The figure shows the first log's runs of the first seed.
             results = run_tasks(
-                sweeps, tasks, workers, lambda t: t[0] == names[0] and t[1] == first_seed, advance
+                sweeps,
+                tasks,
+                workers,
+                lambda t: t[0] == names[0] and t[1] == first_seed,
+                lambda running: done.advance(running=running),
             )
-            for name in names:
-                for method in chosen:
-                    outcomes = [results[(name, seed, method)] for seed in seed_list]
-                    _add_row(report, name, method, seed_list, outcomes, sweeps[name].seeds)
-                    kept = results[(name, first_seed, method)].peak_run
-                    if name == names[0] and kept is not None:
-                        figure_runs[method] = (kept, sweeps[name].seeds[first_seed].peak)
-            first_log = names[0]
-            duration0 = sweeps[first_log].duration
-            grid0 = sweeps[first_log].grid
-            _speed(
-                report, bases[first_log], grid0, chosen, duration0, speed_scans if not quick else 5, profile
-            )
-            if figure and figure_runs:
-                pic = (output or Path("bench-results/localization.json")).with_name("localization-fig5.png")
-                _figure(figure_runs, grid0, sweeps[first_log].ref, pic)
-                report.notes.append(f"Fig. 5-like picture (peak crowd, seed {first_seed}): {pic}")
+        for name in names:
+            for method in chosen:
+                outcomes = [results[(name, seed, method)] for seed in seed_list]
+                _add_row(report, name, method, seed_list, outcomes, sweeps[name].seeds)
+                kept = results[(name, first_seed, method)].peak_run
+                if name == names[0] and kept is not None:
+                    figure_runs[method] = (kept, sweeps[name].seeds[first_seed].peak)
+        first_log = names[0]
+        duration0 = sweeps[first_log].duration
+        grid0 = sweeps[first_log].grid
+        _speed(report, bases[first_log], grid0, chosen, duration0, speed_scans if not quick else 5, profile)
+        if figure and figure_runs:
+            pic = (output or Path("bench-results/localization.json")).with_name("localization-fig5.png")
+            _figure(figure_runs, grid0, sweeps[first_log].ref, pic)
+            report.notes.append(f"Fig. 5-like picture (peak crowd, seed {first_seed}): {pic}")
         for name, c in report.meta["crowd"].items():
             s, p, longest = c["sparse_mean_corrupted"], c["peak_mean_corrupted"], c["peak_longest_above_50_s"]
             report.notes.append(
