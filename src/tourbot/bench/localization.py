@@ -21,6 +21,12 @@ project's target budget (5000 samples, all 180 beams) is measured side by side f
 ``--first-seed`` .. ``--first-seed + --seeds - 1``) seeds the crowds, the kidnaps and the
 localizers alike, so fresh seeds can be run apart from the earlier ones; the JSON keeps each
 kidnap's outcome per seed.
+
+``--workers N`` runs the (log, seed, method) tasks in a pool of N spawned processes (the crowds
+are built first, in this process, and cached). Each task's randomness comes from its seed alone,
+so the JSON is the one a single process writes, apart from the timings (CPU time per update,
+real-time factor, the speed notes). Nav2 AMCL cannot be seeded: its figures vary from run to run
+whatever the workers.
 """
 
 from __future__ import annotations

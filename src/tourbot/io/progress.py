@@ -83,7 +83,8 @@ class ScanProgress:
         done = f"{self.done}/{self.total} {self.unit}"
         if self.running is not None:
             done += f", {self.running} running"
-        self._stream.write(f"{self.label}: {done}, {rate:.1f} {self.unit}/s, {left}\n")
+        speed = f"{rate:.1f}" if rate >= 1 else f"{rate:.2g}"  # a sweep's tasks: 0.046 tasks/s
+        self._stream.write(f"{self.label}: {done}, {speed} {self.unit}/s, {left}\n")
         self._stream.flush()
 
     def __exit__(
