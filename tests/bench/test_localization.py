@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import copy
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -51,12 +53,15 @@ def test_first_seed_chooses_the_seeds(tmp_path: Path) -> None:
     assert set(payload["rows"][0]["raw"]["kidnaps_per_seed"]) <= {"3"}
 
 
-def test_a_negative_first_seed_is_a_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(("option", "value"), [("--first-seed", "-1"), ("--workers", "0")])
+def test_a_bad_count_is_a_one_line_error_naming_it(
+    option: str, value: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        main(["bench", "localization", "--first-seed", "-1"])
+        main(["bench", "localization", option, value])
     assert exit_info.value.code == 2
     err = capsys.readouterr().err.strip()
-    assert "--first-seed" in err
+    assert option in err
     assert len(err.splitlines()) == 1
 
 
@@ -70,3 +75,59 @@ def test_jumps_count_steps_away_from_the_reference_not_fast_driving() -> None:
     est[3, 1] = 30.0  # away for one scan and back: two jumps of 30 m
     assert jumps(est, ref) == 2
     assert jumps(est, ref, threshold=40.0) == 0
+
+
+def _without_timing(payload: dict[str, Any]) -> dict[str, Any]:
+    """The JSON of a run without what differs from run to run: times, the command, the workers."""
+    out = copy.deepcopy(payload)
+    for key in ("date", "command"):
+        out.pop(key)
+    for key in ("workers", "speed_5000_all_beams_s"):
+        out["meta"].pop(key)
+    out["notes"] = [n for n in out["notes"] if not n.startswith("speed,")]
+    for row in out["rows"]:
+        for key in ("ms/update", "x real time"):
+            row.pop(key)
+        for key in ("ms_per_update", "real_time_factor"):
+            row["raw"].pop(key)
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("shared_data")
+def test_two_workers_write_the_serial_json(tmp_path: Path) -> None:
+    # Each (log, seed, method) task draws its randomness from its own seed, so a pool of two
+    # processes (spawned: nothing inherited) writes what one process writes, timings apart. Two
+    # seeds and two methods are four tasks, spread over both workers; the kidnap rate is raised
+    # so the 20 scans hold kidnaps.
+    written = {}
+    for workers in (1, 2):
+        out = tmp_path / f"loc-{workers}.json"
+        main(
+            [
+                "bench", "localization", "--scans", "20", "--seeds", "2", "--first-seed", "1",
+                "--particles", "500", "--methods", "mcl-none,mcl-novelty", "--kidnap-rate", "0.15",
+                "--cache", str(tmp_path / "cache"), "--global-scans", "8", "--speed-scans", "3",
+                "--no-figure", "--workers", str(workers), "-o", str(out),
+            ]
+        )  # fmt: skip
+        written[workers] = json.loads(out.read_text())
+    assert written[2]["meta"]["workers"] == 2
+    rows = written[1]["rows"]
+    assert [r["method"] for r in rows] == ["mcl-none", "mcl-novelty"]
+    assert len(rows[0]["raw"]["fail_peak"]) == 2
+    assert rows[0]["raw"]["kidnaps_per_seed"], "the test run should hold kidnaps"
+    assert _without_timing(written[2]) == _without_timing(written[1])
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failing_task_is_one_error_naming_it(workers: int) -> None:
+    # No data was installed for log "fhw": the task fails, in this process or in a worker.
+    from tourbot.bench.localization import run_tasks
+    from tourbot.errors import TourbotError
+
+    with pytest.raises(TourbotError) as error:
+        run_tasks({}, [("fhw", 3, "mcl-none")], workers, lambda _: False)
+    message = str(error.value)
+    assert message.startswith("task (log fhw, seed 3, method mcl-none) failed: KeyError")
+    assert len(message.splitlines()) == 1

@@ -171,9 +171,9 @@ def test_localize_prints_progress_lines_when_stderr_is_not_a_terminal(
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    import tourbot.cli._progress
+    import tourbot.io.progress
 
-    monkeypatch.setattr(tourbot.cli._progress, "LINE_EVERY", 0.0)
+    monkeypatch.setattr(tourbot.io.progress, "LINE_EVERY", 0.0)
     log, room, truth = files
     _localize(log, room, tmp_path / "t.tum")
     err = capsys.readouterr().err

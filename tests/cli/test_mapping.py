@@ -193,10 +193,10 @@ def test_slam_bad_leg_model_is_one_clear_line_before_mapping(
 def test_slam_progress_lines_and_partial_map_on_ctrl_c(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import tourbot.cli._progress
+    import tourbot.io.progress
     from tourbot.mapping.incremental import IncrementalMapper
 
-    monkeypatch.setattr(tourbot.cli._progress, "LINE_EVERY", 0.0)
+    monkeypatch.setattr(tourbot.io.progress, "LINE_EVERY", 0.0)
     log = drive(building(), n=20)
     log.odometry = []
     path = tmp_path / "hall.log"

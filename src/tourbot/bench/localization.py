@@ -21,13 +21,22 @@ project's target budget (5000 samples, all 180 beams) is measured side by side f
 ``--first-seed`` .. ``--first-seed + --seeds - 1``) seeds the crowds, the kidnaps and the
 localizers alike, so fresh seeds can be run apart from the earlier ones; the JSON keeps each
 kidnap's outcome per seed.
+
+``--workers N`` runs the (log, seed, method) tasks in a pool of N spawned processes (the crowds
+are built first, in this process, and cached). Each task's randomness comes from its seed alone,
+so the JSON is the one a single process writes, apart from the timings (CPU time per update,
+real-time factor, the speed notes). Nav2 AMCL cannot be seeded: its figures vary from run to run
+whatever the workers.
 """
 
 from __future__ import annotations
 
 import math
+import multiprocessing
+import signal
 import time
 from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any, Protocol
@@ -37,6 +46,7 @@ import typer
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.bench._report import BenchReport
+from tourbot.errors import TourbotError
 from tourbot.metrics import (
     FAILURE_DISTANCE,
     failure_rate,
@@ -167,6 +177,171 @@ def _factory(
 
 
 # --------------------------------------------------------------------------------------------
+# One task of the sweep: (log, seed, method), run in this process or in a worker of a pool
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SeedData:
+    """One seed's crowded logs and kidnaps (built in the parent, cached on disk)."""
+
+    sparse: Any
+    peak: Any
+    kidnapped: Any
+    kidnaps: list[int]
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """What every task of one log needs: sent once to each worker, not once per task."""
+
+    grid: Any
+    ref: FloatArray
+    times: FloatArray
+    path: FloatArray
+    duration: float
+    particles: int
+    global_scans: int
+    profile: Any
+    seeds: dict[int, SeedData]
+
+
+@dataclass(frozen=True)
+class SeedOutcome:
+    """One (log, seed, method) task's figures; ``peak_run`` is kept only for the figure's seed."""
+
+    fail_sparse: float
+    fail_peak: float
+    err_peak_cm: float
+    jumps: int
+    heading_deg: float
+    ms_per_update: float  # timing: differs from run to run
+    real_time_factor: float  # timing
+    recoveries: list[Any] | None  # None without kidnaps; else one Recovery (or None: censored) each
+    global_ok: float
+    global_s: float
+    peak_run: RunResult | None
+
+
+Task = tuple[str, int, str]  # (log, seed, method)
+_SWEEPS: dict[str, Sweep] = {}
+
+
+def _install(sweeps: dict[str, Sweep]) -> None:
+    """Make ``sweeps`` the data that :func:`run_task` reads (in this process)."""
+    _SWEEPS.clear()
+    _SWEEPS.update(sweeps)
+
+
+def _worker_start(sweeps: dict[str, Sweep]) -> None:
+    """A pool worker's initializer: Ctrl-C is the parent's to handle (it stops the pool)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _install(sweeps)
+
+
+def run_task(name: str, seed: int, method: str, keep_run: bool = False) -> SeedOutcome:
+    """The tracking, kidnap and global runs of ``method`` on log ``name``'s crowds of ``seed``.
+
+    Top-level (picklable) for a process pool. All its randomness comes from ``seed`` (the crowds,
+    the kidnaps and the localizer's generator, ``numpy.random.default_rng(seed)``, that is a
+    ``SeedSequence`` of the seed), none from the state of the process, so 1 or N workers give the
+    same figures."""
+    sw = _SWEEPS[name]
+    d = sw.seeds[seed]
+    ref = sw.ref
+    make = _factory(method, sw.grid, sw.particles, profile=sw.profile)
+    first = tuple(ref[0])
+    r_s = _run(make("tracking", first, seed), d.sparse)
+    e_s, _ = pose_errors(r_s.est, ref[: len(r_s.est)])
+    r_p = _run(make("tracking", first, seed), d.peak)
+    e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
+    judged = None
+    if d.kidnaps:
+        r_k = _run(make("tracking", first, seed), d.kidnapped)
+        e_k, _ = pose_errors(r_k.est, ref[: len(r_k.est)])
+        judged = recovery(e_k, sw.times, d.kidnaps, sw.path)
+    r_g = _run(make("global", first, seed), d.peak, sw.global_scans)
+    e_g, _ = pose_errors(r_g.est, ref[: len(r_g.est)])
+    j = settle_index(e_g, sw.times, 0, len(e_g))
+    return SeedOutcome(
+        fail_sparse=100.0 * failure_rate(e_s),
+        fail_peak=100.0 * failure_rate(e_p),
+        err_peak_cm=100.0 * float(e_p.mean()),
+        jumps=jumps(r_p.est, ref),
+        heading_deg=float(np.degrees(h_p.mean())),
+        ms_per_update=1000.0 * float(np.mean(r_p.seconds)),
+        real_time_factor=sw.duration / max(float(r_p.seconds.sum()), 1e-12),
+        recoveries=judged,
+        global_ok=100.0 * (j is not None),
+        global_s=math.nan if j is None else float(sw.times[j] - sw.times[0]),
+        peak_run=r_p if keep_run else None,
+    )
+
+
+def _failed(task: Task, exc: BaseException) -> TourbotError:
+    name, seed, method = task
+    first = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+    return TourbotError(
+        f"task (log {name}, seed {seed}, method {method}) failed: {type(exc).__name__}"
+        + (f": {first}" if first else "")
+    )
+
+
+def run_tasks(
+    sweeps: dict[str, Sweep],
+    tasks: list[Task],
+    workers: int,
+    keep: Callable[[Task], bool],
+    advance: Callable[[int], None] | None = None,
+) -> dict[Task, SeedOutcome]:
+    """Every task's outcome, by task; in this process (``workers == 1``) or in a pool of
+    ``workers`` spawned processes. ``advance(running)`` is called after each task that ends. A
+    task's exception becomes one :class:`TourbotError` naming the task; Ctrl-C stops the pool."""
+    out: dict[Task, SeedOutcome] = {}
+    if workers == 1:
+        _install(sweeps)
+        for task in tasks:
+            try:
+                out[task] = run_task(*task, keep_run=keep(task))
+            except (KeyboardInterrupt, TourbotError):
+                raise
+            except Exception as exc:
+                raise _failed(task, exc) from exc
+            if advance is not None:
+                advance(min(1, len(tasks) - len(out)))
+        return out
+    pool = ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_worker_start,
+        initargs=(sweeps,),
+    )
+    try:
+        pending: dict[Future[SeedOutcome], Task] = {
+            pool.submit(run_task, *task, keep_run=keep(task)): task for task in tasks
+        }
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                task = pending.pop(future)
+                try:
+                    out[task] = future.result()
+                except Exception as exc:
+                    raise _failed(task, exc) from exc
+                if advance is not None:
+                    advance(min(workers, len(pending)))
+    except BaseException:
+        # A failed task or Ctrl-C: the queued tasks are dropped and the running ones stopped.
+        processes = getattr(pool, "_processes", None) or {}
+        for process in list(processes.values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+    return out
+
+
+# --------------------------------------------------------------------------------------------
 # Data: maps and crowded logs, cached
 # --------------------------------------------------------------------------------------------
 
@@ -235,15 +410,17 @@ def register(bench: typer.Typer) -> None:
         config: Annotated[
             Path | None, typer.Option("--config", help="Localization profile (YAML; tourbot config show).")
         ] = None,
+        workers: Annotated[
+            int, typer.Option(help="Processes running the (log, seed, method) tasks; 1: in this one.")
+        ] = 1,
     ) -> None:
         """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
         from rich.console import Console
-        from rich.progress import Progress
 
         from tourbot.bench.peers.amcl_adapter import amcl_available
         from tourbot.data import data_dir
-        from tourbot.errors import TourbotError
         from tourbot.io import read_carmen
+        from tourbot.io.progress import ScanProgress
         from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
 
         console = Console()
@@ -252,6 +429,8 @@ def register(bench: typer.Typer) -> None:
         profile = LocalizationProfile.load(config)
         if first_seed < 0:
             raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
+        if workers < 1:
+            raise TourbotError(f"--workers must be >= 1, not {workers}")
         root = data_dir()
         if root is None:
             raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
@@ -296,149 +475,82 @@ def register(bench: typer.Typer) -> None:
             "scans": limit,
             "kidnap_rate_per_m": kidnap_rate,
             "quick": quick,
+            "workers": workers,
             "crowd": {},
         }
         figure_runs: dict[str, tuple[RunResult, Any]] = {}
-        with Progress(console=console) as progress:
-            for name in names:
-                base = read_carmen(root / "carmen" / LOGS[name])
-                grid = _map(base, name, cache)  # the whole log's reference map
-                if limit:
-                    base = replace(base, scans=base.scans[:limit])
-                duration = float(base.times[-1] - base.times[0])
-                ref = base.reference_poses
-                path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
-                data: list[dict[str, Any]] = []
-                task = progress.add_task(f"{name}: crowds", total=2 * n_seeds)
-                for seed in range(first_seed, first_seed + n_seeds):
+        sweeps: dict[str, Sweep] = {}
+        bases: dict[str, Any] = {}
+        seed_list = list(range(first_seed, first_seed + n_seeds))
+        for name in names:
+            base = read_carmen(root / "carmen" / LOGS[name])
+            grid = _map(base, name, cache)  # the whole log's reference map
+            if limit:
+                base = replace(base, scans=base.scans[:limit])
+            bases[name] = base
+            ref = base.reference_poses
+            path = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(ref[:, :2], axis=0).T))])
+            per_seed: dict[int, SeedData] = {}
+            fractions: list[tuple[float, float]] = []
+            longest: list[float] = []
+            with ScanProgress(f"{name}: crowds", 2 * n_seeds, unit="crowds") as crowds:
+                for seed in seed_list:
                     sparse, sparse_truth = _crowded(base, grid, name, "sparse", seed, cache)
-                    progress.advance(task)
+                    crowds.advance()
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
-                    progress.advance(task)
+                    crowds.advance()
                     kid_rng = np.random.default_rng(KIDNAP_SEED_OFFSET + seed)
                     kidnaps = plan_kidnaps(
                         ref, base.times, kid_rng, KidnapConfig(probability_per_metre=kidnap_rate)
                     )
-                    data.append(
-                        {
-                            "sparse": sparse,
-                            "peak": peak,
-                            "kidnapped": apply_kidnaps(peak, kidnaps),
-                            "seed": seed,
-                            "kidnaps": [k.scan for k in kidnaps],
-                            "fraction": (
-                                float(sparse_truth.fraction.mean()),
-                                float(peak_truth.fraction.mean()),
-                            ),
-                            "longest": peak_truth.longest_above(0.5),
-                        }
+                    per_seed[seed] = SeedData(
+                        sparse, peak, apply_kidnaps(peak, kidnaps), [k.scan for k in kidnaps]
                     )
-                report.meta["crowd"][name] = {
-                    "sparse_mean_corrupted": mean_ci([d["fraction"][0] for d in data]),
-                    "peak_mean_corrupted": mean_ci([d["fraction"][1] for d in data]),
-                    "peak_longest_above_50_s": mean_ci([d["longest"] for d in data]),
-                    "kidnaps": [d["kidnaps"] for d in data],
-                }
-                for method in chosen:
-                    task = progress.add_task(f"{name}: {method}", total=n_seeds)
-                    fails_s, fails_p, errs, heads, secs, rtf = [], [], [], [], [], []
-                    leaps: list[int] = []
-                    rec_ok: list[float] = []
-                    rec_t: list[float] = []
-                    rec_d: list[float] = []
-                    glob_ok, glob_t = [], []
-                    censored = 0
-                    outcomes: dict[int, list[Any]] = {}
-                    make = _factory(method, grid, particles, profile=profile)
-                    first = tuple(ref[0])
-                    for d in data:
-                        seed = d["seed"]
-                        r_s = _run(make("tracking", first, seed), d["sparse"])
-                        e_s, _ = pose_errors(r_s.est, ref[: len(r_s.est)])
-                        fails_s.append(100.0 * failure_rate(e_s))
-                        r_p = _run(make("tracking", first, seed), d["peak"])
-                        e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
-                        fails_p.append(100.0 * failure_rate(e_p))
-                        errs.append(100.0 * float(e_p.mean()))
-                        leaps.append(jumps(r_p.est, ref))
-                        heads.append(float(np.degrees(h_p.mean())))
-                        secs.append(1000.0 * float(np.mean(r_p.seconds)))
-                        rtf.append(duration / max(float(r_p.seconds.sum()), 1e-12))
-                        if seed == first_seed:
-                            figure_runs[method] = (r_p, d["peak"])
-                        if d["kidnaps"]:
-                            r_k = _run(make("tracking", first, seed), d["kidnapped"])
-                            e_k, _ = pose_errors(r_k.est, ref[: len(r_k.est)])
-                            judged = recovery(e_k, base.times, d["kidnaps"], path)
-                            outcomes[seed] = [
-                                {
-                                    "scan": k,
-                                    "outcome": None if o is None else [o.recovered, o.seconds, o.metres],
-                                }
-                                for k, o in zip(d["kidnaps"], judged, strict=True)
-                            ]
-                            for outcome in judged:
-                                if outcome is None:
-                                    censored += 1
-                                    continue
-                                rec_ok.append(100.0 * outcome.recovered)
-                                rec_t.append(outcome.seconds)
-                                rec_d.append(outcome.metres)
-                        r_g = _run(make("global", first, seed), d["peak"], g_scans)
-                        e_g, _ = pose_errors(r_g.est, ref[: len(r_g.est)])
-                        j = settle_index(e_g, base.times, 0, len(e_g))
-                        glob_ok.append(100.0 * (j is not None))
-                        glob_t.append(math.nan if j is None else float(base.times[j] - base.times[0]))
-                        progress.advance(task)
-
-                    def fmt(values: list[float], digits: int = 1) -> str:
-                        m, h = mean_ci(values)
-                        return "-" if math.isnan(m) else f"{m:.{digits}f} ± {h:.{digits}f}"
-
-                    report.add(
-                        **{
-                            "log": name,
-                            "method": method,
-                            "fail sparse %": fmt(fails_s),
-                            "fail peak %": fmt(fails_p),
-                            "err peak cm": fmt(errs),
-                            "jumps>2m peak": f"{sum(leaps)} (max {max(leaps, default=0)} a seed)",
-                            "head peak deg": fmt(heads, 2),
-                            "recovered %": fmt(rec_ok, 0)
-                            + f" (n={len(rec_ok)}"
-                            + (f", {censored} censored)" if censored else ")"),
-                            "t rec s": fmt(rec_t),
-                            "d rec m": fmt(rec_d),
-                            "global ok %": fmt(glob_ok, 0),
-                            "t global s": fmt(glob_t),
-                            "ms/update": fmt(secs),
-                            "x real time": fmt(rtf, 0),
-                            "raw": {
-                                "fail_sparse": fails_s,
-                                "fail_peak": fails_p,
-                                "err_peak_cm": errs,
-                                "jumps_2m_peak": leaps,
-                                "heading_peak_deg": heads,
-                                "recovered": rec_ok,
-                                "kidnaps_censored": censored,
-                                "kidnaps_per_seed": outcomes,
-                                "recovery_s": rec_t,
-                                "recovery_m": rec_d,
-                                "global_ok": glob_ok,
-                                "global_s": glob_t,
-                                "ms_per_update": secs,
-                                "real_time_factor": rtf,
-                            },
-                        }
-                    )
-                if name == names[0]:
-                    _speed(report, base, grid, chosen, duration, speed_scans if not quick else 5, profile)
-                if figure and figure_runs and name == names[0]:
-                    pic = (output or Path("bench-results/localization.json")).with_name(
-                        "localization-fig5.png"
-                    )
-                    _figure(figure_runs, grid, ref, pic)
-                    report.notes.append(f"Fig. 5-like picture (peak crowd, seed {first_seed}): {pic}")
+                    fractions.append((float(sparse_truth.fraction.mean()), float(peak_truth.fraction.mean())))
+                    longest.append(peak_truth.longest_above(0.5))
+            sweeps[name] = Sweep(
+                grid=grid,
+                ref=ref,
+                times=np.asarray(base.times, dtype=np.float64),
+                path=path,
+                duration=float(base.times[-1] - base.times[0]),
+                particles=particles,
+                global_scans=g_scans,
+                profile=profile,
+                seeds=per_seed,
+            )
+            report.meta["crowd"][name] = {
+                "sparse_mean_corrupted": mean_ci([f[0] for f in fractions]),
+                "peak_mean_corrupted": mean_ci([f[1] for f in fractions]),
+                "peak_longest_above_50_s": mean_ci(longest),
+                "kidnaps": [per_seed[s].kidnaps for s in seed_list],
+            }
+        tasks = [(name, seed, method) for name in names for method in chosen for seed in seed_list]
+        label = f"{len(tasks)} tasks, {workers} worker{'s' if workers > 1 else ''}"
+        with ScanProgress(label, len(tasks), unit="tasks") as done:
+            # The figure shows the first log's runs of the first seed.
+            results = run_tasks(
+                sweeps,
+                tasks,
+                workers,
+                lambda t: t[0] == names[0] and t[1] == first_seed,
+                lambda running: done.advance(running=running),
+            )
+        for name in names:
+            for method in chosen:
+                outcomes = [results[(name, seed, method)] for seed in seed_list]
+                _add_row(report, name, method, seed_list, outcomes, sweeps[name].seeds)
+                kept = results[(name, first_seed, method)].peak_run
+                if name == names[0] and kept is not None:
+                    figure_runs[method] = (kept, sweeps[name].seeds[first_seed].peak)
+        first_log = names[0]
+        duration0 = sweeps[first_log].duration
+        grid0 = sweeps[first_log].grid
+        _speed(report, bases[first_log], grid0, chosen, duration0, speed_scans if not quick else 5, profile)
+        if figure and figure_runs:
+            pic = (output or Path("bench-results/localization.json")).with_name("localization-fig5.png")
+            _figure(figure_runs, grid0, sweeps[first_log].ref, pic)
+            report.notes.append(f"Fig. 5-like picture (peak crowd, seed {first_seed}): {pic}")
         for name, c in report.meta["crowd"].items():
             s, p, longest = c["sparse_mean_corrupted"], c["peak_mean_corrupted"], c["peak_longest_above_50_s"]
             report.notes.append(
@@ -447,6 +559,86 @@ def register(bench: typer.Typer) -> None:
                 f"kidnaps per seed {[len(k) for k in c['kidnaps']]}"
             )
         report.finish(output, console)
+
+
+def _add_row(
+    report: BenchReport,
+    name: str,
+    method: str,
+    seeds: list[int],
+    outcomes: list[SeedOutcome],
+    data: dict[int, SeedData],
+) -> None:
+    """One table row (mean ± 95 % CI over seeds) from the seeds' outcomes, in seed order."""
+    rec_ok: list[float] = []
+    rec_t: list[float] = []
+    rec_d: list[float] = []
+    censored = 0
+    per_seed: dict[int, list[Any]] = {}
+    for seed, o in zip(seeds, outcomes, strict=True):
+        if o.recoveries is None:
+            continue
+        per_seed[seed] = [
+            {"scan": k, "outcome": None if r is None else [r.recovered, r.seconds, r.metres]}
+            for k, r in zip(data[seed].kidnaps, o.recoveries, strict=True)
+        ]
+        for r in o.recoveries:
+            if r is None:
+                censored += 1
+                continue
+            rec_ok.append(100.0 * r.recovered)
+            rec_t.append(r.seconds)
+            rec_d.append(r.metres)
+    fails_s = [o.fail_sparse for o in outcomes]
+    fails_p = [o.fail_peak for o in outcomes]
+    errs = [o.err_peak_cm for o in outcomes]
+    leaps = [o.jumps for o in outcomes]
+    heads = [o.heading_deg for o in outcomes]
+    secs = [o.ms_per_update for o in outcomes]
+    rtf = [o.real_time_factor for o in outcomes]
+    glob_ok = [o.global_ok for o in outcomes]
+    glob_t = [o.global_s for o in outcomes]
+
+    def fmt(values: list[float], digits: int = 1) -> str:
+        m, h = mean_ci(values)
+        return "-" if math.isnan(m) else f"{m:.{digits}f} ± {h:.{digits}f}"
+
+    report.add(
+        **{
+            "log": name,
+            "method": method,
+            "fail sparse %": fmt(fails_s),
+            "fail peak %": fmt(fails_p),
+            "err peak cm": fmt(errs),
+            "jumps>2m peak": f"{sum(leaps)} (max {max(leaps, default=0)} a seed)",
+            "head peak deg": fmt(heads, 2),
+            "recovered %": fmt(rec_ok, 0)
+            + f" (n={len(rec_ok)}"
+            + (f", {censored} censored)" if censored else ")"),
+            "t rec s": fmt(rec_t),
+            "d rec m": fmt(rec_d),
+            "global ok %": fmt(glob_ok, 0),
+            "t global s": fmt(glob_t),
+            "ms/update": fmt(secs),
+            "x real time": fmt(rtf, 0),
+            "raw": {
+                "fail_sparse": fails_s,
+                "fail_peak": fails_p,
+                "err_peak_cm": errs,
+                "jumps_2m_peak": leaps,
+                "heading_peak_deg": heads,
+                "recovered": rec_ok,
+                "kidnaps_censored": censored,
+                "kidnaps_per_seed": per_seed,
+                "recovery_s": rec_t,
+                "recovery_m": rec_d,
+                "global_ok": glob_ok,
+                "global_s": glob_t,
+                "ms_per_update": secs,
+                "real_time_factor": rtf,
+            },
+        }
+    )
 
 
 def _speed(

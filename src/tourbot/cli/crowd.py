@@ -44,9 +44,9 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
 
         from tourbot.cli._checks import check_before_work, map_problem
-        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log, write_carmen
         from tourbot.io.mapserver import read_map
+        from tourbot.io.progress import ScanProgress
         from tourbot.sim.crowd import PRESETS
         from tourbot.sim.overlay import OverlayConfig, OverlayError, overlay_crowd, truth_path, write_truth
 

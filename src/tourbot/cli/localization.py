@@ -126,10 +126,10 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
 
         from tourbot.cli._checks import check_before_work, log_problems, map_problem
-        from tourbot.cli._progress import ScanProgress
         from tourbot.errors import InputError, TourbotError
         from tourbot.io import load_log
         from tourbot.io.mapserver import read_map
+        from tourbot.io.progress import ScanProgress
         from tourbot.io.tum import write_tum
         from tourbot.localization.beam_filters import BeamFilter
 

@@ -70,10 +70,10 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from tourbot.cli._checks import check_before_work, log_problems
-        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log
         from tourbot.io.mapserver import check_map_output, write_map
         from tourbot.io.output import check_output
+        from tourbot.io.progress import ScanProgress
         from tourbot.io.tum import write_tum
         from tourbot.mapping.graph_slam import GraphSlam, GraphSlamParams
         from tourbot.mapping.incremental import IncrementalMapper, MapperParams, MappingError

@@ -82,10 +82,10 @@ def register(app: typer.Typer) -> None:
 
         import numpy as np
 
-        from tourbot.cli._progress import ScanProgress
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
         from tourbot.io.output import check_output, output_file
+        from tourbot.io.progress import ScanProgress
         from tourbot.io.rosbag import read_bag
         from tourbot.mapping.ego_motion import ScanMatchedPoses
         from tourbot.people.sjpdaf import PeopleTracker

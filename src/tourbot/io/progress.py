@@ -1,7 +1,8 @@
-"""Progress of a long command over a log's scans, visible wherever its stderr goes.
+"""Progress of a long command over a log's scans (or a sweep's tasks), visible wherever its stderr goes.
 
 On a terminal a live bar (rich); otherwise (redirected to a file, a pipe, a job log) a plain line
-every few seconds: scans done, rate, time left. A run of minutes is never silent.
+every few seconds: scans done, rate, time left, and how many are running when several run at once
+(``advance(running=...)``). A run of minutes is never silent.
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ class ScanProgress:
         self.total = total
         self.unit = unit
         self.done = 0
+        self.running: int | None = None
         self._stream = stream if stream is not None else sys.stderr
         self._console = Console(file=self._stream)
         self._bar: Progress | None = None
@@ -60,10 +62,14 @@ class ScanProgress:
             self._task = self._bar.add_task(self.label, total=self.total)
         return self
 
-    def advance(self, n: int = 1) -> None:
+    def advance(self, n: int = 1, *, running: int | None = None) -> None:
+        """``n`` more done; ``running``: how many are under way now (a pool's tasks), shown too."""
         self.done += n
+        if running is not None:
+            self.running = running
         if self._bar is not None and self._task is not None:
-            self._bar.advance(self._task, n)
+            label = self.label if self.running is None else f"{self.label} ({self.running} running)"
+            self._bar.update(self._task, advance=n, description=label)
             return
         now = time.perf_counter()
         if now - self._last_line >= LINE_EVERY:
@@ -74,9 +80,11 @@ class ScanProgress:
         took = now - self._start
         rate = self.done / took if took > 0 else 0.0
         left = f"{(self.total - self.done) / rate:.0f} s left" if rate > 0 else "time left unknown"
-        self._stream.write(
-            f"{self.label}: {self.done}/{self.total} {self.unit}, {rate:.1f} {self.unit}/s, {left}\n"
-        )
+        done = f"{self.done}/{self.total} {self.unit}"
+        if self.running is not None:
+            done += f", {self.running} running"
+        speed = f"{rate:.1f}" if rate >= 1 else f"{rate:.2g}"  # a sweep's tasks: 0.046 tasks/s
+        self._stream.write(f"{self.label}: {done}, {speed} {self.unit}/s, {left}\n")
         self._stream.flush()
 
     def __exit__(
