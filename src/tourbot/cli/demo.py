@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from tourbot.cli._checks import McapOpt
+from tourbot.cli.web import AskStaffPasswordOpt, StaffPasswordFileOpt, read_staff_password
 
 if TYPE_CHECKING:
     from tourbot.localization.mcl.config import MCLConfig
@@ -64,18 +65,13 @@ def register(app: typer.Typer) -> None:
         database: str | None = typer.Option(
             None, help="SQLAlchemy URL of the site database (default OUT/tourbot-SITE.db, never wiped)."
         ),
-        staff_password_file: Annotated[
-            Path | None,
-            typer.Option(
-                help="A file whose first line is the password of user 'staff' (or set "
-                "$TOURBOT_STAFF_PASSWORD; default: a new one, printed at start)."
-            ),
-        ] = None,
-        ask_staff_password: Annotated[
-            bool, typer.Option("--ask-staff-password", help="Ask for the password of user 'staff' (hidden).")
-        ] = False,
+        staff_password_file: StaffPasswordFileOpt = None,
+        ask_staff_password: AskStaffPasswordOpt = False,
     ) -> None:
-        """The simulated crowded museum with its web pages (visitors, on-board screen, staff) until Ctrl-C."""
+        """The simulated crowded museum with its web pages (visitors, on-board screen, staff) until Ctrl-C.
+
+        Without a staff password (a file, the environment or the prompt) a new one is printed at start.
+        """
         from tourbot.errors import InputError
 
         if not duration > 0:
@@ -88,17 +84,14 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
-        from tourbot.cli.web import read_staff_password
         from tourbot.localization.profile import LocalizationProfile
+        from tourbot.site.default import site_path
 
         staff_password = None if record else read_staff_password(staff_password_file, ask_staff_password)
         if staff_password is not None:
             from tourbot.web.db import check_staff_password
 
             check_staff_password(staff_password)
-
-        from tourbot.site.default import site_path
-
         profile, profile_file = LocalizationProfile.for_site(site_path(site), config)
         mcl = profile.mcl
         applied = str(profile_file) if profile_file else "the papers' defaults"

@@ -16,6 +16,17 @@ DatabaseOpt = Annotated[
     str | None, typer.Option("--database", help="SQLAlchemy URL; default $DATABASE_URL or ./tourbot-SITE.db")
 ]
 SiteOpt = Annotated[str, typer.Option("--site", help="a shipped site name (fhw) or a site file or folder")]
+# the staff password, never in argv (every user of the machine can read a command line): also
+# taken by `demo`, with read_staff_password
+StaffPasswordFileOpt = Annotated[
+    Path | None,
+    typer.Option(
+        help="a file whose first line is the password of user 'staff' (or set $TOURBOT_STAFF_PASSWORD)"
+    ),
+]
+AskStaffPasswordOpt = Annotated[
+    bool, typer.Option("--ask-staff-password", help="ask for the password of user 'staff' (hidden)")
+]
 
 
 def _db(database: str | None, site: str) -> Database:
@@ -81,16 +92,8 @@ def register(app: typer.Typer) -> None:
         crowd: Annotated[str, typer.Option(help="visitors: empty, sparse, peak or a number")] = "sparse",
         seed: Annotated[int, typer.Option(help="simulation seed")] = 0,
         slot_minutes: Annotated[float, typer.Option(help="length of a control slot")] = 10.0,
-        staff_password_file: Annotated[
-            Path | None,
-            typer.Option(
-                help="a file whose first line is the password of user 'staff' (or set "
-                "$TOURBOT_STAFF_PASSWORD)"
-            ),
-        ] = None,
-        ask_staff_password: Annotated[
-            bool, typer.Option("--ask-staff-password", help="ask for the password of user 'staff' (hidden)")
-        ] = False,
+        staff_password_file: StaffPasswordFileOpt = None,
+        ask_staff_password: AskStaffPasswordOpt = False,
         certfile: Annotated[Path | None, typer.Option(help="TLS certificate (PEM): serve HTTPS")] = None,
         keyfile: Annotated[Path | None, typer.Option(help="TLS private key (PEM) of --certfile")] = None,
         trusted_proxy: Annotated[
