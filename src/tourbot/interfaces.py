@@ -6,8 +6,8 @@ satisfies one of them, handed to :class:`tourbot.runtime.loop.Runtime`; nothing 
 
 Data flow per loop step (``../shared/SYSTEM.md``)::
 
-    source.poll() -> records -> localizer (odometry, scans)      -> PoseBelief
-                              -> estimators (odometry, scans + belief) -> EstimatorOutput
+    source.poll() -> records -> localizer (odometry, scans, images)          -> PoseBelief
+                              -> estimators (odometry, scans, images + belief) -> EstimatorOutput
                    snapshot <- all of the above + navigator.status() (+ source truth)
                    sinks     <- snapshot
                    navigator <- snapshot + latest scan -> (v, w) -> source.command()
@@ -23,7 +23,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.records import Odometry, Record, Scan
+from tourbot.records import Image, Odometry, Record, Scan
 from tourbot.snapshot import (
     DoorState,
     FurnitureState,
@@ -39,6 +39,8 @@ __all__ = [
     "DrivableSource",
     "Estimator",
     "EstimatorOutput",
+    "ImageEstimator",
+    "ImageLocalizer",
     "Localizer",
     "Navigator",
     "PoseBelief",
@@ -107,6 +109,15 @@ class Localizer(Protocol):
         ...
 
 
+@runtime_checkable
+class ImageLocalizer(Localizer, Protocol):
+    """A localizer that also weighs its belief by camera images (the ceiling camera inside MCL)."""
+
+    def on_image(self, image: Image) -> PoseBelief | None:
+        """Integrate ``image`` (its ``odom`` field carries the odometry pose at its time)."""
+        ...
+
+
 class ScanShare(StrEnum):
     """Which scans an estimator receives.
 
@@ -141,6 +152,14 @@ class Estimator(Protocol):
     def on_scan(self, scan: Scan, belief: PoseBelief) -> None: ...
 
     def state(self) -> EstimatorOutput: ...
+
+
+@runtime_checkable
+class ImageEstimator(Estimator, Protocol):
+    """An estimator that also takes camera images: the ceiling camera's tracker, the forward
+    camera's obstacle detector. Images reach it with the localizer's latest belief."""
+
+    def on_image(self, image: Image, belief: PoseBelief | None) -> None: ...
 
 
 @runtime_checkable

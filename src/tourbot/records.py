@@ -1,4 +1,4 @@
-"""The in-memory records every source produces: laser scans and odometry readings.
+"""The in-memory records every source produces: laser scans, odometry readings and camera images.
 
 Sources (CARMEN logs, ROS bags, the simulator, a live robot) only produce these; estimators only
 consume them. A :class:`RobotLog` is a whole recording held in memory, with array views for the
@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["LaserGeometry", "Odometry", "Record", "RobotLog", "Scan"]
+__all__ = ["Image", "LaserGeometry", "Odometry", "Record", "RobotLog", "Scan"]
 
 FloatArray = NDArray[np.float64]
 
@@ -73,7 +73,24 @@ class Scan:
     sensor: str = "laser"
 
 
-Record = Scan | Odometry
+@dataclass(frozen=True, slots=True, eq=False)
+class Image:
+    """One camera image: ``pixels`` ``(height, width)`` 8-bit grey (or ``(height, width, 3)`` colour).
+
+    ``camera`` names the camera that took it (``"ceiling"`` for the upward camera of Gamallo et
+    al., ``"forward"`` for the obstacle camera), so that a robot with several cameras can be read.
+    ``odom`` is the odometry pose at the image's time; ``reference`` the reference pose where the
+    source has one, for metrics only: estimators never read it.
+    """
+
+    timestamp: float
+    pixels: NDArray[np.uint8]
+    camera: str = "camera"
+    odom: tuple[float, float, float] | None = None
+    reference: tuple[float, float, float] | None = None
+
+
+Record = Scan | Odometry | Image
 
 
 @dataclass

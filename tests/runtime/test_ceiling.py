@@ -9,8 +9,8 @@ import numpy as np
 from tourbot.ceiling.minimize import CeilingLocalizer
 from tourbot.ceiling.rig import CeilingCamera
 from tourbot.ceiling.tracking import CeilingTracker
-from tourbot.interfaces import Estimator
-from tourbot.records import Odometry
+from tourbot.interfaces import Estimator, ImageEstimator
+from tourbot.records import Image, Odometry
 from tourbot.runtime.ceiling import CeilingEstimator
 from tourbot.sim.camera import CeilingCameraSim
 from tourbot.site.default import site_path
@@ -23,11 +23,13 @@ def test_estimator_follows_odometry_between_images() -> None:
     lights = np.array([light.position for light in site.ceiling_lights])
     est = CeilingEstimator(CeilingTracker(CeilingLocalizer(cam, lights, site.grid)))
     assert isinstance(est, Estimator)
+    assert isinstance(est, ImageEstimator)
     sim = CeilingCameraSim(site, cam, seed=0)
     assert est.state().extra["ceiling"]["how"] == "lost"
     pose = np.array([0.0, -7.0, 0.0])
     est.on_odometry(Odometry(0.0, (10.0, 5.0, 1.0)))  # the odometry frame is not the map's
-    st = est.on_image(0.0, sim.frame(0.0, pose).image)
+    st = est.on_image(Image(0.0, sim.frame(0.0, pose).image, camera="ceiling"))
+    assert st is not None
     assert st.how == "global"
     for k in range(1, 11):
         est.on_odometry(
@@ -37,6 +39,7 @@ def test_estimator_follows_odometry_between_images() -> None:
     assert moved["images"] == 1
     # the tracker carries the pose by the odometry's motion until the next image
     assert abs(est.tracker.pose[0] - 0.5) < 0.05  # type: ignore[index]
-    st = est.on_image(1.0, sim.frame(1.0, pose + np.array([0.5, 0.0, 0.0])).image)
+    st = est.on_image(Image(1.0, sim.frame(1.0, pose + np.array([0.5, 0.0, 0.0])).image, camera="ceiling"))
+    assert st is not None
     assert st.how == "tracked"
     assert math.hypot(st.pose[0] - 0.5, st.pose[1] + 7.0) < 0.05  # type: ignore[index]

@@ -12,12 +12,14 @@ from tourbot.interfaces import (
     DrivableSource,
     Estimator,
     EstimatorOutput,
+    ImageEstimator,
+    ImageLocalizer,
     Localizer,
     PoseBelief,
     ScanShare,
     Sink,
 )
-from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
+from tourbot.records import Image, LaserGeometry, Odometry, Record, RobotLog, Scan
 from tourbot.runtime import Runtime, RuntimeConfig, RuntimeControlError
 from tourbot.runtime.sources import LogSource
 from tourbot.snapshot import GroundTruth, NavigationStatus, NavMode, PersonState, PoseEstimate, StateSnapshot
@@ -228,3 +230,70 @@ def test_replay_of_a_real_log_through_mcl(fhw_log_path: Path) -> None:
     assert snap.pose is not None
     assert ref is not None
     assert np.hypot(snap.pose.x - ref[0], snap.pose.y - ref[1]) < 0.3
+
+
+class ImageLocalizerStandIn(OdomLocalizer):
+    """Also weighs by images: counts them and moves its belief to x = 100 + the image's time."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[str] = []
+
+    def on_image(self, image: Image) -> PoseBelief | None:
+        self.images.append(image.camera)
+        x = 100.0 + image.timestamp
+        return PoseBelief(PoseEstimate(x, 0.0, 0.0), np.array([[x, 0.0, 0.0]]), np.ones(1))
+
+
+class ImageCountingEstimator(CountingEstimator):
+    def __init__(self) -> None:
+        super().__init__("camera", ScanShare.ALL)
+        self.images: list[tuple[str, float | None]] = []
+
+    def on_image(self, image: Image, belief: PoseBelief | None) -> None:
+        self.images.append((image.camera, None if belief is None else belief.estimate.x))
+
+
+class RecordSource:
+    """Replays a fixed list of record batches."""
+
+    name = "records"
+
+    def __init__(self, batches: list[list[Record]]) -> None:
+        self._batches = batches
+        self.time = 0.0
+
+    def poll(self) -> Sequence[Record] | None:
+        if not self._batches:
+            return None
+        batch = self._batches.pop(0)
+        self.time = batch[-1].timestamp
+        return batch
+
+
+def test_images_reach_the_localizer_and_the_estimators_that_take_them() -> None:
+    pixels = np.zeros((4, 6), dtype=np.uint8)
+    log = _log(3)
+    batches: list[list[Record]] = [
+        [log.odometry[0], Image(0.2, pixels, camera="ceiling"), log.scans[0]],
+        [log.odometry[1], log.scans[1], Image(1.2, pixels, camera="forward")],
+        [log.odometry[2], log.scans[2]],
+    ]
+    loc = ImageLocalizerStandIn()
+    cam = ImageCountingEstimator()
+    plain = CountingEstimator("people", ScanShare.ALL)
+    assert isinstance(loc, ImageLocalizer)
+    assert isinstance(cam, ImageEstimator)
+    assert not isinstance(OdomLocalizer(), ImageLocalizer)
+    assert not isinstance(plain, ImageEstimator)
+    rt = Runtime(RecordSource(batches), loc, estimators=[cam, plain])
+    snaps = [rt.step() for _ in range(3)]
+    assert loc.images == ["ceiling", "forward"]
+    # each estimator sees the belief the localizer made of that image
+    assert cam.images == [("ceiling", 100.2), ("forward", 101.2)]
+    assert plain.scans == [0.0, 1.0, 2.0]
+    # the belief an image gives is the snapshot's until the next scan
+    assert snaps[1] is not None
+    assert snaps[1].pose is not None
+    assert snaps[1].pose.x == 101.2
+    assert rt.step() is None

@@ -185,3 +185,30 @@ def test_a_carried_robot_stands_where_it_was_set_down_and_the_odometry_sees_noth
     # the wheels did not turn: the odometry moved by at most the last step's deceleration
     assert math.hypot(odom.pose[0] - before[0], odom.pose[1] - before[1]) < 0.05
     assert math.hypot(sim.robot.pose[0] - 6.0, sim.robot.pose[1] - 3.0) < 0.05
+
+
+def test_cameras_on_the_robot_give_image_records_at_their_rate() -> None:
+    from tourbot.ceiling.rig import CeilingCamera
+    from tourbot.records import Image
+    from tourbot.sim.camera import CeilingCameraSim, SimCamera
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    site = load_site(site_path("domus"))
+    cam = CeilingCameraSim(site, CeilingCamera(), seed=1)
+    assert isinstance(cam, SimCamera)
+    sim = Simulator(site, SimConfig(record=True), seed=0, cameras=[cam])
+    images: list[Image] = []
+    for _ in range(25):  # 2.5 s at dt 0.1: the 1 Hz camera at 0.1, 1.1 and 2.1 s
+        records = sim.poll()
+        assert records is not None
+        images += [r for r in records if isinstance(r, Image)]
+    assert [round(i.timestamp, 6) for i in images] == [0.1, 1.1, 2.1]
+    assert all(i.camera == "ceiling" and i.pixels.dtype == np.uint8 for i in images)
+    assert images[0].reference is not None
+    assert images[0].odom is not None
+    assert [i.timestamp for i in sim.image_history["ceiling"]] == [i.timestamp for i in images]
+    # the CARMEN log keeps the laser and the odometry only
+    log = sim.to_robot_log()
+    assert len(log.scans) == 25
+    assert len(log.odometry) == 25

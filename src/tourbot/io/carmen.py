@@ -948,7 +948,7 @@ def read_carmen(
     for record in reader:
         if isinstance(record, Odometry):
             readings.append(record)
-        else:
+        elif isinstance(record, Scan):
             scans.append(record)
     warnings = list(reader.warnings)
     if not scans:

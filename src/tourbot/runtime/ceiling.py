@@ -10,13 +10,10 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
 from tourbot.ceiling.detection import DetectionConfig, detect_lights
 from tourbot.ceiling.tracking import CeilingTracker, TrackState
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
-from tourbot.records import Odometry, Scan
+from tourbot.records import Image, Odometry, Scan
 
 __all__ = ["CeilingEstimator"]
 
@@ -38,11 +35,13 @@ class CeilingEstimator:
     def on_scan(self, scan: Scan, belief: PoseBelief) -> None:
         """Scans carry nothing for the ceiling camera."""
 
-    def on_image(self, time: float, image: NDArray[np.uint8]) -> TrackState:
-        """One image of the upward camera."""
+    def on_image(self, image: Image, belief: PoseBelief | None = None) -> TrackState | None:  # noqa: ARG002
+        """One image of the upward camera (images of other cameras are not for it)."""
+        if image.camera != "ceiling":
+            return None
         self.images += 1
-        det = detect_lights(image, self.tracker.localizer.camera, self.detection)
-        return self.tracker.on_detections(time, det.centroids)
+        det = detect_lights(image.pixels, self.tracker.localizer.camera, self.detection)
+        return self.tracker.on_detections(image.timestamp, det.centroids)
 
     def state(self) -> EstimatorOutput:
         st = self.tracker.state

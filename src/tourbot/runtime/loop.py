@@ -1,13 +1,14 @@
 """The runtime: one event loop wiring a source to the localizer, the estimators, the navigator and sinks.
 
-Read :meth:`Runtime.step` first: poll the source, feed odometry and scans to the localizer and the
-estimators (alternating scans as in Table 1 of Schulz and Burgard 2001 for those that ask), build
-the :class:`~tourbot.snapshot.StateSnapshot`, let the navigator choose a velocity from that
-snapshot (never from ground truth), and hand the snapshot to every sink.
+Read :meth:`Runtime.step` first: poll the source, feed odometry, scans and camera images to the
+localizer and the estimators (images to those that take them; scans alternating as in Table 1 of
+Schulz and Burgard 2001 for those that ask), build the :class:`~tourbot.snapshot.StateSnapshot`, let
+the navigator choose a velocity from that snapshot (never from ground truth), and hand the snapshot
+to every sink.
 
 A web server drives it from its own loop or thread: :meth:`snapshot` returns the last immutable
-snapshot, and :meth:`send_goal`, :meth:`start_tour` and :meth:`stop` take effect at the next step
-(a lock serialises them with :meth:`step`).
+snapshot, and :meth:`send_goal`, :meth:`start_tour` and :meth:`stop` take effect at the next step (a
+lock serialises them with :meth:`step`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from tourbot.errors import TourbotError
 from tourbot.interfaces import (
     DrivableSource,
     Estimator,
+    ImageEstimator,
+    ImageLocalizer,
     Localizer,
     Navigator,
     PoseBelief,
@@ -28,7 +31,7 @@ from tourbot.interfaces import (
     Sink,
     Source,
 )
-from tourbot.records import Odometry, Scan
+from tourbot.records import Image, Odometry, Scan
 from tourbot.snapshot import NavigationStatus, StateSnapshot
 
 __all__ = ["Runtime", "RuntimeConfig", "RuntimeControlError"]
@@ -141,6 +144,8 @@ class Runtime:
             for record in records:
                 if isinstance(record, Odometry):
                     self._on_odometry(record)
+                elif isinstance(record, Image):
+                    self._on_image(record)
                 else:
                     self._on_scan(record)
             self._steps += 1
@@ -218,6 +223,15 @@ class Runtime:
             if est.scan_share == ScanShare.ALTERNATE and alternating and k % 2 == 0:
                 continue
             est.on_scan(scan, self._belief)
+
+    def _on_image(self, image: Image) -> None:
+        if isinstance(self.localizer, ImageLocalizer):
+            belief = self.localizer.on_image(image)
+            if belief is not None:
+                self._belief = belief
+        for est in self.estimators:
+            if isinstance(est, ImageEstimator):
+                est.on_image(image, self._belief)
 
     def _build_snapshot(self) -> StateSnapshot:
         people: tuple = ()

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +39,7 @@ __all__ = [
     "FixtureType",
     "Patch",
     "RenderConfig",
+    "SimCamera",
     "camera_in_world",
     "render",
 ]
@@ -206,8 +208,25 @@ class CameraFrame:
     swing: tuple[float, float]
 
 
+@runtime_checkable
+class SimCamera(Protocol):
+    """A simulated camera on the robot, polled by the simulator at each step.
+
+    ``name`` becomes the :class:`~tourbot.records.Image`'s ``camera``; :meth:`due` says whether an
+    image is due at a time, :meth:`frame` renders it from the robot's true pose with the visitors.
+    """
+
+    name: str
+
+    def due(self, time: float) -> bool: ...
+
+    def frame(self, time: float, pose: ArrayLike, people: ArrayLike | None = None) -> CameraFrame: ...
+
+
 class CeilingCameraSim:
     """The robot's upward camera over a site, deterministic for a seed."""
+
+    name = "ceiling"
 
     def __init__(
         self, site: Site, rig: CeilingCamera, config: CameraSimConfig | None = None, *, seed: int = 0

@@ -1,12 +1,14 @@
 """The simulator: a tour-guide robot in a crowded exhibition site, as a drivable runtime source.
 
 Each :meth:`Simulator.poll` advances the world by ``dt``: the base follows its command within its
-limits (stopped by walls, doors, furniture and invisible obstacles, which count as collisions),
-the crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture
-change, the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the
-project's one ray caster against the world and the visitors' legs. It returns the odometry reading
-and the scan as records; the truth (robot, people, doors, furniture, collisions) is kept beside
-them for metrics only, and the whole sensor stream can be written as a CARMEN log.
+limits (stopped by walls, doors, furniture and invisible obstacles, which count as collisions), the
+crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture change,
+the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the project's
+one ray caster against the world and the visitors' legs; each camera on the robot
+(``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward camera) renders its image
+when one is due. It returns the odometry reading, the scan and the images as records; the truth
+(robot, people, doors, furniture, collisions) is kept beside them for metrics only, and the whole
+sensor stream can be written as a CARMEN log.
 
 Deterministic for a seed: the crowd, the odometry, the laser and the objects each draw from their
 own generator spawned from one ``numpy.random.SeedSequence``.
@@ -17,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,7 +27,7 @@ from scipy import ndimage
 
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.objects import distance_to_segments
-from tourbot.records import Odometry, Record, RobotLog, Scan
+from tourbot.records import Image, Odometry, Record, RobotLog, Scan
 from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import Crowd, CrowdConfig
 from tourbot.sim.laser import LaserConfig, SimLaser
@@ -33,6 +36,9 @@ from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
 from tourbot.sim.robot import DiffDrive
 from tourbot.site.model import Site
 from tourbot.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
+
+if TYPE_CHECKING:
+    from tourbot.sim.camera import SimCamera
 
 __all__ = ["Collisions", "SimConfig", "Simulator"]
 
@@ -78,8 +84,10 @@ class Simulator:
         *,
         seed: int = 0,
         start: tuple[float, float, float] | None = None,
+        cameras: Sequence[SimCamera] = (),
     ) -> None:
         self.site = site
+        self.cameras: list[SimCamera] = list(cameras)
         self.config = cfg = config or SimConfig()
         self.name = f"sim:{site.name}"
         self.dt = cfg.dt
@@ -114,12 +122,14 @@ class Simulator:
         self._scan_every = max(1, round(1.0 / (cfg.laser_rate * cfg.dt)))
         self.collisions = Collisions()
         self._in_contact = {"person": False, "invisible": False, "static": False}
-        self.records: list[Record] = []
+        self.records: list[Scan | Odometry] = []
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
         self.people_history: list[NDArray[np.float64]] = []
         # per recorded scan: which beams returned from a visitor (ground truth for metrics)
         self.person_hit_history: list[NDArray[np.bool_]] = []
+        # per camera (``config.record``): the images it took
+        self.image_history: dict[str, list[Image]] = {}
         self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
 
     # -- DrivableSource ---------------------------------------------------------------------------
@@ -132,7 +142,7 @@ class Simulator:
         self.robot.command(speed, turn_rate)
 
     def poll(self) -> Sequence[Record] | None:
-        """Advance one step; the odometry reading and, at the laser rate, a scan."""
+        """Advance one step; the odometry reading, at the laser rate a scan, and the images due."""
         dt = self.dt
         before = self.robot.pose
         self._move_robot(dt)
@@ -167,8 +177,19 @@ class Simulator:
                 self.people_history.append(self.people_positions())
                 self.person_hit_history.append(self.laser.last_person_hits.copy())
                 self.objects_history.append((self.objects.door_states(), self.objects.furniture_states()))
+        if self.cameras:
+            people_now = self.people_positions()
+            for cam in self.cameras:
+                if cam.due(self._time):
+                    frame = cam.frame(self._time, self.robot.pose, people_now)
+                    image = Image(
+                        self._time, frame.image, camera=cam.name, odom=odom_pose, reference=self.robot.pose
+                    )
+                    out.append(image)
+                    if self.config.record:
+                        self.image_history.setdefault(cam.name, []).append(image)
         if self.config.record:
-            self.records.extend(out)
+            self.records.extend(r for r in out if not isinstance(r, Image))  # the log: no images
         return out
 
     def carry(self, pose: tuple[float, float, float]) -> None:
