@@ -14,6 +14,7 @@ from tourbot.localization.mcl import MCLConfig
 from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.runtime import RuntimeControlError
 from tourbot.runtime.animation import animate
+from tourbot.runtime.localizers import MCLLocalizer
 from tourbot.runtime.sinks import Recorder
 from tourbot.site import Site, SiteError, site_from_dict
 from tourbot.snapshot import NavMode
@@ -116,3 +117,33 @@ def test_a_standing_robot_carried_off_is_found_again(destination: tuple[float, f
     recovered = time_to_recover(robot, window=30.0)
     assert recovered is not None
     assert recovered <= 10.0
+
+
+def test_the_ceiling_camera_finds_a_robot_carried_off_in_a_crowd() -> None:
+    # Domus (asymmetric lights, Table I of Gamallo et al.), 40 visitors; the robot stands, is
+    # carried 5 m and left there: with the upward camera inside MCL it is found within
+    # seconds.
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    site = load_site(site_path("domus"))
+    start = site.exhibits[0].viewing_pose
+    fused = simulated_runtime(
+        site, SimulationSettings(crowd=40, seed=1, ceiling=True), start=start, record=False
+    )
+    rt = fused.runtime
+    while rt.source.time < 5.0:
+        rt.step()
+    assert fused.simulator.cameras[0].name == "ceiling"
+    assert isinstance(rt.localizer, MCLLocalizer)
+    assert rt.localizer.images == 5  # one image a second reached MCL
+    there = (start[0] + 5.0, start[1], start[2] + 1.0)
+    fused.simulator.carry(there)
+    recovered = time_to_recover(fused, window=20.0)
+    assert recovered is not None
+    assert recovered <= 2.5  # the laser alone takes 4.3 s here
+    assert rt.localizer.resets >= 1
+    with pytest.raises(Exception, match="ceiling lights"):
+        simulated_runtime(
+            site_from_dict(HALL, base_dir=Path(".")), SimulationSettings(crowd=0, ceiling=True), record=False
+        )

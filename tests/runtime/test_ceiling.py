@@ -25,7 +25,7 @@ def test_estimator_follows_odometry_between_images() -> None:
     assert isinstance(est, Estimator)
     assert isinstance(est, ImageEstimator)
     sim = CeilingCameraSim(site, cam, seed=0)
-    assert est.state().extra["ceiling"]["how"] == "lost"
+    assert est.state().extra["how"] == "lost"
     pose = np.array([0.0, -7.0, 0.0])
     est.on_odometry(Odometry(0.0, (10.0, 5.0, 1.0)))  # the odometry frame is not the map's
     st = est.on_image(Image(0.0, sim.frame(0.0, pose).image, camera="ceiling"))
@@ -35,7 +35,7 @@ def test_estimator_follows_odometry_between_images() -> None:
         est.on_odometry(
             Odometry(0.1 * k, (10.0 + 0.05 * k * math.cos(1.0), 5.0 + 0.05 * k * math.sin(1.0), 1.0))
         )
-    moved = est.state().extra["ceiling"]
+    moved = est.state().extra
     assert moved["images"] == 1
     # the tracker carries the pose by the odometry's motion until the next image
     assert abs(est.tracker.pose[0] - 0.5) < 0.05  # type: ignore[index]

@@ -2,7 +2,10 @@
 
 This is what ``tourbot demo``, ``tourbot bench sim`` and the web server (``tourbot serve``) run:
 the robot localizes with Monte Carlo localization on the site's static map (which knows nothing of
-the people, the doors' states or where the benches are now) and navigates on that estimate.
+the people, the doors' states or where the benches are now) and navigates on that estimate. With
+``ceiling=True`` the robot also carries the upward camera of Gamallo et al.: the simulator renders
+its images from the site's ceiling lights at 1 Hz and MCL weighs its samples with them
+(:class:`tourbot.ceiling.likelihood.CeilingSensor`).
 """
 
 from __future__ import annotations
@@ -53,6 +56,8 @@ class SimulationSettings:
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     speedup: float | None = None
+    # the upward ceiling camera, rendered and fused into MCL (the site needs ceiling lights)
+    ceiling: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
@@ -80,7 +85,20 @@ def simulated_runtime(
 
     s = settings or SimulationSettings()
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
-    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start)
+    ceiling = None
+    cameras = []
+    if s.ceiling:
+        import numpy as np
+
+        from tourbot.ceiling.likelihood import CeilingSensor
+        from tourbot.ceiling.rig import CeilingCamera
+        from tourbot.sim.camera import CeilingCameraSim
+
+        rig = CeilingCamera()
+        cameras.append(CeilingCameraSim(site, rig, seed=s.seed))  # an error if the site has no lights
+        lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
+        ceiling = CeilingSensor(rig, lights, site.grid, seed=s.seed)
+    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras)
     mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
     mcl.reset_tracking(simulator.robot.pose)
@@ -92,7 +110,7 @@ def simulated_runtime(
         all_sinks.append(recorder)
     runtime = Runtime(
         simulator,
-        MCLLocalizer(mcl, s.localization, seed=s.seed),
+        MCLLocalizer(mcl, s.localization, seed=s.seed, ceiling=ceiling),
         navigator=navigator,
         sinks=all_sinks,
         site=site.name,

@@ -13,6 +13,11 @@
   stability from frame to frame, blobs rejected at the rim, median time.
 - FHW's ceiling lights checked: heights, spacing, how many are seen from the free space, and what a
   regular grid does to global localization (hypotheses per image).
+- Fusion on FHW in the peak crowd (the simulator renders the camera; the robot tours on its
+  estimate): laser only (MCL), camera only (the ceiling tracker with odometry) and both (MCL that
+  weighs its samples by each image and takes the image's hypotheses into its recovery): failures
+  (error > 0.45 m), mean error, and the time to recover from a 5 m kidnap while touring and while
+  standing in the crowd (error within 0.3 m and 10 deg, held 3 s).
 
 Every figure is a mean over seeds with a 95 % confidence interval (Student t). Images are rendered
 by ``tourbot.sim.camera`` from the site's lights (truth for the metrics only); the localizer sees the
@@ -42,6 +47,7 @@ TARGET_MEAN_DEG = 1.0
 TARGET_MS = 30.0
 TARGET_TRACK_M = 0.05
 TARGET_KIDNAP_IMAGES = 2
+TARGET_FUSION_RECOVERY_S = 5.0
 #: The paper's figures (Sec. V): mean 0.53 m and 3 deg, at most 2.42 m and 15 deg, 300 ms.
 PAPER = {"mean_m": 0.53, "max_m": 2.42, "mean_deg": 3.0, "max_deg": 15.0, "ms": 300.0}
 
@@ -373,6 +379,9 @@ def _run_all(report: BenchReport, seeds: list[int], quick: bool, figure: Path) -
     # -- FHW -------------------------------------------------------------------------------------
     _fhw(report, seeds[:2] if quick else seeds, base)
 
+    # -- fusion on FHW ---------------------------------------------------------------------------
+    fusion_runs(report, seeds[:1] if quick else seeds, 15.0 if quick else 60.0)
+
     _plot(figure, runs[0], sens)
     report.meta["figure"] = str(figure)
 
@@ -485,6 +494,114 @@ def _fhw(report: BenchReport, seeds: list[int], base: Any) -> None:
         "translation-symmetric, so the ceiling alone cannot tell grid cells apart (global answers are "
         "ambiguous); tracking and the laser must."
     )
+
+
+@dataclass(frozen=True)
+class FusionRun:
+    """One seed's tour (errors per snapshot, m) and kidnap recoveries (s; None: not within 60 s)."""
+
+    laser: FloatArray
+    camera: FloatArray
+    both: FloatArray
+    kidnaps: dict[str, float | None]
+
+
+def fusion_seed(site: Any, mcl: Any, seed: int, duration: float) -> FusionRun:
+    """Laser only, camera only and both on one seed: a ``duration`` s tour in the peak crowd, then
+    a 5 m kidnap touring and standing for the laser alone and for both."""
+    from tourbot.app.demo import start_pose_for
+    from tourbot.app.simulated import SimulationSettings, simulated_runtime
+    from tourbot.bench.sim import _kidnap
+    from tourbot.ceiling.minimize import CeilingLocalizer
+    from tourbot.ceiling.rig import CeilingCamera
+    from tourbot.ceiling.tracking import CeilingTracker
+    from tourbot.runtime.ceiling import CeilingEstimator
+
+    tour = site.tours[0].name
+    start = start_pose_for(site, tour)
+    lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
+    errors: dict[str, list[float]] = {"laser": [], "camera": [], "both": []}
+    for fused in (False, True):
+        settings = SimulationSettings(crowd="peak", seed=seed, mcl=mcl, ceiling=fused)
+        robot = simulated_runtime(site, settings, start=start, record=False)
+        rt = robot.runtime
+        if fused:  # the camera alone rides along on the same images and odometry
+            rt.add_estimator(
+                CeilingEstimator(CeilingTracker(CeilingLocalizer(CeilingCamera(), lights, site.grid)))
+            )
+        rt.start_tour(tour)
+        while rt.source.time < duration:
+            snap = rt.step()
+            if snap is None:
+                break
+            if snap.position_error is not None:
+                errors["both" if fused else "laser"].append(snap.position_error)
+            cam = snap.estimators.get("ceiling", {}).get("pose") if fused else None
+            if fused and snap.truth is not None and snap.time >= 1.0:
+                t = snap.truth.pose
+                errors["camera"].append(math.inf if cam is None else math.hypot(cam[0] - t[0], cam[1] - t[1]))
+        rt.close()
+    kidnaps: dict[str, float | None] = {}
+    for fused in (False, True):
+        settings = SimulationSettings(crowd="peak", seed=seed, mcl=mcl, ceiling=fused)
+        for touring in (True, False):
+            k = _kidnap(
+                site, settings, start, tour if touring else None, 30.0 if touring else 20.0, 5.0, 5.0, 60.0
+            )
+            kidnaps[f"{'both' if fused else 'laser'} {'touring' if touring else 'standing'}"] = k.recovered
+    return FusionRun(
+        laser=np.asarray(errors["laser"]),
+        camera=np.asarray(errors["camera"]),
+        both=np.asarray(errors["both"]),
+        kidnaps=kidnaps,
+    )
+
+
+def fusion_runs(report: BenchReport, seeds: list[int], duration: float) -> None:
+    """The fusion experiment on FHW and on Domus (module docstring), over ``seeds``."""
+    report.meta["fusion"] = {name: _fusion_site(report, name, seeds, duration) for name in ("fhw", "domus")}
+
+
+def _fusion_site(report: BenchReport, name: str, seeds: list[int], duration: float) -> dict[str, Any]:
+    from tourbot.localization.profile import LocalizationProfile
+    from tourbot.metrics import failure_rate
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    site = load_site(site_path(name))
+    mcl = LocalizationProfile.for_site(site_path(name), None)[0].mcl
+    runs = [fusion_seed(site, mcl, s, duration) for s in seeds]
+    out: dict[str, Any] = {"seeds": seeds, "tour_seconds": duration, "methods": {}}
+    for method in ("laser", "camera", "both"):
+        errs = [getattr(r, method) for r in runs]
+        fail = mean_ci([100.0 * failure_rate(e) for e in errs])
+        mean = mean_ci(
+            [float(np.mean(e[np.isfinite(e)])) if np.isfinite(e).any() else math.nan for e in errs]
+        )
+        rec = [r.kidnaps.get(f"{method} {case}") for r in runs for case in ("touring", "standing")]
+        found = [x for x in rec if x is not None]
+        mean_s = float(np.mean(found)) if found else math.nan
+        kid = (
+            "kidnaps: see Fig. 15 (Domus) for the camera alone"
+            if method == "camera"
+            else f"{len(found)} of {len(rec)} kidnaps recovered, mean {mean_s:.1f} s, "
+            f"max {max(found) if found else math.nan:.1f} s"
+        )
+        out["methods"][method] = {"fail_pct": fail, "mean_m": mean, "kidnaps": rec}
+        report.add(
+            experiment=f"fusion, {name} peak crowd",
+            setting=f"{duration:g} s tour + 5 m kidnaps",
+            method={"laser": "laser only", "camera": "camera only", "both": "laser + camera"}[method],
+            **{"mean m": mean[0], "±": mean[1]},
+            other=f"failures {fail[0]:.1f} ± {fail[1]:.1f} %; {kid}",
+        )
+    ok = all(x is not None and x <= TARGET_FUSION_RECOVERY_S for x in out["methods"]["both"]["kidnaps"])
+    no_worse = out["methods"]["both"]["fail_pct"][0] <= out["methods"]["laser"]["fail_pct"][0]
+    report.notes.append(
+        f"Fusion on {name}: every kidnap recovered within {TARGET_FUSION_RECOVERY_S:g} s with both: "
+        f"{_verdict(ok)}; failures with both no higher than laser only: {_verdict(no_worse)}."
+    )
+    return out
 
 
 def _plot(path: Path, run: Run, sens: dict[str, list[tuple[float, float, float]]]) -> None:

@@ -8,18 +8,34 @@ of a pose is Alg. 2's accumulated error read as a Laplace law on the pixel dista
 left unexplained costs the association threshold (a robust, bounded penalty for visitors' heads,
 windows and spotlights). :func:`recovery_poses` turns the global hypotheses of an image into the
 candidate poses offered to MCL's recovery (``mcl.inject``).
+
+:class:`CeilingSensor` is the whole sensor for one image: the lights detected (Sec. III), the
+likelihood MCL weighs its samples with at the image's time (``mcl.weigh``), and the poses of the
+image's global hypotheses (Alg. 3) spread a little and offered to MCL's recovery. When two
+images in a row each give one unambiguous pose, consistent with each other through the odometry,
+and both lie farther than ``reset_distance`` from the robot's estimate, the sensor says so
+(:attr:`CeilingMeasurement.reset`): the track is wrong (a kidnap) and restarts there. A kidnapped
+robot among visitors, whose laser sees mostly people, then finds itself again from the ceiling;
+where the ceiling is symmetric (a regular grid of lights) no image is unambiguous, the hypotheses
+are offered to recovery and the laser must pick.
 """
 
 from __future__ import annotations
 
+import time
+from dataclasses import dataclass, field
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from tourbot.ceiling.detection import DetectionConfig, detect_lights
 from tourbot.ceiling.merit import merit_fast
-from tourbot.ceiling.minimize import Localization
+from tourbot.ceiling.minimize import CeilingLocalizer, Localization, LocalizerConfig
 from tourbot.ceiling.rig import CeilingCamera
+from tourbot.geometry import compose, relative, wrap_angle
+from tourbot.maps.grid import OccupancyGrid
 
-__all__ = ["CeilingLikelihood", "recovery_poses"]
+__all__ = ["CeilingLikelihood", "CeilingMeasurement", "CeilingSensor", "FusionConfig", "recovery_poses"]
 
 FloatArray = NDArray[np.float64]
 
@@ -53,3 +69,104 @@ class CeilingLikelihood:
 def recovery_poses(result: Localization) -> FloatArray:
     """The hypotheses of one image as candidate poses ``(M, 3)`` for MCL's ``inject``."""
     return np.array([h.pose for h in result.hypotheses], dtype=np.float64).reshape(-1, 3)
+
+
+@dataclass(frozen=True)
+class FusionConfig:
+    """The ceiling camera inside MCL.
+
+    ``threshold``/``scale``: the likelihood's association threshold and Laplace scale (pixels);
+    ``min_lights``: an image with fewer detected lights gives no global hypotheses (one or two
+    lights fit too many poses); ``offered``/``spread``: how many poses are offered to recovery
+    around each hypothesis, and their standard deviations (m, m, rad).
+    """
+
+    threshold: float = 25.0
+    scale: float = 5.0
+    min_lights: int = 3
+    offered: int = 10
+    spread: tuple[float, float, float] = (0.1, 0.1, 0.05)
+    reset_distance: float = 1.0
+    agreement: float = 0.3
+    detection: DetectionConfig = field(default_factory=DetectionConfig)
+    localizer: LocalizerConfig = field(default_factory=LocalizerConfig)
+
+    def __post_init__(self) -> None:
+        if self.min_lights < 1 or self.offered < 0 or min(self.spread) < 0:
+            raise ValueError("FusionConfig needs min_lights >= 1, offered >= 0 and spreads >= 0")
+
+
+@dataclass(frozen=True)
+class CeilingMeasurement:
+    """One image as MCL's sensor: the detected lights, the likelihood of poses, the hypotheses of
+    the image alone and the poses offered to recovery, and the seconds it took."""
+
+    detections: FloatArray
+    likelihood: CeilingLikelihood
+    hypotheses: Localization | None
+    offered: FloatArray
+    seconds: float
+    reset: FloatArray | None = None
+
+
+class CeilingSensor:
+    """The upward camera over a site's ceiling lights, as a second sensor of MCL."""
+
+    def __init__(
+        self,
+        camera: CeilingCamera,
+        lights: ArrayLike,
+        free_space: OccupancyGrid,
+        config: FusionConfig | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.camera = camera
+        self.config = cfg = config or FusionConfig()
+        self.lights = np.asarray(lights, dtype=np.float64).reshape(-1, 3)
+        self.localizer = CeilingLocalizer(camera, self.lights, free_space, cfg.localizer)
+        self._rng = np.random.default_rng([seed, 16])
+        self._fix: tuple[FloatArray, FloatArray] | None = None  # the last disagreeing fix, its odometry
+
+    def measure(
+        self, pixels: NDArray[np.uint8], estimate: ArrayLike | None = None, odom: ArrayLike | None = None
+    ) -> CeilingMeasurement:
+        """Detect the lights of one image; its likelihood, the poses it offers to recovery, and
+        whether the robot's ``estimate`` (at odometry pose ``odom``) must restart (module docstring)."""
+        t0 = time.perf_counter()
+        cfg = self.config
+        det = detect_lights(pixels, self.camera, cfg.detection).centroids
+        likelihood = CeilingLikelihood(self.camera, self.lights, cfg.threshold, cfg.scale)
+        likelihood.set_detections(det)
+        hypotheses: Localization | None = None
+        offered = np.zeros((0, 3))
+        if len(det) >= cfg.min_lights:
+            hypotheses = self.localizer.locate(det, self._rng)
+            centres = recovery_poses(hypotheses)
+            if len(centres) and cfg.offered:
+                noise = self._rng.normal(0.0, cfg.spread, (len(centres), cfg.offered, 3))
+                offered = (centres[:, None, :] + noise).reshape(-1, 3)
+                offered[:, 2] = wrap_angle(offered[:, 2])
+        reset = self._reset(hypotheses, estimate, odom)
+        return CeilingMeasurement(det, likelihood, hypotheses, offered, time.perf_counter() - t0, reset)
+
+    def _reset(
+        self, hyp: Localization | None, estimate: ArrayLike | None, odom: ArrayLike | None
+    ) -> FloatArray | None:
+        cfg = self.config
+        if hyp is None or hyp.best is None or hyp.ambiguous or estimate is None or odom is None:
+            self._fix = None
+            return None
+        fix = np.asarray(hyp.best.pose, dtype=np.float64)
+        est = np.asarray(estimate, dtype=np.float64).reshape(3)
+        o = np.asarray(odom, dtype=np.float64).reshape(3)
+        if np.hypot(*(fix[:2] - est[:2])) <= cfg.reset_distance:
+            self._fix = None
+            return None
+        previous, self._fix = self._fix, (fix, o)
+        if previous is None:
+            return None
+        carried = compose(previous[0], relative(previous[1], o))  # the last fix moved by the odometry
+        if np.hypot(*(carried[:2] - fix[:2])) > cfg.agreement:
+            return None
+        self._fix = None
+        return fix

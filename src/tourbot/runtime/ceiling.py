@@ -2,7 +2,7 @@
 
 It follows the wheel odometry from the runtime's records and corrects the pose with each image of
 the upward camera given to :meth:`CeilingEstimator.on_image` (light detection, then
-:class:`tourbot.ceiling.tracking.CeilingTracker`). Its estimate goes into the snapshot's ``extra``
+:class:`tourbot.ceiling.tracking.CeilingTracker`). Its estimate goes into the snapshot's ``estimators``
 under ``"ceiling"``: the pose, how it was obtained, and the hypotheses of an ambiguous image.
 """
 
@@ -48,4 +48,4 @@ class CeilingEstimator:
         out: dict[str, Any] = {"time": st.time, "pose": st.pose, "how": st.how, "images": self.images}
         if st.hypotheses is not None and st.hypotheses.ambiguous:
             out["hypotheses"] = [h.pose for h in st.hypotheses.hypotheses]
-        return EstimatorOutput(extra={"ceiling": out})
+        return EstimatorOutput(extra=out)

@@ -10,10 +10,11 @@ import numpy as np
 
 from tourbot.geometry import wrap_angle
 from tourbot.interfaces import PoseBelief
-from tourbot.records import Odometry, Scan
+from tourbot.records import Image, Odometry, Scan
 from tourbot.snapshot import PoseEstimate, SampleSummary
 
 if TYPE_CHECKING:
+    from tourbot.ceiling.likelihood import CeilingSensor
     from tourbot.localization.mcl import MonteCarloLocalization
 
 __all__ = ["MCLLocalizer", "UpdatePolicy"]
@@ -42,6 +43,12 @@ class MCLLocalizer:
     Each scan is integrated at its own odometry pose (``scan.odom``; the last odometry reading when
     a source gives none), under the :class:`UpdatePolicy`; between integrations the last belief
     stands. ``display_samples`` samples, drawn by weight, go to the snapshot.
+
+    With a ``ceiling`` sensor (:class:`tourbot.ceiling.likelihood.CeilingSensor`) it is an
+    ``ImageLocalizer``: each image of the upward camera weighs the samples at the image's own
+    odometry pose (``mcl.weigh``) and offers the image's global hypotheses to recovery
+    (``mcl.inject``); the next scan's update resamples and reports. Two unambiguous fixes far
+    from the estimate restart the track there (``mcl.reset_tracking``).
     """
 
     def __init__(
@@ -50,8 +57,12 @@ class MCLLocalizer:
         policy: UpdatePolicy | None = None,
         display_samples: int = 100,
         seed: int = 0,
+        ceiling: CeilingSensor | None = None,
     ) -> None:
         self.mcl = mcl
+        self.ceiling = ceiling
+        self.images = 0
+        self.resets = 0
         self.policy = policy or UpdatePolicy()
         self.display_samples = display_samples
         self._odom: tuple[float, float, float] | None = None
@@ -84,6 +95,26 @@ class MCLLocalizer:
 
     def on_odometry(self, odom: Odometry) -> None:
         self._odom = odom.pose
+
+    def on_image(self, image: Image) -> PoseBelief | None:
+        """An image of the upward camera (others are not for the localizer); the belief stands
+        until the next scan."""
+        if self.ceiling is None or image.camera != "ceiling" or self._belief is None:
+            return None
+        odom = image.odom if image.odom is not None else self._odom
+        if odom is None:
+            return None
+        est = self._belief.estimate
+        m = self.ceiling.measure(image.pixels, (est.x, est.y, est.theta), odom)
+        self.images += 1
+        if m.reset is not None:  # two unambiguous fixes far from the track: it was kidnapped
+            self.mcl.reset_tracking(m.reset)
+            self.resets += 1
+            return None
+        self.mcl.weigh(odom, m.likelihood)
+        if len(m.offered):
+            self.mcl.inject(m.offered)
+        return None
 
     def on_scan(self, scan: Scan) -> PoseBelief | None:
         odom = scan.odom if scan.odom is not None else self._odom

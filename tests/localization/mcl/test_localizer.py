@@ -305,6 +305,35 @@ def test_an_extra_likelihood_is_added_to_the_laser(room: OccupancyGrid) -> None:
     assert late.calls == 1
 
 
+def test_weigh_takes_a_measurement_at_its_own_time(room: OccupancyGrid) -> None:
+    # A beacon measured between two scans, at the odometry pose of its own time: the samples move
+    # there first, the weights take the beacon once, and the next scan's update resamples.
+    truth = waypoints_path(6)
+    drive = simulate(room, truth, seed=40)
+    mcl = MonteCarloLocalization(room, tuned(500, 500), seed=41)
+    mcl.reset_tracking(truth[0], np.diag([0.04, 0.04, 1e-3]))
+    mcl.update(drive.odom[0], drive.scans[0])
+    side = compose(truth[1], np.array([0.0, 0.3, 0.0]))
+    beacon = _Beacon(side, 0.05)
+    before = mcl.samples.copy()
+    mcl.weigh(drive.odom[1], beacon)
+    assert beacon.calls == 1
+    moved = np.hypot(*(np.average(mcl.samples[:, :2] - before[:, :2], axis=0)))
+    stepped = np.hypot(*(np.asarray(drive.odom[1])[:2] - np.asarray(drive.odom[0])[:2]))
+    assert abs(moved - stepped) < 0.05 * stepped  # the motion model carried the samples there
+    mean = np.average(mcl.samples[:, :2], axis=0, weights=mcl.weights)
+    assert np.hypot(*(mean - side[:2])) < 0.15  # pulled to the beacon
+    assert 1.0 / np.sum(mcl.weights**2) < 0.5 * len(mcl.weights)  # not yet resampled
+    mcl.update(drive.odom[1], drive.scans[1])
+    assert beacon.calls == 1  # once, not at every scan
+    fresh = MonteCarloLocalization(room, tuned(500, 500), seed=41)
+    fresh.reset_global()
+    fresh.weigh(drive.odom[0], beacon)  # a global start waits for its first scan
+    assert beacon.calls == 1
+    with pytest.raises(LocalizationError, match="reset"):
+        MonteCarloLocalization(room).weigh(drive.odom[0], beacon)
+
+
 def test_set_map_rebuilds_the_sensor_model(room: OccupancyGrid) -> None:
     # A door closes: a wall across the room's middle. The laser model of the new map sees it,
     # and the free space shrinks by the wall's cells.

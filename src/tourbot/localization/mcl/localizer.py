@@ -76,8 +76,9 @@ class MonteCarloLocalization:
     or ``mcl.reset_global()``, then ``mcl.update(odom_pose, scan)`` for each scan in order (the
     odometry pose at the scan's time). ``samples`` ``(N, 3)`` and ``weights`` ``(N,)`` are the
     belief; ``recovery`` its recovery state. Other sensors enter as ``extra_likelihoods``
-    (:class:`~tourbot.localization.mcl.sensor.PoseLikelihood`), a changed map by :meth:`set_map`,
-    candidate poses by :meth:`inject`.
+    (:class:`~tourbot.localization.mcl.sensor.PoseLikelihood`) added to every scan's weights, or
+    at their own times by :meth:`weigh`; a changed map by :meth:`set_map`, candidate poses by
+    :meth:`inject`.
     """
 
     def __init__(
@@ -118,6 +119,19 @@ class MonteCarloLocalization:
     def set_map(self, grid: OccupancyGrid) -> None:
         """Localize on ``grid`` from now on (doors, furniture in their estimated states)."""
         self.sensor.set_map(grid)
+
+    def weigh(self, odom_pose: ArrayLike, likelihood: PoseLikelihood) -> None:
+        """Another sensor's measurement at its own time (an image of the ceiling camera): the
+        samples move by the odometry to ``odom_pose`` (step 1) and their weights take
+        ``likelihood.log_likelihood`` (step 3, Bayes' rule as for a scan); the next scan's update
+        resamples. Ignored before the first scan of a global localization."""
+        if self.samples.shape[0] == 0:
+            raise LocalizationError("call reset_tracking(pose) or reset_global() before weigh()")
+        if self._global_start is not None:
+            return
+        self._predict(np.asarray(odom_pose, dtype=np.float64).reshape(3))
+        loglik = np.asarray(likelihood.log_likelihood(self.samples), dtype=np.float64).reshape(-1)
+        self._reweigh(np.log(np.maximum(self.weights, 1e-300)) + loglik)
 
     def inject(self, poses: ArrayLike) -> None:
         """Offer candidate poses ``(M, 3)`` to recovery: at the next update those in free space
