@@ -255,3 +255,72 @@ def test_localize_refuses_sparse_odometry_and_no_motion(
     with pytest.raises(SystemExit):
         _localize(tmp_path / "still.log", room, tmp_path / "t.tum")
     assert "the odometry does not move" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def domus_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, Path, np.ndarray]:
+    """An 8 s drive through the Domus hall with the upward camera."""
+    from tourbot.ceiling.rig import CeilingCamera
+    from tourbot.io.images import write_image_stream
+    from tourbot.sim.camera import CeilingCameraSim
+    from tourbot.sim.simulator import SimConfig, Simulator
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    root = tmp_path_factory.mktemp("ceiling")
+    site = load_site(site_path("domus"))
+    sim = Simulator(
+        site,
+        SimConfig(record=True),
+        seed=5,
+        start=(-4.0, -7.0, 0.0),
+        cameras=[CeilingCameraSim(site, CeilingCamera(), seed=5)],
+    )
+    sim.command(0.3, 0.0)
+    for _ in range(80):
+        sim.poll()
+    write_carmen(sim.to_robot_log(), root / "domus.log")
+    write_map(site.grid, root / "domus.yaml")
+    images = sim.image_history["ceiling"]
+    write_image_stream(root / "domus.ceiling.npz", [i.timestamp for i in images], [i.pixels for i in images])
+    return root / "domus.log", root / "domus.yaml", root / "domus.ceiling.npz", np.array(sim.truth_poses)
+
+
+def test_localize_fuses_the_ceiling_camera(
+    domus_run: tuple[Path, Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # (a kidnapped robot found again from the ceiling: tests/app/test_simulated.py)
+    log, room, images, truth = domus_run
+    out = tmp_path / "fused.tum"
+    camera = ["--camera", str(images), "--site", "domus", "--particles", "300"]
+    main(["localize", str(log), "--map", str(room), "--start-from-reference", *camera, "-o", str(out)])
+    _, poses = read_tum(out)
+    said = " ".join(capsys.readouterr().err.split())
+    # 8 images at 0.1, 1.1, ... 7.1 s; the first comes with the first scan, before any estimate
+    assert "ceiling camera: 7 images fused (0 restarts of the track from the ceiling)" in said, said
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.2
+
+
+def test_localize_camera_input_errors(
+    domus_run: tuple[Path, Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tourbot.io.images import write_image_stream
+
+    log, room, images, _ = domus_run
+    base = ["localize", str(log), "--map", str(room), "--start-from-reference", "-o", str(tmp_path / "t.tum")]
+    small = tmp_path / "small.npz"
+    write_image_stream(small, [0.5], [np.zeros((10, 20), dtype=np.uint8)])
+    cases = [
+        (["--camera", str(images)], "--camera needs --site"),
+        (["--site", "domus"], "give --camera too"),
+        (["--camera", str(images), "--site", "domus", "--method", "grid"], "use --method mcl"),
+        (["--camera", str(small), "--site", "domus"], "calibration is for 480 rows x 640 columns"),
+        (["--camera", str(tmp_path / "none.npz"), "--site", "domus"], "none.npz"),
+    ]
+    for extra, message in cases:
+        with pytest.raises(SystemExit) as exc:
+            main([*base, *extra])
+        assert exc.value.code == 2
+        said = capsys.readouterr().err
+        assert message in said, said
+        assert len(said.strip().splitlines()) == 1  # one line, no traceback

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -109,6 +110,19 @@ class CeilingMeasurement:
     reset: FloatArray | None = None
 
 
+class FusedFilter(Protocol):
+    """What :meth:`CeilingSensor.fuse` needs of Monte Carlo localization (its seams)."""
+
+    @property
+    def last_estimate(self) -> Any: ...
+
+    def weigh(self, odom_pose: ArrayLike, likelihood: CeilingLikelihood) -> None: ...
+
+    def inject(self, poses: ArrayLike) -> None: ...
+
+    def reset_tracking(self, pose: ArrayLike, cov: ArrayLike | None = None) -> None: ...
+
+
 class CeilingSensor:
     """The upward camera over a site's ceiling lights, as a second sensor of MCL."""
 
@@ -148,6 +162,19 @@ class CeilingSensor:
                 offered[:, 2] = wrap_angle(offered[:, 2])
         reset = self._reset(hypotheses, estimate, odom)
         return CeilingMeasurement(det, likelihood, hypotheses, offered, time.perf_counter() - t0, reset)
+
+    def fuse(self, mcl: FusedFilter, pixels: NDArray[np.uint8], odom: ArrayLike) -> CeilingMeasurement:
+        """One image into ``mcl`` at odometry pose ``odom``: restart the track at the camera's fix
+        when it was kidnapped, else weigh the samples and offer the image's hypotheses."""
+        est = mcl.last_estimate
+        m = self.measure(pixels, None if est is None else est.pose, odom)
+        if m.reset is not None:
+            mcl.reset_tracking(m.reset)
+            return m
+        mcl.weigh(odom, m.likelihood)
+        if len(m.offered):
+            mcl.inject(m.offered)
+        return m
 
     def _reset(
         self, hyp: Localization | None, estimate: ArrayLike | None, odom: ArrayLike | None

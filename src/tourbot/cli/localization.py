@@ -7,7 +7,7 @@ import math
 import time
 from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Protocol
+from typing import TYPE_CHECKING, Annotated, Any, Protocol
 
 import typer
 
@@ -106,6 +106,20 @@ def register(app: typer.Typer) -> None:
         ] = True,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
         mcap: McapOpt = None,
+        camera: Annotated[
+            Path | None,
+            typer.Option(
+                "--camera",
+                help="Upward ceiling-camera images (an image stream .npz, as `simulate --camera ceiling` "
+                "writes) fused into MCL; needs --site for the ceiling lights.",
+            ),
+        ] = None,
+        site: Annotated[
+            str | None,
+            typer.Option(
+                "--site", help="With --camera: the site (name or file) whose ceiling lights are seen."
+            ),
+        ] = None,
         force: ForceOpt = False,
         keep_partial: Annotated[
             bool,
@@ -148,6 +162,7 @@ def register(app: typer.Typer) -> None:
 
             check_mcap_output(mcap, force=force)
         profile = LocalizationProfile.load(config)
+        ceiling = _ceiling_images(camera, site, method)
         console = Console(stderr=True)
         with console.status(f"reading {log}"):
             robot_log = load_log(log, odometry=odometry_stream.value)
@@ -186,6 +201,7 @@ def register(app: typer.Typer) -> None:
 
         if method == Method.GRID:
             _prepare_grid(localizer, robot_log.scans[0].geometry.max_range, table_cache, cache_table, console)
+        fuse = None if ceiling is None else _ImageFeed(ceiling, grid, robot_log, seed)
 
         poses = np.zeros((len(robot_log.scans), 3))
         used = np.zeros(len(robot_log.scans))
@@ -201,6 +217,8 @@ def register(app: typer.Typer) -> None:
                     run.write_map(grid, float(times[0]))
                 for i, scan in enumerate(robot_log.scans):
                     assert scan.odom is not None
+                    if fuse is not None:
+                        fuse.until(scan.timestamp, localizer)
                     est = localizer.update(scan.odom, scan)
                     if run is not None:
                         _record(run, scan, scan.odom, est, localizer)
@@ -226,6 +244,12 @@ def register(app: typer.Typer) -> None:
             f"{100 * used.mean():.0f}% of the beams integrated",
             highlight=False,
         )
+        if fuse is not None:
+            console.print(
+                f"ceiling camera: {fuse.used} images fused ({fuse.resets} restarts of the track from "
+                f"the ceiling), {fuse.outside} outside the log's time span ignored",
+                highlight=False,
+            )
         if robot_log.has_reference:
             from tourbot.metrics import failure_rate, pose_errors
 
@@ -237,6 +261,81 @@ def register(app: typer.Typer) -> None:
                 f"{100 * failure_rate(err):.2f}% of scans > 45 cm off",
                 highlight=False,
             )
+
+
+def _ceiling_images(camera: Path | None, site: str | None, method: Method) -> tuple[Any, Any, Any] | None:
+    """``--camera`` and ``--site`` checked before any work: (the images' times, the images, the site)."""
+    from tourbot.errors import InputError
+
+    if camera is None:
+        if site is not None:
+            raise InputError("--site gives the ceiling lights of --camera: give --camera too", field="--site")
+        return None
+    if method != Method.MCL:
+        raise InputError(
+            "the ceiling camera is fused into Monte Carlo localization: use --method mcl", field="--camera"
+        )
+    if site is None:
+        raise InputError(
+            "--camera needs --site: the site whose ceiling lights the camera sees", field="--site"
+        )
+    from tourbot.io.images import read_image_stream
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    the_site = load_site(site_path(site))
+    if not the_site.ceiling_lights:
+        raise InputError(
+            f"site {the_site.name!r} has no ceiling lights", path=site_path(site), field="ceiling_lights"
+        )
+    times, images = read_image_stream(camera)
+    from tourbot.ceiling.rig import CeilingCamera
+
+    rig = CeilingCamera()
+    if images.ndim != 3 or images.shape[1:] != (rig.height, rig.width):
+        raise InputError(
+            f"images of shape {tuple(images.shape[1:])}; the camera's calibration is for "
+            f"{rig.height} rows x {rig.width} columns",
+            path=camera,
+            field="images",
+        )
+    return times, images, the_site
+
+
+class _ImageFeed:
+    """The ``--camera`` images fed to MCL in time order, each at the odometry of its own time."""
+
+    def __init__(self, ceiling: tuple[Any, Any, Any], grid: Any, log: Any, seed: int) -> None:
+        import numpy as np
+
+        from tourbot.ceiling.likelihood import CeilingSensor
+        from tourbot.ceiling.rig import CeilingCamera
+        from tourbot.io._interp import interpolate_poses
+
+        times, self.images, site = ceiling
+        lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
+        self.sensor = CeilingSensor(CeilingCamera(), lights, grid, seed=seed)
+        scan_t = np.asarray(log.times, dtype=np.float64)
+        inside = (times >= scan_t[0]) & (times <= scan_t[-1])
+        self.outside = int((~inside).sum())
+        self.order = np.flatnonzero(inside)[np.argsort(times[inside], kind="stable")]
+        self.times = times
+        odom = np.array([s.odom for s in log.scans], dtype=np.float64)
+        self.odom = interpolate_poses(scan_t, odom, times)
+        self._next = 0
+        self.used = 0
+        self.resets = 0
+
+    def until(self, t: float, mcl: Any) -> None:
+        """Fuse every image taken up to time ``t`` (before the scan of that time)."""
+        while self._next < len(self.order) and self.times[self.order[self._next]] <= t:
+            k = self.order[self._next]
+            self._next += 1
+            if mcl.last_estimate is None:
+                continue  # the first scan comes first
+            m = self.sensor.fuse(mcl, self.images[k], self.odom[k])
+            self.used += 1
+            self.resets += m.reset is not None
 
 
 def _mcap_run(path: Path | None) -> AbstractContextManager[McapRun | None]:

@@ -104,16 +104,9 @@ class MCLLocalizer:
         odom = image.odom if image.odom is not None else self._odom
         if odom is None:
             return None
-        est = self._belief.estimate
-        m = self.ceiling.measure(image.pixels, (est.x, est.y, est.theta), odom)
+        m = self.ceiling.fuse(self.mcl, image.pixels, odom)
         self.images += 1
-        if m.reset is not None:  # two unambiguous fixes far from the track: it was kidnapped
-            self.mcl.reset_tracking(m.reset)
-            self.resets += 1
-            return None
-        self.mcl.weigh(odom, m.likelihood)
-        if len(m.offered):
-            self.mcl.inject(m.offered)
+        self.resets += m.reset is not None  # two unambiguous fixes far from the track: a kidnap
         return None
 
     def on_scan(self, scan: Scan) -> PoseBelief | None:
