@@ -292,13 +292,27 @@ def test_localize_fuses_the_ceiling_camera(
     # (a kidnapped robot found again from the ceiling: tests/app/test_simulated.py)
     log, room, images, truth = domus_run
     out = tmp_path / "fused.tum"
-    camera = ["--camera", str(images), "--site", "domus", "--particles", "300"]
+    camera = [
+        "--camera",
+        str(images),
+        "--site",
+        "domus",
+        "--particles",
+        "300",
+        "--mcap",
+        str(tmp_path / "r.mcap"),
+    ]
     main(["localize", str(log), "--map", str(room), "--start-from-reference", *camera, "-o", str(out)])
     _, poses = read_tum(out)
     said = " ".join(capsys.readouterr().err.split())
     # 8 images at 0.1, 1.1, ... 7.1 s; the first comes with the first scan, before any estimate
     assert "ceiling camera: 7 images fused (0 restarts of the track from the ceiling)" in said, said
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.2
+    from tourbot.io.images import read_camera_images
+
+    # the MCAP holds every image (also the first, given before any estimate) on /ceiling/image
+    times, _ = read_camera_images(tmp_path / "r.mcap")
+    assert len(times) == 8
 
 
 def test_localize_camera_input_errors(

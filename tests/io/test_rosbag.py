@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -217,3 +218,138 @@ def test_odometry_from_tf(tmp_path: Path) -> None:
     assert [s.odom for s in log.scans] == [pytest.approx((0.25, 0.0, 0.0)), pytest.approx((1.25, 0.0, 0.0))]
     # the base_link -> laser transform is the laser's mount
     assert log.scans[0].geometry.offset == (0.2, 0.0, 0.0)
+
+
+def _write_camera_bag(path: Path, messages: list[tuple[str, float, Any]]) -> None:
+    """A ROS 1 bag with camera topics: (topic, time, message fields) in writing order."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    t: Any = store.types
+    conns: dict[str, Any] = {}
+    with Writer(path) as writer:
+        for topic, time, fields in messages:
+            kind = "sensor_msgs/msg/CompressedImage" if "format" in fields else "sensor_msgs/msg/Image"
+            if topic not in conns:
+                conns[topic] = writer.add_connection(topic, kind, typestore=store)
+            stamp = t["builtin_interfaces/msg/Time"](sec=int(time), nanosec=round((time % 1) * 1e9))
+            header = t["std_msgs/msg/Header"](seq=0, stamp=stamp, frame_id="camera")
+            msg = t[kind](header=header, **fields)
+            writer.write(conns[topic], int(time * 1e9), store.serialize_ros1(msg, kind))
+
+
+def test_camera_images_from_a_ros1_bag_raw_and_compressed(tmp_path: Path) -> None:
+    import cv2
+
+    from tourbot.io.rosbag import read_bag_images
+
+    grey = np.arange(12, dtype=np.uint8).reshape(3, 4) * 20
+    rgb = np.stack([grey, grey, grey], axis=-1)
+    padded = np.zeros((3, 16), dtype=np.uint8)  # rows padded to a step of 16 bytes
+    padded[:, :12] = rgb.reshape(3, 12)
+    wide = (grey.astype(np.uint16) << 8) | 7  # mono16, little-endian
+    ok, png = cv2.imencode(".png", grey)
+    assert ok
+    raw = [
+        (
+            "/ceiling/image",
+            2.0,
+            {
+                "height": 3,
+                "width": 4,
+                "encoding": "rgb8",
+                "is_bigendian": 0,
+                "step": 16,
+                "data": padded.reshape(-1),
+            },
+        ),
+        (
+            "/ceiling/image",
+            1.0,
+            {
+                "height": 3,
+                "width": 4,
+                "encoding": "mono8",
+                "is_bigendian": 0,
+                "step": 4,
+                "data": grey.reshape(-1),
+            },
+        ),
+        (
+            "/ceiling/image",
+            3.0,
+            {
+                "height": 3,
+                "width": 4,
+                "encoding": "mono16",
+                "is_bigendian": 0,
+                "step": 8,
+                "data": wide.astype("<u2").view(np.uint8).reshape(-1),
+            },
+        ),
+        ("/front/compressed", 1.5, {"format": "png", "data": np.frombuffer(png.tobytes(), dtype=np.uint8)}),
+    ]
+    path = tmp_path / "camera.bag"
+    _write_camera_bag(path, raw)
+    times, images = read_bag_images(path, "/ceiling/image")
+    assert times.tolist() == [1.0, 2.0, 3.0]  # in time order
+    assert images.shape == (3, 3, 4)
+    for img in images:
+        assert np.abs(img.astype(int) - grey).max() <= 1  # the same picture in every encoding
+    t2, png_images = read_bag_images(path, "front/compressed")
+    assert t2.tolist() == [1.5]
+    assert np.array_equal(png_images[0], grey)
+    with pytest.raises(BagError, match="no camera topic named '/scan'"):
+        read_bag_images(path, "/scan")
+
+
+def test_camera_images_bad_encoding_and_sizes_are_named(tmp_path: Path) -> None:
+    from tourbot.io.rosbag import read_bag_images
+
+    one = {
+        "height": 2,
+        "width": 2,
+        "encoding": "mono8",
+        "is_bigendian": 0,
+        "step": 2,
+        "data": np.zeros(4, np.uint8),
+    }
+    bayer = {**one, "encoding": "bayer_rggb8"}
+    bigger = {
+        "height": 2,
+        "width": 3,
+        "encoding": "mono8",
+        "is_bigendian": 0,
+        "step": 3,
+        "data": np.zeros(6, np.uint8),
+    }
+    short = {**one, "data": np.zeros(3, np.uint8)}
+    for name, second, message in [
+        ("bayer", bayer, "message 1: encoding 'bayer_rggb8'"),
+        ("bigger", bigger, "message 1 is 3x2, the first was 2x2"),
+        ("short", short, "message 1: 3 bytes for 2x2 mono8"),
+    ]:
+        path = tmp_path / f"{name}.bag"
+        _write_camera_bag(path, [("/cam", 1.0, one), ("/cam", 2.0, second)])
+        with pytest.raises(BagError, match=re.escape(message)):
+            read_bag_images(path)
+    _write_ros2(tmp_path / "nocam", scans=1, odoms=1)
+    with pytest.raises(BagError, match="no camera topic"):
+        read_bag_images(tmp_path / "nocam")
+
+
+def test_mcap_run_images_read_back(tmp_path: Path) -> None:
+    from tourbot.io.images import read_camera_images
+    from tourbot.io.mcap_out import McapRun
+    from tourbot.records import Image
+
+    pixels = np.arange(12, dtype=np.uint8).reshape(3, 4)
+    with McapRun(tmp_path / "run.mcap") as run:
+        run.write_image(Image(1.5, pixels, camera="ceiling"))
+        run.write_image(Image(2.5, pixels + 1, camera="ceiling"))
+        with pytest.raises(ValueError, match="no MCAP channel for camera 'forward'"):
+            run.write_image(Image(2.5, pixels, camera="forward"))
+    times, images = read_camera_images(tmp_path / "run.mcap")
+    assert times.tolist() == [1.5, 2.5]
+    assert np.array_equal(images[1], pixels + 1)

@@ -110,8 +110,8 @@ def register(app: typer.Typer) -> None:
             Path | None,
             typer.Option(
                 "--camera",
-                help="Upward ceiling-camera images (an image stream .npz, as `simulate --camera ceiling` "
-                "writes) fused into MCL; needs --site for the ceiling lights.",
+                help="Upward ceiling-camera images fused into MCL: an image stream .npz (as `simulate "
+                "--camera ceiling` writes) or a ROS bag's camera topic; needs --site for the ceiling lights.",
             ),
         ] = None,
         site: Annotated[
@@ -218,7 +218,7 @@ def register(app: typer.Typer) -> None:
                 for i, scan in enumerate(robot_log.scans):
                     assert scan.odom is not None
                     if fuse is not None:
-                        fuse.until(scan.timestamp, localizer)
+                        fuse.until(scan.timestamp, localizer, run)
                     est = localizer.update(scan.odom, scan)
                     if run is not None:
                         _record(run, scan, scan.odom, est, localizer)
@@ -279,7 +279,7 @@ def _ceiling_images(camera: Path | None, site: str | None, method: Method) -> tu
         raise InputError(
             "--camera needs --site: the site whose ceiling lights the camera sees", field="--site"
         )
-    from tourbot.io.images import read_image_stream
+    from tourbot.io.images import read_camera_images
     from tourbot.site.default import site_path
     from tourbot.site.model import load_site
 
@@ -288,7 +288,7 @@ def _ceiling_images(camera: Path | None, site: str | None, method: Method) -> tu
         raise InputError(
             f"site {the_site.name!r} has no ceiling lights", path=site_path(site), field="ceiling_lights"
         )
-    times, images = read_image_stream(camera)
+    times, images = read_camera_images(camera)
     from tourbot.ceiling.rig import CeilingCamera
 
     rig = CeilingCamera()
@@ -326,11 +326,15 @@ class _ImageFeed:
         self.used = 0
         self.resets = 0
 
-    def until(self, t: float, mcl: Any) -> None:
-        """Fuse every image taken up to time ``t`` (before the scan of that time)."""
+    def until(self, t: float, mcl: Any, run: McapRun | None) -> None:
+        """Fuse every image taken up to time ``t`` (before the scan of that time); into ``run`` too."""
         while self._next < len(self.order) and self.times[self.order[self._next]] <= t:
             k = self.order[self._next]
             self._next += 1
+            if run is not None:
+                from tourbot.records import Image
+
+                run.write_image(Image(float(self.times[k]), self.images[k], camera="ceiling"))
             if mcl.last_estimate is None:
                 continue  # the first scan comes first
             m = self.sensor.fuse(mcl, self.images[k], self.odom[k])

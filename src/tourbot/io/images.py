@@ -11,7 +11,14 @@ from numpy.typing import NDArray
 from tourbot.errors import InputError
 from tourbot.io.output import output_file
 
-__all__ = ["read_gray_image", "read_image_stream", "read_raw_frames", "write_image_stream", "write_png"]
+__all__ = [
+    "read_camera_images",
+    "read_gray_image",
+    "read_image_stream",
+    "read_raw_frames",
+    "write_image_stream",
+    "write_png",
+]
 
 
 def read_raw_frames(path: str | Path, width: int, height: int) -> NDArray[np.uint8]:
@@ -84,3 +91,18 @@ def read_image_stream(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np
     if images.dtype != np.uint8 or len(times) != len(images):
         raise InputError("an image stream needs one 8-bit image per timestamp", path=p, field="images")
     return times, images
+
+
+def read_camera_images(
+    path: str | Path, topic: str | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
+    """A camera's images with their times from a sidecar image stream (``.npz``) or a ROS 1 / ROS 2
+    bag (``sensor_msgs/Image`` or ``CompressedImage``, ``topic`` or the one camera topic)."""
+    p = Path(path)
+    if p.suffix == ".npz":
+        if topic is not None:
+            raise InputError("an image stream holds one camera: no topic to choose", path=p, field="topic")
+        return read_image_stream(p)
+    from tourbot.io.rosbag import read_bag_images
+
+    return read_bag_images(p, topic)

@@ -19,7 +19,9 @@ messages are CDR-serialized with the ROS 2 Humble type store of ``rosbags.typesy
   poses, evenly spaced through the sample set;
 - ``/beams`` ``visualization_msgs/msg/MarkerArray``: the end points of the beams the localizer
   integrated (namespace ``integrated``, green) and of the in-range beams it rejected (namespace
-  ``rejected``, red), as ``POINTS`` markers in frame ``laser``.
+  ``rejected``, red), as ``POINTS`` markers in frame ``laser``;
+- ``/ceiling/image`` ``sensor_msgs/msg/Image`` (``mono8``, frame ``ceiling_camera``): the upward
+  camera's images, where the run has them.
 
 Times are the log's own (seconds, written as integer nanoseconds). The file is written whole or
 not at all: the bag is written into a temporary folder beside the target and its ``.mcap`` renamed
@@ -45,7 +47,7 @@ from tourbot.errors import InputError
 from tourbot.geometry import compose, invert
 from tourbot.io.output import check_output, partial_name
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.records import Scan
+from tourbot.records import Image, Scan
 
 __all__ = ["MAX_PARTICLES", "TOPICS", "McapRun", "check_mcap_output", "grid_cells"]
 
@@ -61,6 +63,7 @@ TOPICS: Final[dict[str, str]] = {
     "/estimate": "geometry_msgs/msg/PoseWithCovarianceStamped",
     "/particles": "geometry_msgs/msg/PoseArray",
     "/beams": "visualization_msgs/msg/MarkerArray",
+    "/ceiling/image": "sensor_msgs/msg/Image",
 }
 
 _STORE = get_typestore(Stores.ROS2_HUMBLE)
@@ -227,6 +230,27 @@ class McapRun:
         )
         self._write("/scan", stamp, msg)
         self._tf(stamp, "base_link", "laser", g.offset)
+
+    def write_image(self, image: Image) -> None:
+        """``/<camera>/image`` (``mono8``): one 8-bit grey image of the camera named in the record."""
+        pixels = np.ascontiguousarray(image.pixels, dtype=np.uint8)
+        if pixels.ndim != 2:
+            raise ValueError("write_image takes 8-bit grey images (height, width)")
+        topic = f"/{image.camera}/image"
+        if topic not in TOPICS:
+            raise ValueError(f"no MCAP channel for camera {image.camera!r} (channels: {', '.join(TOPICS)})")
+        stamp = _ns(image.timestamp)
+        h, w = pixels.shape
+        msg = self._types["sensor_msgs/msg/Image"](
+            header=self._header(stamp, f"{image.camera}_camera"),
+            height=h,
+            width=w,
+            encoding="mono8",
+            is_bigendian=0,
+            step=w,
+            data=pixels.reshape(-1),
+        )
+        self._write(topic, stamp, msg)
 
     def write_odometry(self, odom_pose: ArrayLike, timestamp: float) -> None:
         """``/odom`` (the odometry pose, no twist) and the ``odom -> base_link`` transform."""

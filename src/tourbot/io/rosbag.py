@@ -5,7 +5,9 @@
 gives each scan the odometry interpolated at its header time. Ranges follow REP 117: ``+inf`` and
 NaN mean "no return" and become the laser's ``range_max``; ``-inf`` ("too close") becomes 0, below
 ``range_min``. ``read_pose_arrays`` reads ``geometry_msgs/PoseArray`` topics such as the annotated
-``/leg_cluster_positions`` of the leg_tracker bags.
+``/leg_cluster_positions`` of the leg_tracker bags. ``read_bag_images`` reads a camera's
+``sensor_msgs/Image`` (``mono8``, ``mono16``, ``rgb8``, ``bgr8``, ``rgba8``, ``bgra8``) or
+``sensor_msgs/CompressedImage`` (PNG, JPEG) topic as 8-bit grey images with their header times.
 """
 
 from __future__ import annotations
@@ -24,12 +26,14 @@ from tourbot.io._interp import interpolate_poses
 from tourbot.io.errors import BagError
 from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan
 
-__all__ = ["bag_topics", "read_bag", "read_pose_arrays"]
+__all__ = ["bag_topics", "read_bag", "read_bag_images", "read_pose_arrays"]
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 ODOMETRY = "nav_msgs/msg/Odometry"
 TF = "tf2_msgs/msg/TFMessage"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+IMAGE = "sensor_msgs/msg/Image"
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 _BASE_FRAMES = ("base_link", "base_footprint")
 
@@ -283,3 +287,77 @@ def read_pose_arrays(path: str | Path, topic: str) -> list[tuple[float, NDArray[
                 t = 1e-9 * bag_ns
         out.append((t, xy))
     return out
+
+
+def read_bag_images(
+    path: str | Path, topic: str | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.uint8]]:
+    """The images ``(N, H, W)`` 8-bit grey of a camera topic and their times ``(N,)`` (header stamps),
+    in time order. Without ``topic``: the one ``Image`` or ``CompressedImage`` topic with the most
+    messages. Every image must have the same size."""
+    p = Path(path)
+    topics = bag_topics(p)
+    cameras = {t: n for t, (k, n) in topics.items() if k in (IMAGE, COMPRESSED_IMAGE)}
+    if topic is not None:
+        names = {topic, "/" + topic.lstrip("/")}
+        cameras = {t: n for t, n in cameras.items() if t in names}
+    if not cameras:
+        named = f" named {topic!r}" if topic else ""
+        raise BagError(
+            f"no camera topic{named} (sensor_msgs/Image or CompressedImage; topics: {_describe(topics)})",
+            path=p,
+        )
+    found = max(cameras, key=lambda t: (cameras[t], t))
+    times: list[float] = []
+    images: list[NDArray[np.uint8]] = []
+    with _open(p) as reader:
+        conns = [c for c in reader.connections if c.topic == found]
+        for k, (conn, bag_ns, raw) in enumerate(reader.messages(connections=conns)):
+            msg = reader.deserialize(raw, conn.msgtype)
+            image = _grey(msg, conn.msgtype, p, f"{found} message {k}")
+            if images and image.shape != images[0].shape:
+                raise BagError(
+                    f"{found} message {k} is {image.shape[1]}x{image.shape[0]}, the first was "
+                    f"{images[0].shape[1]}x{images[0].shape[0]}",
+                    path=p,
+                )
+            times.append(_stamp(msg.header, bag_ns))
+            images.append(image)
+    order = np.argsort(np.array(times), kind="stable")
+    stack = np.stack(images)[order] if images else np.zeros((0, 0, 0), dtype=np.uint8)
+    return np.asarray(times, dtype=np.float64)[order], stack
+
+
+_CHANNELS = {"mono8": 1, "mono16": 1, "rgb8": 3, "bgr8": 3, "rgba8": 4, "bgra8": 4}
+
+
+def _grey(msg: Any, msgtype: str, path: Path, where: str) -> NDArray[np.uint8]:
+    import cv2
+
+    if msgtype == COMPRESSED_IMAGE:
+        img = cv2.imdecode(np.asarray(msg.data, dtype=np.uint8), cv2.IMREAD_GRAYSCALE)
+        if img is None:
+            raise BagError(f"{where}: not a PNG or JPEG image (format {msg.format!r})", path=path)
+        return np.asarray(img, dtype=np.uint8)
+    enc = str(msg.encoding).lower()
+    if enc not in _CHANNELS:
+        raise BagError(f"{where}: encoding {msg.encoding!r} is not one of {', '.join(_CHANNELS)}", path=path)
+    depth = 2 if enc == "mono16" else 1
+    h, w, step, ch = int(msg.height), int(msg.width), int(msg.step), _CHANNELS[enc]
+    data = np.asarray(msg.data, dtype=np.uint8)
+    if step < w * ch * depth or data.size < h * step:
+        raise BagError(f"{where}: {data.size} bytes for {w}x{h} {enc} with step {step}", path=path)
+    rows = data[: h * step].reshape(h, step)[:, : w * ch * depth]
+    if depth == 2:
+        big = bool(msg.is_bigendian)
+        return (rows.view(">u2" if big else "<u2").reshape(h, w) >> 8).astype(np.uint8)
+    pixels = rows.reshape(h, w, ch)
+    if ch == 1:
+        return np.ascontiguousarray(pixels[:, :, 0])
+    code = {
+        "rgb8": cv2.COLOR_RGB2GRAY,
+        "bgr8": cv2.COLOR_BGR2GRAY,
+        "rgba8": cv2.COLOR_RGBA2GRAY,
+        "bgra8": cv2.COLOR_BGRA2GRAY,
+    }[enc]
+    return np.asarray(cv2.cvtColor(np.ascontiguousarray(pixels), code), dtype=np.uint8)
