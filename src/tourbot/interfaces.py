@@ -44,6 +44,7 @@ __all__ = [
     "Localizer",
     "Navigator",
     "PoseBelief",
+    "RecordSink",
     "ScanShare",
     "Sink",
     "Source",
@@ -169,6 +170,14 @@ class Sink(Protocol):
     def on_snapshot(self, snapshot: StateSnapshot) -> None: ...
 
     def close(self) -> None: ...
+
+
+@runtime_checkable
+class RecordSink(Sink, Protocol):
+    """A sink that also takes the records of each step, before the estimators (a recorder of the
+    sensor stream: an MCAP file, a live Foxglove view)."""
+
+    def on_records(self, records: Sequence[Record]) -> None: ...
 
 
 @runtime_checkable

@@ -16,7 +16,8 @@ from tourbot.cli.main import main
 from tourbot.geometry import compose
 from tourbot.io.carmen import read_carmen, write_carmen
 from tourbot.io.mapserver import read_map, write_map
-from tourbot.io.mcap_out import MAX_PARTICLES, TOPICS, McapRun, grid_cells
+from tourbot.io.mcap_out import McapRun
+from tourbot.io.ros2_messages import MAX_PARTICLES, TOPICS, grid_cells
 from tourbot.io.tum import read_tum
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import build_reference_map
@@ -76,7 +77,7 @@ def test_every_channel_decodes_to_the_run(fhw_run: tuple[Path, Path, Path, Path]
     grid = read_map(map_path)
     times, poses = read_tum(tum)
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/ceiling/image"}  # no camera in this run
+    assert set(msgs) == set(TOPICS) - {"/ceiling/image", "/people"}  # no camera, no tracker in this run
     stamps = [round(s.timestamp * 1e9) for s in log.scans]
 
     # the map, once, latched at the first time; cells -1 unknown, else 100 * p
@@ -219,7 +220,7 @@ def test_simulate_writes_the_run_as_mcap(tmp_path: Path) -> None:
     main([*args, "--mcap", str(mcap)])
     log = read_carmen(log_path)
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image"}
+    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image", "/people"}
     scans = [m for _, m in msgs["/scan"]]
     assert len(scans) == len(log.scans) > 0
     for scan, m in zip(log.scans, scans, strict=True):

@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.live import Live
 from rich.table import Table
 
-from tourbot.app.mcap_recording import McapRecorder
+from tourbot.app.ros2_publishing import McapRecorder, RunPublisher
 from tourbot.app.simulated import SimulatedRobot, SimulationSettings, simulated_runtime
 from tourbot.errors import TourbotError
 from tourbot.io.output import write_text_whole
@@ -94,6 +94,7 @@ def run_tour(
     out: Path,
     animation: bool,
     mcap: Path | None = None,
+    foxglove: int | None = None,
     console: Console | None = None,
 ) -> SimulatedRobot:
     console = console or Console()
@@ -101,8 +102,6 @@ def run_tour(
     the_site.tour(tour)  # a clear error before anything starts
     settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, speedup=speedup or None)
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=dwell_scale))
-    if mcap is not None:  # the recorder reads the simulator's sensor stream
-        settings = replace(settings, sim=replace(settings.sim, record=True))
     t0 = time.perf_counter()
     with console.status("building the simulated museum (first run compiles the kernels)..."):
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour))
@@ -115,7 +114,13 @@ def run_tour(
     with Live(console=console, refresh_per_second=4, transient=False) as live, ExitStack() as stack:
         rt.add_sink(TerminalView(live, title))
         if mcap is not None:
-            rt.add_sink(stack.enter_context(McapRecorder(mcap, robot)))
+            rt.add_sink(stack.enter_context(McapRecorder(mcap, rt)))
+        if foxglove is not None:
+            from tourbot.io.foxglove_live import FoxgloveLive
+
+            live_view = stack.enter_context(FoxgloveLive(foxglove))
+            console.print(f"foxglove: ws://127.0.0.1:{live_view.port} (open it in Foxglove)")
+            rt.add_sink(RunPublisher(live_view, rt))
         final = rt.run(
             max_time=duration,
             until=lambda s: s.navigation.mode in (NavMode.FINISHED, NavMode.FAILED),

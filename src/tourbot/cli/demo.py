@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from tourbot.cli._checks import McapOpt
-from tourbot.cli.web import AskStaffPasswordOpt, StaffPasswordFileOpt, read_staff_password
+from tourbot.cli.web import AskStaffPasswordOpt, FoxgloveOpt, StaffPasswordFileOpt, read_staff_password
 
 if TYPE_CHECKING:
     from tourbot.localization.mcl.config import MCLConfig
@@ -60,6 +60,7 @@ def register(app: typer.Typer) -> None:
         animation: bool = typer.Option(True, help="Write the tour's animation (GIF, --record)."),
         mcap: McapOpt = None,
         force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
+        foxglove: FoxgloveOpt = None,
         host: str = typer.Option("127.0.0.1", help="Address the web server listens on."),
         port: int = typer.Option(8000, help="TCP port (a free one is chosen when it is taken)."),
         database: str | None = typer.Option(
@@ -84,6 +85,8 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must not be negative, got {dwell_scale}", field="--dwell-scale")
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        if foxglove is not None and not 0 < foxglove <= 65535:
+            raise InputError(f"must be a TCP port (1-65535), got {foxglove}", field="--foxglove")
         from tourbot.localization.profile import LocalizationProfile
         from tourbot.site.default import site_path
 
@@ -119,6 +122,7 @@ def register(app: typer.Typer) -> None:
                 out=Path(out),
                 animation=animation,
                 mcap=mcap,
+                foxglove=foxglove,
             )
             return
         _serve(
@@ -132,6 +136,7 @@ def register(app: typer.Typer) -> None:
             port,
             database,
             staff_password,
+            foxglove,
         )
 
 
@@ -146,6 +151,7 @@ def _serve(
     port: int,
     database: str | None,
     staff_password: str | None,
+    foxglove: int | None,
 ) -> None:
     """Build the simulated museum and its web server, then serve until Ctrl-C."""
     import time
@@ -162,7 +168,7 @@ def _serve(
     settings = ServeSettings(
         site=site, database=database or f"sqlite:///{out / f'tourbot-{name}.db'}", crowd=crowd, seed=seed,
         mcl=mcl, host=host, port=port, staff_password=staff_password,
-        speech_dir=out / "speech", speedup=speedup, fresh_staff_password=True,
+        speech_dir=out / "speech", speedup=speedup, fresh_staff_password=True, foxglove=foxglove,
     )  # fmt: skip
     t0 = time.perf_counter()
     with console.status("building the simulated museum (the first run compiles the kernels)..."):

@@ -82,9 +82,9 @@ def register(app: typer.Typer) -> None:
             ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
         with Progress(console=console) as progress, ExitStack() as stack:
             if mcap is not None:
-                from tourbot.app.mcap_recording import McapRecorder
+                from tourbot.app.ros2_publishing import McapRecorder
 
-                rt.add_sink(stack.enter_context(McapRecorder(mcap, robot)))
+                rt.add_sink(stack.enter_context(McapRecorder(mcap, rt)))
             task = progress.add_task("simulating", total=duration)
             while rt.snapshot().time < duration:
                 snap = rt.step()

@@ -16,6 +16,14 @@ DatabaseOpt = Annotated[
     str | None, typer.Option("--database", help="SQLAlchemy URL; default $DATABASE_URL or ./tourbot-SITE.db")
 ]
 SiteOpt = Annotated[str, typer.Option("--site", help="a shipped site name (fhw) or a site file or folder")]
+FoxgloveOpt = Annotated[
+    int | None,
+    typer.Option(
+        "--foxglove",
+        metavar="PORT",
+        help="Also serve the robot's channels live to Foxglove (ws://HOST:PORT; robot k on PORT + k).",
+    ),
+]
 # the staff password, never in argv (every user of the machine can read a command line): also
 # taken by `demo`, with read_staff_password
 StaffPasswordFileOpt = Annotated[
@@ -115,6 +123,7 @@ def register(app: typer.Typer) -> None:
                 "when it ships one, else the papers' values).",
             ),
         ] = None,
+        foxglove: FoxgloveOpt = None,
     ) -> None:
         """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
         from tourbot.app.simulated import crowd_config
@@ -129,6 +138,8 @@ def register(app: typer.Typer) -> None:
             raise InputError(f"must be positive (minutes), got {slot_minutes}", field="--slot-minutes")
         if not 0 <= port <= 65535:
             raise InputError(f"must be a TCP port (0-65535), got {port}", field="--port")
+        if foxglove is not None and not 0 < foxglove <= 65535 - robots:
+            raise InputError(f"must be a TCP port (1-{65535 - robots}), got {foxglove}", field="--foxglove")
         crowd_config(crowd)
         if (certfile is None) != (keyfile is None):
             raise InputError(
@@ -146,7 +157,7 @@ def register(app: typer.Typer) -> None:
             site=site, database=database, robots=robots, crowd=crowd, seed=seed, host=host, port=port,
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
             mcl=LocalizationProfile.for_site(site_path(site), config)[0].mcl,
-            certfile=certfile, keyfile=keyfile, trusted_proxies=proxies,
+            certfile=certfile, keyfile=keyfile, trusted_proxies=proxies, foxglove=foxglove,
         )  # fmt: skip
         web, _ = build_site_app(settings)
         run(web, host, port, certfile=certfile, keyfile=keyfile, trusted_proxies=proxies)

@@ -27,6 +27,7 @@ from tourbot.interfaces import (
     Localizer,
     Navigator,
     PoseBelief,
+    RecordSink,
     ScanShare,
     Sink,
     Source,
@@ -72,7 +73,8 @@ class Runtime:
         self.localizer = localizer
         self.navigator = navigator
         self.estimators: list[Estimator] = list(estimators)
-        self.sinks: list[Sink] = list(sinks)
+        self.sinks: list[Sink] = []
+        self._record_sinks: list[RecordSink] = []
         self.site = site
         self.config = config or RuntimeConfig()
         self._lock = threading.RLock()
@@ -86,6 +88,8 @@ class Runtime:
         self._snapshot = StateSnapshot(time=source.time, step=0, source=source.name, site=site)
         # Protocol isinstance checks are slow: decide once
         self._drivable: DrivableSource | None = source if isinstance(source, DrivableSource) else None
+        for sink in sinks:
+            self.add_sink(sink)
 
     # -- plugging in -----------------------------------------------------------------------------
 
@@ -96,6 +100,8 @@ class Runtime:
     def add_sink(self, sink: Sink) -> None:
         with self._lock:
             self.sinks.append(sink)
+            if isinstance(sink, RecordSink):
+                self._record_sinks.append(sink)
 
     # -- control (callable from another thread) --------------------------------------------------
 
@@ -141,6 +147,8 @@ class Runtime:
                 self._finished = True
                 self._close_sinks()
                 return None
+            for record_sink in self._record_sinks:
+                record_sink.on_records(records)
             for record in records:
                 if isinstance(record, Odometry):
                     self._on_odometry(record)
@@ -270,6 +278,6 @@ class Runtime:
         )
 
     def _close_sinks(self) -> None:
-        sinks, self.sinks = self.sinks, []
+        sinks, self.sinks, self._record_sinks = self.sinks, [], []
         for sink in sinks:
             sink.close()

@@ -52,6 +52,7 @@ class ServeSettings:
     keyfile: Path | None = None
     trusted_proxies: tuple[str, ...] = ()  # addresses whose X-Forwarded-For/-Proto are believed
     onboard_token: str | None = None  # pairs the robot's screen (default: a new one at each start)
+    foxglove: int | None = None  # a live Foxglove server per robot on this port (+1, +2 for the others)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -75,6 +76,8 @@ class SimulatedRobotFactory:
     mcl: MCLConfig
     speedup: float = 1.0
     start: tuple[float, float, float] | None = None  # None: the site's start pose
+    foxglove: int | None = None  # serve the robot's channels live to Foxglove on this port
+    foxglove_host: str = "127.0.0.1"  # ... on this address (the web server's)
 
     def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
         """The same robot standing at ``pose`` (its last estimate, when its process restarts)."""
@@ -95,6 +98,15 @@ class SimulatedRobotFactory:
         # the people the pages show are the ones the robot perceives: its tracker on its laser
         rng = np.random.default_rng(self.seed)
         robot.runtime.add_estimator(PeopleEstimator(grid_map=site.grid, rng=rng))
+        if self.foxglove is not None:
+            from tourbot.app.ros2_publishing import RunPublisher
+            from tourbot.io.foxglove_live import FoxgloveLive
+
+            # open for the robot's life: its process ends, or the server stops, and so does this
+            live = FoxgloveLive(
+                self.foxglove, host=self.foxglove_host, name=f"tourbot {self.site}"
+            ).__enter__()
+            robot.runtime.add_sink(RunPublisher(live, robot.runtime))
         period = float(robot.simulator.dt) / self.speedup
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
 
@@ -107,12 +119,21 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     links: dict[str, RobotLink] = {}
     for i, name in enumerate(_robot_names(settings.robots)):
         seed = settings.seed + i
+        fox = None if settings.foxglove is None else settings.foxglove + i
         if settings.robot_process:
-            factory = SimulatedRobotFactory(settings.site, settings.crowd, seed, settings.mcl)
+            factory = SimulatedRobotFactory(
+                settings.site, settings.crowd, seed, settings.mcl, foxglove=fox, foxglove_host=settings.host
+            )
             links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
         else:
             factory = SimulatedRobotFactory(
-                settings.site, settings.crowd, seed, settings.mcl, settings.speedup
+                settings.site,
+                settings.crowd,
+                seed,
+                settings.mcl,
+                settings.speedup,
+                foxglove=fox,
+                foxglove_host=settings.host,
             )
             links[name] = factory()
     for link in links.values():

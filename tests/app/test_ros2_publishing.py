@@ -11,7 +11,7 @@ import pytest
 
 from tests.cli.test_web import _run
 from tests.io.test_mcap_out import _decode, _pose
-from tourbot.io.mcap_out import TOPICS
+from tourbot.io.ros2_messages import TOPICS
 
 
 def test_a_recorded_demo_tour_is_written_as_mcap(tmp_path: Path) -> None:
@@ -19,7 +19,7 @@ def test_a_recorded_demo_tour_is_written_as_mcap(tmp_path: Path) -> None:
     args = ["demo", "--record", "--crowd", "empty", "--duration", "6", "--no-animation", "--out", str(out)]
     assert _run([*args, "--mcap", str(mcap)]) == 0
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/beams"}
+    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image", "/people"}  # no camera, no tracker
     assert len(msgs["/map"]) == 1
     stamps = [s for s, _ in msgs["/scan"]]
     assert len(stamps) > 30  # about 10 scans a simulated second
@@ -46,3 +46,38 @@ def test_the_demo_refuses_an_mcap_in_a_missing_folder(
     err = capsys.readouterr().err
     assert "does not exist" in err
     assert "Traceback" not in err
+
+
+def test_the_foxglove_client_receives_live_scans_from_the_demo(tmp_path: Path) -> None:
+    import asyncio
+    import socket
+    import threading
+
+    from tests.io.test_foxglove_live import receive
+    from tourbot.app.demo import run_tour
+    from tourbot.localization.mcl import MCLConfig
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    done = threading.Event()
+
+    def tour() -> None:
+        try:
+            run_tour(
+                site="fhw", tour="highlights", crowd="sparse", seed=0, duration=12.0, speedup=1.0,
+                mcl=MCLConfig().with_samples(300), dwell_scale=0.5, out=tmp_path / "demo",
+                animation=False, foxglove=port,
+            )  # fmt: skip
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=tour, daemon=True)
+    thread.start()
+    got = asyncio.run(receive(port, {"/scan", "/estimate", "/particles", "/map"}, timeout=30.0))
+    thread.join(timeout=60)
+    assert done.is_set()
+    assert len(got["/scan"].ranges) > 100  # FHW's laser
+    assert got["/map"].info.width > 100
+    assert got["/estimate"].header.frame_id == "map"
+    assert 0 < len(got["/particles"].poses) <= 500
