@@ -578,7 +578,8 @@ def _fusion_site(report: BenchReport, name: str, seeds: list[int], duration: flo
         mean = mean_ci(
             [float(np.mean(e[np.isfinite(e)])) if np.isfinite(e).any() else math.nan for e in errs]
         )
-        rec = [r.kidnaps.get(f"{method} {case}") for r in runs for case in ("touring", "standing")]
+        cases = () if method == "camera" else ("touring", "standing")  # the camera alone: Fig. 15
+        rec = [r.kidnaps.get(f"{method} {case}") for r in runs for case in cases]
         found = [x for x in rec if x is not None]
         mean_s = float(np.mean(found)) if found else math.nan
         kid = (

@@ -282,15 +282,15 @@ class Ros2Channels:
         kind: int,
         rgb: tuple[float, float, float],
         points: list[Any],
+        action: int = _MARKER_ADD,
     ) -> Any:
-        """A ``visualization_msgs/Marker`` (``_MARKER_DELETEALL`` as ``kind`` clears the namespace)."""
+        """A ``visualization_msgs/Marker`` of type ``kind`` (``action`` DELETEALL clears ``ns``)."""
         t = self._types
-        action = _MARKER_DELETEALL if kind == _MARKER_DELETEALL else _MARKER_ADD
         return t["visualization_msgs/msg/Marker"](
             header=self._header(stamp, frame),
             ns=ns,
             id=ident,
-            type=_MARKER_POINTS if kind == _MARKER_DELETEALL else kind,
+            type=kind,
             action=action,
             pose=self._pose((0.0, 0.0, 0.0)),
             scale=t["geometry_msgs/msg/Vector3"](x=0.05, y=0.05, z=0.0),
@@ -314,7 +314,9 @@ class Ros2Channels:
         """``/people``: one cylinder per tracked person (map frame), replacing the last set."""
         t = self._types
         stamp = _ns(timestamp)
-        markers = [self._marker(stamp, "map", "people", 0, _MARKER_DELETEALL, (0.0, 0.0, 0.0), [])]
+        markers = [
+            self._marker(stamp, "map", "people", 0, _MARKER_CYLINDER, (0.0, 0.0, 0.0), [], _MARKER_DELETEALL)
+        ]
         for p in people:
             m = self._marker(stamp, "map", "people", int(p.id), _MARKER_CYLINDER, (0.2, 0.4, 1.0), [])
             m.pose = t["geometry_msgs/msg/Pose"](
