@@ -17,7 +17,7 @@ KERNELS_STAMP := $(VENV)/.tourbot-kernels-compiled
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs,cluster]'
 	touch $(STAMP)
 
 $(NODE_STAMP): package.json package-lock.json
@@ -27,7 +27,7 @@ $(NODE_STAMP): package.json package-lock.json
 # The peers tourbot is compared with (Nav2 AMCL's core, Stone Soup): benchmark extras, also
 # installed for the tests so that the adapters are tested.
 $(PEERS_STAMP): $(STAMP)
-	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs,peers]'
+	$(BIN)/python -m pip install --quiet -c constraints.txt -e '.[dev,docs,cluster,peers]'
 	touch $(PEERS_STAMP)
 
 setup: $(STAMP) $(NODE_STAMP)

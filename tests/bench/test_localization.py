@@ -82,7 +82,7 @@ def _without_timing(payload: dict[str, Any]) -> dict[str, Any]:
     out = copy.deepcopy(payload)
     for key in ("date", "command"):
         out.pop(key)
-    for key in ("workers", "speed_5000_all_beams_s"):
+    for key in ("workers", "dask", "speed_5000_all_beams_s"):
         out["meta"].pop(key)
     out["notes"] = [n for n in out["notes"] if not n.startswith("speed,")]
     for row in out["rows"]:
@@ -95,29 +95,32 @@ def _without_timing(payload: dict[str, Any]) -> dict[str, Any]:
 
 @pytest.mark.slow
 @pytest.mark.usefixtures("shared_data")
-def test_two_workers_write_the_serial_json(tmp_path: Path) -> None:
+def test_two_workers_and_a_dask_cluster_write_the_serial_json(tmp_path: Path) -> None:
     # Each (log, seed, method) task draws its randomness from its own seed, so a pool of two
-    # processes (spawned: nothing inherited) writes what one process writes, timings apart. Two
-    # seeds and two methods are four tasks, spread over both workers; the kidnap rate is raised
-    # so the 20 scans hold kidnaps.
+    # processes (spawned: nothing inherited) and a two-worker Dask LocalCluster write what one
+    # process writes, timings apart. Two seeds and two methods are four tasks, spread over both
+    # workers; the kidnap rate is raised so the 20 scans hold kidnaps.
     written = {}
-    for workers in (1, 2):
-        out = tmp_path / f"loc-{workers}.json"
+    for backend in ("1", "2", "dask"):
+        out = tmp_path / f"loc-{backend}.json"
+        how = ["--workers", "2", "--dask", "local"] if backend == "dask" else ["--workers", backend]
         main(
             [
                 "bench", "localization", "--scans", "20", "--seeds", "2", "--first-seed", "1",
                 "--particles", "500", "--methods", "mcl-none,mcl-novelty", "--kidnap-rate", "0.15",
                 "--cache", str(tmp_path / "cache"), "--global-scans", "8", "--speed-scans", "3",
-                "--no-figure", "--workers", str(workers), "-o", str(out),
+                "--no-figure", *how, "-o", str(out),
             ]
         )  # fmt: skip
-        written[workers] = json.loads(out.read_text())
-    assert written[2]["meta"]["workers"] == 2
-    rows = written[1]["rows"]
+        written[backend] = json.loads(out.read_text())
+    assert written["2"]["meta"]["workers"] == 2
+    assert written["dask"]["meta"]["dask"] == "local"
+    rows = written["1"]["rows"]
     assert [r["method"] for r in rows] == ["mcl-none", "mcl-novelty"]
     assert len(rows[0]["raw"]["fail_peak"]) == 2
     assert rows[0]["raw"]["kidnaps_per_seed"], "the test run should hold kidnaps"
-    assert _without_timing(written[2]) == _without_timing(written[1])
+    assert _without_timing(written["2"]) == _without_timing(written["1"])
+    assert _without_timing(written["dask"]) == _without_timing(written["1"])
 
 
 @pytest.mark.parametrize("workers", [1, 2])
@@ -131,3 +134,15 @@ def test_a_failing_task_is_one_error_naming_it(workers: int) -> None:
     message = str(error.value)
     assert message.startswith("task (log fhw, seed 3, method mcl-none) failed: KeyError")
     assert len(message.splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_dask_task_failures_and_a_missing_scheduler_are_one_line_errors() -> None:
+    from tourbot.bench.localization import run_tasks
+    from tourbot.errors import TourbotError
+
+    with pytest.raises(TourbotError) as error:
+        run_tasks({}, [("fhw", 3, "mcl-none")], 1, lambda _: False, dask="local")
+    assert str(error.value).startswith("task (log fhw, seed 3, method mcl-none) failed: KeyError")
+    with pytest.raises(TourbotError, match="no Dask scheduler answers"):
+        run_tasks({}, [("fhw", 3, "mcl-none")], 1, lambda _: False, dask="tcp://127.0.0.1:9")

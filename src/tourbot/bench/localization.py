@@ -287,17 +287,34 @@ def _failed(task: Task, exc: BaseException) -> TourbotError:
     )
 
 
+def run_task_with(sweeps: dict[str, Sweep], name: str, seed: int, method: str, keep_run: bool) -> SeedOutcome:
+    """:func:`run_task` on a Dask worker: ``sweeps`` (scattered once to every worker) installed
+    in the worker's process the first time, then the task."""
+    if _SWEEPS_ID[0] != id(sweeps):
+        _install(sweeps)
+        _SWEEPS_ID[0] = id(sweeps)
+    return run_task(name, seed, method, keep_run=keep_run)
+
+
+_SWEEPS_ID = [0]
+
+
 def run_tasks(
     sweeps: dict[str, Sweep],
     tasks: list[Task],
     workers: int,
     keep: Callable[[Task], bool],
     advance: Callable[[int], None] | None = None,
+    dask: str | None = None,
 ) -> dict[Task, SeedOutcome]:
-    """Every task's outcome, by task; in this process (``workers == 1``) or in a pool of
-    ``workers`` spawned processes. ``advance(running)`` is called after each task that ends. A
-    task's exception becomes one :class:`TourbotError` naming the task; Ctrl-C stops the pool."""
+    """Every task's outcome, by task; in this process (``workers == 1``), in a pool of
+    ``workers`` spawned processes, or on a Dask ``distributed`` cluster (``dask``: the scheduler's
+    address, or ``"local"`` for a ``LocalCluster`` of ``workers`` processes). ``advance(running)``
+    is called after each task that ends. A task's exception becomes one :class:`TourbotError`
+    naming the task; Ctrl-C stops the pool."""
     out: dict[Task, SeedOutcome] = {}
+    if dask is not None:
+        return _run_on_dask(sweeps, tasks, workers, keep, advance, dask)
     if workers == 1:
         _install(sweeps)
         for task in tasks:
@@ -338,6 +355,49 @@ def run_tasks(
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown()
+    return out
+
+
+def _run_on_dask(
+    sweeps: dict[str, Sweep],
+    tasks: list[Task],
+    workers: int,
+    keep: Callable[[Task], bool],
+    advance: Callable[[int], None] | None,
+    address: str,
+) -> dict[Task, SeedOutcome]:
+    """The tasks on a Dask cluster: the sweeps broadcast once, a future per task."""
+    from contextlib import ExitStack
+
+    try:
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise TourbotError("--dask needs Dask's distributed: pip install 'tourbot[cluster]'") from None
+    out: dict[Task, SeedOutcome] = {}
+    with ExitStack() as stack:
+        if address == "local":
+            cluster = stack.enter_context(
+                LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None)
+            )
+            client = stack.enter_context(Client(cluster))
+        else:
+            try:
+                client = stack.enter_context(Client(address, timeout=10))
+            except (OSError, TimeoutError) as exc:
+                raise TourbotError(f"--dask {address}: no Dask scheduler answers ({exc})") from None
+        (shared,) = client.scatter([sweeps], broadcast=True, hash=False)  # one object, to every worker
+        pending = {
+            client.submit(run_task_with, shared, *task, keep_run=keep(task), pure=False): task
+            for task in tasks
+        }
+        for future in as_completed(list(pending)):
+            task = pending.pop(future)
+            try:
+                out[task] = future.result()
+            except Exception as exc:
+                raise _failed(task, exc) from exc
+            if advance is not None:
+                advance(min(len(pending), max(1, len(client.scheduler_info().get("workers", {})))))
     return out
 
 
@@ -413,6 +473,15 @@ def register(bench: typer.Typer) -> None:
         workers: Annotated[
             int, typer.Option(help="Processes running the (log, seed, method) tasks; 1: in this one.")
         ] = 1,
+        dask: Annotated[
+            str | None,
+            typer.Option(
+                "--dask",
+                metavar="ADDRESS",
+                help="Run the tasks on a Dask distributed scheduler (tcp://HOST:8786), or 'local' for a "
+                "LocalCluster of --workers processes.",
+            ),
+        ] = None,
     ) -> None:
         """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
         from rich.console import Console
@@ -476,6 +545,7 @@ def register(bench: typer.Typer) -> None:
             "kidnap_rate_per_m": kidnap_rate,
             "quick": quick,
             "workers": workers,
+            "dask": dask,
             "crowd": {},
         }
         figure_runs: dict[str, tuple[RunResult, Any]] = {}
@@ -526,7 +596,9 @@ def register(bench: typer.Typer) -> None:
                 "kidnaps": [per_seed[s].kidnaps for s in seed_list],
             }
         tasks = [(name, seed, method) for name in names for method in chosen for seed in seed_list]
-        label = f"{len(tasks)} tasks, {workers} worker{'s' if workers > 1 else ''}"
+        label = f"{len(tasks)} tasks, " + (
+            f"Dask {dask}" if dask else f"{workers} worker{'s' if workers > 1 else ''}"
+        )
         with ScanProgress(label, len(tasks), unit="tasks") as done:
             # The figure shows the first log's runs of the first seed.
             results = run_tasks(
@@ -535,6 +607,7 @@ def register(bench: typer.Typer) -> None:
                 workers,
                 lambda t: t[0] == names[0] and t[1] == first_seed,
                 lambda running: done.advance(running=running),
+                dask,
             )
         for name in names:
             for method in chosen:
