@@ -111,3 +111,30 @@ def test_beams_ending_on_a_tracked_person_stay_out_of_the_map(drive: tuple[list[
 
     assert on_map(None) == [True, True]
     assert on_map(posts[:1]) == [False, True]
+
+
+def test_matched_steps_of_a_plausible_drive_pass_the_check(drive: tuple[list[Scan], np.ndarray]) -> None:
+    scans, _ = drive
+    ego = ScanMatchedPoses()
+    for scan in scans[:30]:
+        pose = ego.match(scan)
+        assert ego.implausible() is None
+        ego.integrate(scan, pose)
+
+
+def test_a_step_too_fast_for_the_time_between_scans_is_implausible(
+    drive: tuple[list[Scan], np.ndarray],
+) -> None:
+    import dataclasses
+
+    scans, _ = drive
+    # The same 0.5 m/s drive stamped ten times faster: 5 cm in 10 ms is 5 m/s, no robot's step.
+    fast = [dataclasses.replace(s, timestamp=s.timestamp / 10.0) for s in scans[:10]]
+    ego = ScanMatchedPoses()
+    reasons = []
+    for scan in fast:
+        pose = ego.match(scan)
+        reasons.append(ego.implausible())
+        ego.integrate(scan, pose)
+    assert reasons[0] is None
+    assert any(r is not None and "m/s" in r for r in reasons)

@@ -49,7 +49,10 @@ class EgoMotionConfig:
     ``max_speed`` (m/s) and ``max_turn_rate`` (rad/s) cap the constant-velocity prediction.
     Beams shorter than ``near_range`` (m) neither align nor enter the map: the robot's own body
     (seen at the edges of a wide field of view) would leave a trail of obstacles along its path.
-    Beams ending within ``person_radius`` (m) of a person being tracked stay out of the map too."""
+    Beams ending within ``person_radius`` (m) of a person being tracked stay out of the map too.
+    A matched step faster than ``plausible_speed`` (m/s) or turning faster than
+    ``plausible_turn_rate`` (rad/s) is not a robot's motion: the match has jumped to a wrong
+    optimum (:meth:`ScanMatchedPoses.implausible`), and the poses cannot be trusted from there on."""
 
     mapper: MapperParams = field(default_factory=_no_odometry_mapper)
     static_log_odds: float = 2.5
@@ -58,6 +61,8 @@ class EgoMotionConfig:
     near_range: float = 1.0
     max_turn_rate: float = 1.5
     person_radius: float = 0.3
+    plausible_speed: float = 1.5
+    plausible_turn_rate: float = 3.0
 
 
 class ScanMatchedPoses:
@@ -103,6 +108,21 @@ class ScanMatchedPoses:
         self._time = scan.timestamp
         self._poses = [*self._poses[-1:], pose]
         return pose
+
+    def implausible(self) -> str | None:
+        """Why the last matched step cannot be the robot's motion (too fast a step or turn for the
+        time between the scans), or None when it can."""
+        cfg = self.config
+        if len(self._poses) < 2 or self._dt <= 0.0:
+            return None
+        step = relative(self._poses[-2], self._poses[-1])
+        speed = math.hypot(step[0], step[1]) / self._dt
+        turn = abs(float(step[2])) / self._dt
+        if speed > cfg.plausible_speed:
+            return f"a step of {speed:.1f} m/s (at most {cfg.plausible_speed:g} m/s is plausible)"
+        if turn > cfg.plausible_turn_rate:
+            return f"a turn of {turn:.1f} rad/s (at most {cfg.plausible_turn_rate:g} rad/s is plausible)"
+        return None
 
     def integrate(self, scan: Scan, pose: FloatArray, people: FloatArray | None = None) -> None:
         """Write ``scan`` into the map at ``pose`` (its :meth:`match` result), but for the beams
