@@ -79,15 +79,14 @@ def test_track_interrupted_keeps_the_previous_csv(
 
 
 def _strict_model(path: Path) -> Path:
-    """The shipped leg model with a far lower intercept (a much higher threshold), saved to ``path``."""
+    """The shipped leg model from far lower log odds (a much higher threshold), saved to ``path``."""
     from dataclasses import replace
 
     from tourbot.people.leg_classifier import default_model
 
     shipped = default_model()
     assert shipped is not None
-    weights = (*shipped.weights[:-1], shipped.weights[-1] - 40.0)
-    replace(shipped, weights=weights, trained_on="strict").save(path)
+    replace(shipped, bias=shipped.bias - 40.0, trained_on="strict").save(path)
     return path
 
 
