@@ -10,12 +10,17 @@ radius, the boundary length against the width, the range jumps to the neighbouri
 the segment bulges towards the laser, and how densely the beams sample it.
 
 The features are a numba kernel (:func:`segment_features`) with a plain-numpy reference
-(:func:`segment_features_reference`). The model is a logistic regression on the standardised
-features and their squares, fitted by Newton's method with a small ridge penalty
-(:func:`fit_logistic`); its parameters live in a small JSON file built by ``tourbot train-legs``
-from annotated ``leg_tracker`` bags. The package ships one (:data:`DEFAULT_MODEL`); a model
-trained on one's own laser is loaded with :meth:`LegModel.load` and given to the detector through
-:class:`tourbot.people.legs.LegConfig` (``--leg-model`` of ``tourbot track`` and ``tourbot slam``).
+(:func:`segment_features_reference`). The model (:class:`LegModel`) is boosted regression trees
+(gradient boosting of the logistic loss, :func:`fit_boosted`) on the features in metric units
+(``MODEL_FEATURES``: widths, fit residuals, radius, range jumps, bulge, spread, the nearest other
+candidate, and the share of the expected beams, which does not grow with the beam count); the
+number of points and the range are left out (the one depends on the laser's resolution, the
+other on where people happened to walk in the recordings). Its trees live in a small JSON file
+built by ``tourbot train-legs`` from annotated ``leg_tracker`` bags (each scan also seen as a
+coarser, noisier laser would see it, :func:`tourbot.people.leg_training.thinned`). The package
+ships one (:data:`DEFAULT_MODEL`); a model trained on one's own laser is loaded with
+:meth:`LegModel.load` and given to the detector through :class:`tourbot.people.legs.LegConfig`
+(``--leg-model`` of ``tourbot track`` and ``tourbot slam``).
 """
 
 from __future__ import annotations
@@ -69,9 +74,10 @@ FEATURE_NAMES = (
 )
 SHAPE_FEATURES = 12  # the first twelve come from the segment alone
 # The model leaves out the range and the number of points: in annotated data they say more about
-# where the people happened to walk than about legs (a model trained where people walked near
-# the laser learns "near is a leg" and misses the legs of another recording), and the width
-# against the beam spacing ("density") carries what the number of points says about the shape.
+# where the people happened to walk and the laser's resolution than about legs (a model trained
+# where people walked near the laser learns "near is a leg" and misses the legs of another
+# recording), and the width against the beam spacing ("density") carries what the number of
+# points says about the shape.
 MODEL_FEATURES = tuple(n for n in FEATURE_NAMES if n not in ("points", "range"))
 _MODEL_COLUMNS = np.array([FEATURE_NAMES.index(n) for n in MODEL_FEATURES])
 NEIGHBOUR_CAP = 1.0  # m: the nearest other candidate, "none" beyond this
