@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.people.leg_classifier import FEATURE_NAMES, BoostConfig, LegModel, fit_boosted
-from tourbot.people.legs import LegConfig, detect_legs, leg_candidates
+from tourbot.people.legs import LegConfig, LegFeatures, detect_legs, leg_candidates
 from tourbot.records import Scan
 
 __all__ = [
@@ -102,6 +102,10 @@ def labelled_candidates(
     for scan, truth in annotated_scans(bag):
         seen = thinned(scan, every, noise, rng) if every > 1 or noise > 0.0 else scan
         legs, features = leg_candidates(seen, cfg)
+        # the segments the model scores (fewer points: the width/contrast rule decides)
+        shaped = features[:, FEATURE_NAMES.index("points")] >= math.log(cfg.model_min_points) - 1e-9
+        legs = LegFeatures(legs.points[shaped], legs.width[shaped], legs.probability[shaped])
+        features = features[shaped]
         xs.append(features)
         hit = match_points(legs.points, truth, match)
         ys.append(hit)

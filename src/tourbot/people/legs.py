@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import transform_points
-from tourbot.people.leg_classifier import LegModel, candidate_features, default_model
+from tourbot.people.leg_classifier import FEATURE_NAMES, LegModel, candidate_features, default_model
 from tourbot.records import Scan
 
 __all__ = [
@@ -54,10 +54,11 @@ class LegConfig:
     than the robot's skin around the laser).
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
     ``model``: the learnt P(leg) of :mod:`tourbot.people.leg_classifier` (None: the rule above);
-    with a model the candidates are all segments of ``model_min_points`` points or more,
-    ``model_min_width``-``model_max_width`` wide, local minimum or not, and the model alone
-    decides (two legs seen as one blob near the laser are up to 0.5 m wide; a leg half hidden by
-    the other has no contrast on one side).
+    with a model the candidates are all segments ``model_min_width``-``model_max_width`` wide,
+    local minimum or not (two legs seen as one blob near the laser are up to 0.5 m wide; a leg
+    half hidden by the other has no contrast on one side), and the model decides for those of
+    ``model_min_points`` points or more; fewer have no shape to speak of (a line and a circle fit
+    them exactly), and the rule decides (a far leg, or a coarse laser's).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
     laser sees only the near side of a leg (about 2/3 of a 6 cm radius behind the visible arc).
     """
@@ -130,7 +131,8 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     legs, features = leg_candidates(scan, cfg, with_features=cfg.model is not None)
     if cfg.model is None or len(legs) == 0:
         return legs
-    prob = cfg.model.probability(features)
+    shaped = features[:, FEATURE_NAMES.index("points")] >= math.log(cfg.model_min_points) - 1e-9
+    prob = np.where(shaped, cfg.model.probability(features), legs.probability)
     keep = prob >= cfg.min_probability
     return LegFeatures(legs.points[keep], legs.width[keep], prob[keep])
 
@@ -150,7 +152,6 @@ def leg_candidates(
     if with_features:
         seg_cfg = replace(
             cfg,
-            min_points=cfg.model_min_points,
             min_width=cfg.model_min_width,
             max_width=cfg.model_max_width,
             min_probability=0.0,
