@@ -78,13 +78,17 @@ class SJPDAFConfig:
     Track rules, on evidence (after the persistent existence of Schulz et al.'s sample-based
     JPDAF, with the occlusion map, the map difference and the static-feature filter of Burgard et
     al. Sec. 4 as the evidence): a feature no person explains (sum of its betas below
-    ``birth_threshold``) with P(person) >= ``birth_probability`` starts a tentative track when it
-    stands where the floor was seen free before, P(moving) >= ``birth_moving`` of the static filter
-    (with a map and ``birth_off_map``: anywhere off the map, which is the static world). Every
-    track holds the log odds of its existence: ``existence_prior`` at birth, plus what its features
-    said, scan by scan (shared out by the betas): ``free_evidence`` for a feature on a cell seen
-    free before (P(moving) >= ``birth_moving``, or off a given map), ``static_evidence`` for one on
-    the static world built so far (the map of the scan-matched poses), ``shape_weight`` times the
+    ``birth_threshold``) with P(person) >= ``birth_probability`` starts a tentative track unless
+    its cell was seen occupied before: P(moving) of the static filter >= ``birth_moving`` (with a
+    map and ``birth_off_map``: anywhere off the map, which is the static world). Every track holds
+    the log odds of its existence: ``existence_prior`` at birth, plus what its features said, scan
+    by scan (shared out by the betas): ``free_evidence`` for a feature on a cell seen free before
+    (P(moving) >= ``free_moving``, or off a given map), ``hidden_evidence`` for one on a cell
+    hidden before (P(moving) about 0.5: a person walking away from the laser stands where their
+    own body hid the floor), ``still_evidence`` for one on a cell seen occupied before while the
+    track is tentative (a fixed object fades out; a confirmed visitor standing at an exhibit loses
+    nothing), ``static_evidence`` for one on the static world built so far (the map of the
+    scan-matched poses), ``shape_weight`` times the
     feature's log odds of P(person) (a leg pair's shape; capped at ``shape_cap``: furniture keeps
     its shape scan after scan), and ``miss_evidence`` for a scan without a detection while the
     person is visible; an occluded person (its predicted position behind a nearer return, the
@@ -117,12 +121,15 @@ class SJPDAFConfig:
     max_events: int = 5000
     birth_threshold: float = 0.5
     birth_probability: float = 0.3
-    birth_moving: float = 0.6
+    birth_moving: float = 0.45
+    free_moving: float = 0.6
     birth_off_map: bool = True
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
     existence_prior: float = 0.2
     free_evidence: float = 1.0
+    hidden_evidence: float = 0.4
+    still_evidence: float = -0.3
     static_evidence: float = -1.5
     shape_weight: float = 0.5
     shape_cap: float = 1.0
@@ -380,14 +387,19 @@ class PeopleTracker:
 
     def _feature_evidence(
         self, features: PersonFeatures, moving: FloatArray, static: FloatArray
-    ) -> FloatArray:
-        """The log odds each feature adds to the existence of the person it is assigned to: its
-        cell seen free before, or on the static world (the shape is counted apart)."""
+    ) -> tuple[FloatArray, FloatArray]:
+        """The log odds each feature adds to the existence of a tentative and of a confirmed
+        person it is assigned to: its cell seen free, hidden or occupied before, or on the static
+        world (the shape is counted apart)."""
         cfg = self.config
-        free = moving >= cfg.birth_moving
         if cfg.birth_off_map and self.static.has_map:
-            free = np.ones(len(features), dtype=bool)  # the map saw every cell off it free
-        return np.where(free, cfg.free_evidence, 0.0) + cfg.static_evidence * static
+            moving = np.ones(len(features))  # the map saw every cell off it free
+        free = moving >= cfg.free_moving
+        hidden = ~free & (moving >= 1.0 - cfg.free_moving)
+        seen = np.where(free, cfg.free_evidence, np.where(hidden, cfg.hidden_evidence, 0.0))
+        seen = seen + cfg.static_evidence * static
+        still = np.where(free | hidden, 0.0, cfg.still_evidence)
+        return seen + still, seen
 
     def _shape_log_odds(self, features: PersonFeatures) -> FloatArray:
         p = np.clip(features.probability, 1e-6, 1.0 - 1e-6)
@@ -410,13 +422,15 @@ class PeopleTracker:
         spread = np.sqrt(self._samples[..., 0:2].var(axis=1).sum(axis=1)) if K else np.zeros(0)
         mean = self._samples[..., 0:2].mean(axis=1) if K else np.zeros((0, 2))
         far = np.linalg.norm(mean - pose[None, 0:2], axis=1) > cfg.max_range + 1.0
-        evidence = self._feature_evidence(features, moving, static)
+        evidence, confirmed_evidence = self._feature_evidence(features, moving, static)
         shape = self._shape_log_odds(features)
         # What the features explaining each person said, weighted by the betas (Eq. 6-7).
         gained = np.zeros(K)
+        gained_confirmed = np.zeros(K)
         shaped = np.zeros(K)
         if K and a.pair_track.size:
             np.add.at(gained, a.pair_track, a.pair_beta * evidence[a.pair_feature])
+            np.add.at(gained_confirmed, a.pair_track, a.pair_beta * confirmed_evidence[a.pair_feature])
             np.add.at(shaped, a.pair_track, a.pair_beta * shape[a.pair_feature])
         end = math.log(cfg.end_existence / (1.0 - cfg.end_existence))
         confirm = math.log(cfg.confirm_existence / (1.0 - cfg.confirm_existence))
@@ -432,7 +446,8 @@ class PeopleTracker:
                 st.unseen += dt
             # An occluded person is not missed: its samples just spread out (occlusion map).
             missed = a.beta0[k] * cfg.miss_evidence if visible[k] else 0.0
-            st.evidence = float(np.clip(st.evidence + gained[k] + missed, cfg.min_evidence, cfg.max_evidence))
+            said = gained_confirmed[k] if st.confirmed else gained[k]
+            st.evidence = float(np.clip(st.evidence + said + missed, cfg.min_evidence, cfg.max_evidence))
             odds = st.log_odds(cfg)
             if odds >= confirm:
                 st.confirmed = True
