@@ -104,7 +104,7 @@ class SJPDAFConfig:
     person and is a false alarm). The evidence values were chosen on the simulated scenes of the
     tests and the annotated positive bags, not on ``negative_2.bag``.
     With a ``pose_source`` (scan-matched poses) and ``map_without_people``, beams ending on a
-    confirmed person are left out of the map built on the fly.
+    tracked person (tentative or confirmed) are left out of the map built on the fly.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends (a person seen as
     two separate legs may start two). ``confirm_hits`` (2), ``max_unseen`` (1.5 s) and
     ``merge_distance`` (0.35 m) were chosen on simulated crowds of 20 (crowd seeds 100-105, not
@@ -250,13 +250,15 @@ class PeopleTracker:
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
         self._manage(assoc, features, moving, static, detect, pose, dt)  # start, confirm, end tracks
         if self.pose_source is not None:
-            # The scan joins the map built on the fly, but for the beams that end on a confirmed
-            # person (Burgard et al. Sec. 5): a person walking where they walked before would
-            # otherwise stand on "static" cells of their own making.
+            # The scan joins the map built on the fly, but for the beams that end on a tracked
+            # person, tentative or confirmed (Burgard et al. Sec. 5): a person walking where they
+            # walked before, or slowly away from the laser, would otherwise stand on "static"
+            # cells of their own making before the evidence could confirm them. A fixed object's
+            # tentative track fades out (its cell seen occupied scan after scan), and the object
+            # joins the map then.
             people = None
-            if self.config.map_without_people:
-                confirmed = np.array([st.confirmed for st in self._states], dtype=bool)
-                people = self._samples[confirmed, :, 0:2].mean(axis=1) if confirmed.any() else None
+            if self.config.map_without_people and self._states:
+                people = self._samples[..., 0:2].mean(axis=1)
             self.pose_source.integrate(scan, pose, people)
         return self.tracks()
 
