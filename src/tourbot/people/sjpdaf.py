@@ -129,7 +129,7 @@ class SJPDAFConfig:
     existence_prior: float = 0.2
     free_evidence: float = 1.0
     hidden_evidence: float = 0.4
-    still_evidence: float = -0.3
+    still_evidence: float = -0.6
     static_evidence: float = -1.5
     shape_weight: float = 0.5
     shape_cap: float = 1.0
