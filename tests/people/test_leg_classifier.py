@@ -12,9 +12,9 @@ from tests.people.scenes import legs_of, scan_with_circles
 from tourbot.people.leg_classifier import (
     FEATURE_NAMES,
     MODEL_FEATURES,
+    BoostConfig,
     LegModel,
     LegModelError,
-    BoostConfig,
     default_model,
     fit_boosted,
     segment_features,
@@ -114,7 +114,9 @@ def test_a_bad_model_file_names_the_file_and_field(
     path = tmp_path / "m.json"
     doc = _shipped_doc() | change
     if field == "split_feature":  # as many trees as the other tables
-        doc["split_feature"] = [[99] * 7 for _ in doc["leaf_value"]]  # type: ignore[union-attr]
+        trees = doc["leaf_value"]
+        assert isinstance(trees, list)
+        doc["split_feature"] = [[99] * 7 for _ in trees]
     path.write_text(json.dumps(doc))
     with pytest.raises(LegModelError, match=message) as exc:
         LegModel.load(path)
