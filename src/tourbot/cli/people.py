@@ -148,22 +148,24 @@ def choose_pose_source(scans: Sequence[Scan], requested: PoseSource, log: Path) 
     has_odom = bool(scans) and all(s.odom is not None for s in scans)
     if requested is PoseSource.auto:
         return PoseSource.odom if has_odom else PoseSource.scan_matching
-    if requested is PoseSource.odom and not has_odom:
-        missing = sum(s.odom is None for s in scans)
-        raise InputError(
-            f"--pose odom, but {missing} of {len(scans)} scans have no odometry (no odometry "
-            "readings, no Odometry topic and no odom -> base_link transform on /tf)",
-            path=log,
-            field="--pose",
-        )
-    if requested is PoseSource.reference and not (scans and all(s.reference is not None for s in scans)):
-        missing = sum(s.reference is None for s in scans)
-        raise InputError(
-            f"--pose reference, but {missing} of {len(scans)} scans have no reference pose "
-            "(only CARMEN logs carry one, in their FLASER lines)",
-            path=log,
-            field="--pose",
-        )
+    lacking = {
+        PoseSource.odom: (
+            sum(s.odom is None for s in scans),
+            "odometry (no odometry readings, no Odometry topic and no odom -> base_link transform on /tf)",
+        ),
+        PoseSource.reference: (
+            sum(s.reference is None for s in scans),
+            "reference pose (only CARMEN logs carry one, in their FLASER lines)",
+        ),
+    }
+    if requested in lacking:
+        missing, what = lacking[requested]
+        if missing or not scans:
+            raise InputError(
+                f"--pose {requested.value}, but {missing} of {len(scans)} scans have no {what}",
+                path=log,
+                field="--pose",
+            )
     return requested
 
 
