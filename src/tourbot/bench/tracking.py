@@ -267,7 +267,12 @@ def leg_detection_scores(bag: Path, match: float = 0.25, model: Any = None) -> d
     }
 
 
-def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int = 0) -> dict[str, float]:
+Trace = list[tuple[float, FloatArray, list[tuple[int, float, float]]]]
+
+
+def track_scores(
+    bag: Path, model: Any, match: float = PERSON_MATCH, seed: int = 0, trace: Trace | None = None
+) -> dict[str, float]:
     """The people tracker on an annotated bag (poses by scan matching: the bag has no odometry),
     its confirmed tracks against the annotated legs, in the laser frame of each scan: precision =
     share of confirmed tracks with an annotated leg within ``match`` m, recall = share of annotated
@@ -275,7 +280,8 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int =
     Continuity, as the outside benchmark of following one person counts it (each recording shows
     one walker, the annotated legs of a scan are theirs): ``misses`` = annotated scans with no
     confirmed track within ``match`` of the person (the mean of the legs), ``switches`` = times
-    the nearest such track changed its id. ``seed`` seeds the tracker's particle filters."""
+    the nearest such track changed its id. ``seed`` seeds the tracker's particle filters; ``trace``
+    gets, per scan, its time, the annotated legs and the confirmed tracks (id, x, y), laser frame."""
     from dataclasses import replace
 
     from tourbot.geometry import invert, transform_points
@@ -296,6 +302,14 @@ def track_scores(bag: Path, model: Any, match: float = PERSON_MATCH, seed: int =
         d = np.linalg.norm(local[:, None, :] - truth[None, :, :], axis=-1)
         n_tracks += len(local)
         n_legs += len(truth)
+        if trace is not None:
+            trace.append(
+                (
+                    scan.timestamp,
+                    truth,
+                    [(t.id, float(x), float(y)) for t, (x, y) in zip(confirmed, local, strict=True)],
+                )
+            )
         if d.size:
             good_tracks += int((d.min(axis=1) <= match).sum())
             covered += int((d.min(axis=0) <= match).sum())
@@ -375,6 +389,9 @@ def register(bench: typer.Typer) -> None:
             str, typer.Option(help="Seeds of the tracker's particle filters on the real bags.")
         ] = "0",
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
+        figure: Annotated[
+            Path | None, typer.Option(help="PNG of the real recordings' tracks against their annotations.")
+        ] = None,
     ) -> None:
         """People tracking: SJPDAF vs Stone Soup JPDA on simulated crowds; legs on the real bags."""
         from rich.progress import Progress
@@ -431,7 +448,7 @@ def register(bench: typer.Typer) -> None:
                 _summary(report, n, crowd_seeds, ours, peers)
         root = data_dir()
         if real and root is not None:
-            _real_bags(report, root / "leg_tracker", bag_seeds)
+            _real_bags(report, root / "leg_tracker", bag_seeds, figure)
         elif real:
             report.notes.append("real bags not found (../shared/data/leg_tracker): skipped")
         report.finish(output)
@@ -517,7 +534,7 @@ TARGET_LEG_RECALL = 0.90
 TARGET_LEG_PRECISION = 0.80
 
 
-def _real_bags(report: BenchReport, folder: Path, seeds: list[int]) -> None:
+def _real_bags(report: BenchReport, folder: Path, seeds: list[int], figure: Path | None = None) -> None:
     """The leg detector cross-validated over the six annotated recordings (leave one out), the
     tracker on each with the model that did not see it, and the people-free ``negative_2.bag``."""
     from tourbot.metrics import mean_ci
@@ -526,14 +543,19 @@ def _real_bags(report: BenchReport, folder: Path, seeds: list[int]) -> None:
 
     bags = [folder / name for name in RECORDINGS if (folder / name).exists()]
     folds = cross_validate(bags)
+    traces: dict[str, Trace] = {}
     for score, model in folds:
         name = score.held_out
+        traces[name] = []
         report.add(
             tracker=f"legs held-out {name[:10]}",
             precision=score.precision_nonleg,
             recall=score.recall,
         )
-        runs = [track_scores(folder / name, model, seed=s) for s in seeds]
+        runs = [
+            track_scores(folder / name, model, seed=s, trace=traces[name] if k == 0 else None)
+            for k, s in enumerate(seeds)
+        ]
         tracks = _seed_mean(runs)
         report.add(
             tracker=f"tracks held-out {name[:10]}",
@@ -554,6 +576,11 @@ def _real_bags(report: BenchReport, folder: Path, seeds: list[int]) -> None:
             f"{len(seeds)} tracker seeds)"
         )
         report.meta[name] = {"legs": vars(score), "model_trained_on": model.trained_on, "tracks": tracks}
+    if figure is not None:
+        _draw_traces(traces, figure)
+        report.notes.append(
+            f"tracks against the annotated legs over time (tracker seed {seeds[0]}) -> {figure}"
+        )
     met = [s.precision_at_90 >= TARGET_LEG_PRECISION for s, _ in folds]
     report.notes.append(
         f"target, legs on held-out recordings (recall >= {TARGET_LEG_RECALL} at precision >= "
@@ -585,6 +612,41 @@ def _real_bags(report: BenchReport, folder: Path, seeds: list[int]) -> None:
             f"{row['path_m']:.1f} m); limit {NEGATIVE_RATE_LIMIT}: {verdict}"
         )
         report.meta[f"negative_2 {row['topic']}"] = {**row, "tracks_per_scan_by_seed": rates}
+
+
+def _draw_traces(traces: dict[str, Trace], out: Path) -> None:
+    """One panel per recording: the annotated legs' distance from the laser over time (grey) and
+    each confirmed track's (one colour per id)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(traces), 1, figsize=(9, 2.2 * len(traces)), squeeze=False)
+    for ax, (name, trace) in zip(axes[:, 0], traces.items(), strict=True):
+        if not trace:
+            continue
+        t0 = trace[0][0]
+        legs = [(t - t0, float(np.hypot(*p))) for t, truth, _ in trace for p in truth]
+        if legs:
+            lt, lr = zip(*legs, strict=True)
+            ax.scatter(lt, lr, s=9, c="0.75", label="annotated legs")
+        paths: dict[int, list[tuple[float, float]]] = {}
+        for t, _, tracks in trace:
+            for tid, x, y in tracks:
+                paths.setdefault(tid, []).append((t - t0, float(np.hypot(x, y))))
+        for tid, pts in sorted(paths.items()):
+            pt, pr = zip(*pts, strict=True)
+            ax.plot(pt, pr, ".-", ms=3, lw=0.8, label=f"track {tid}" if len(paths) <= 6 else None)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylabel("range (m)")
+        ax.set_ylim(0.0, 8.0)
+    axes[-1, 0].set_xlabel("time (s)")
+    axes[0, 0].legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
 
 
 def _row(m: dict[str, float], cost: tuple[float, float]) -> dict[str, float]:
