@@ -636,7 +636,10 @@ def _draw_traces(traces: dict[str, Trace], out: Path) -> None:
             for tid, x, y in tracks:
                 paths.setdefault(tid, []).append((t - t0, float(np.hypot(x, y))))
         for tid, pts in sorted(paths.items()):
-            pt, pr = zip(*pts, strict=True)
+            pt, pr = np.array(pts).T
+            # no line across a gap of the recording (its unannotated scans are not in the bag)
+            gap = np.flatnonzero(np.diff(pt) > 1.0) + 1
+            pt, pr = np.insert(pt, gap, np.nan), np.insert(pr, gap, np.nan)
             ax.plot(pt, pr, ".-", ms=3, lw=0.8, label=f"track {tid}" if len(paths) <= 6 else None)
         ax.set_title(name, fontsize=9)
         ax.set_ylabel("range (m)")
