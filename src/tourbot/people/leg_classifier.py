@@ -1,4 +1,4 @@
-"""P(leg) of a scan segment from its shape: geometric features and a logistic model learnt from
+"""P(leg) of a scan segment from its shape: geometric features and boosted trees learnt from
 annotated scans.
 
 Burgard et al. (Sec. 4, Fig. 5 middle) give each feature "a probability of being a leg"; the width

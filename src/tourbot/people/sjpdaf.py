@@ -106,8 +106,8 @@ class SJPDAFConfig:
     With a ``pose_source`` (scan-matched poses) and ``map_without_people``, beams ending on a
     tracked person (tentative or confirmed) are left out of the map built on the fly.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends (a person seen as
-    two separate legs may start two). ``confirm_hits`` (2), ``max_unseen`` (1.5 s) and
-    ``merge_distance`` (0.35 m) were chosen on simulated crowds of 20 (crowd seeds 100-105, not
+    two separate legs may start two). ``max_unseen`` (1.5 s) and ``merge_distance`` (0.35 m) were
+    chosen on simulated crowds of 20 (crowd seeds 100-105, not
     those of the benchmark).
     """
 
