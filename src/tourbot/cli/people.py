@@ -114,7 +114,7 @@ def register(app: typer.Typer) -> None:
         if pose is PoseSource.scan_matching:
             typer.echo(
                 "robot pose from scan-matching (the log has no odometry or tf; each matched step is "
-                "checked for a plausible speed and turn rate)"
+                "checked for a plausible speed and turn rate, the scans for how well they fit the map)"
             )
         elif requested is PoseSource.auto:
             typer.echo(f"robot pose from {pose.value}")
