@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from tourbot.bench._stonesoup_jpda import StoneSoupJPDA
@@ -51,3 +53,21 @@ def test_parse_seeds_reads_ranges_and_lists() -> None:
         except ValueError:
             continue
         raise AssertionError(f"{bad!r} was accepted")
+
+
+def test_track_scores_count_misses_and_switches_of_the_walker(shared_data: Path, tmp_path: Path) -> None:
+    from tourbot.bench.tracking import Trace, _draw_traces, track_scores
+    from tourbot.people.leg_classifier import default_model
+
+    bag = shared_data / "leg_tracker" / "positive_2_extracted.bag"
+    trace: Trace = []
+    s = track_scores(bag, default_model(), trace=trace)
+    assert s["scans"] == len(trace) == 83
+    annotated = sum(len(truth) > 0 for _, truth, _ in trace)
+    # the person is missed in the scans where no confirmed track is near them, some but not all
+    assert 0 < s["misses"] < annotated
+    covered = [tracks for _, truth, tracks in trace if len(truth) and tracks]
+    assert s["switches"] <= len(covered)
+    assert 0.0 < s["recall"] <= 1.0
+    _draw_traces({bag.name: trace}, tmp_path / "t.png")
+    assert (tmp_path / "t.png").stat().st_size > 1000

@@ -141,7 +141,7 @@ def test_slam_people_filter_uses_the_given_leg_model(tmp_path: Path, monkeypatch
 
     shipped = default_model()
     assert shipped is not None
-    mine = replace(shipped, weights=(*shipped.weights[:-1], shipped.weights[-1] - 5.0), trained_on="mine")
+    mine = replace(shipped, bias=shipped.bias - 5.0, trained_on="mine")
     mine.save(tmp_path / "mine.json")
     seen: list[LegModel | None] = []
     update = PeopleTracker.update

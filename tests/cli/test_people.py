@@ -21,7 +21,7 @@ def test_track_writes_csv_of_a_real_bag(shared_data: Path, tmp_path: Path) -> No
         ]
     )
     rows = list(csv.DictReader(out.open()))
-    assert list(rows[0].keys()) == ["scan", "time", "track", "x", "y", "vx", "vy"]
+    rows = [r for r in rows if r["track"]]
     # People walk in front of the laser in this bag: some confirmed tracks, within the laser's reach.
     assert len({r["track"] for r in rows}) >= 1
     assert all(abs(float(r["x"])) < 10.0 and abs(float(r["y"])) < 10.0 for r in rows)
@@ -79,15 +79,14 @@ def test_track_interrupted_keeps_the_previous_csv(
 
 
 def _strict_model(path: Path) -> Path:
-    """The shipped leg model with a far lower intercept (a much higher threshold), saved to ``path``."""
+    """The shipped leg model from far lower log odds (a much higher threshold), saved to ``path``."""
     from dataclasses import replace
 
     from tourbot.people.leg_classifier import default_model
 
     shipped = default_model()
     assert shipped is not None
-    weights = (*shipped.weights[:-1], shipped.weights[-1] - 40.0)
-    replace(shipped, weights=weights, trained_on="strict").save(path)
+    replace(shipped, bias=shipped.bias - 40.0, trained_on="strict").save(path)
     return path
 
 
@@ -162,3 +161,97 @@ def test_track_bad_leg_model_is_one_clear_line(
     assert f"{model}{expected}" in " ".join(err.split())
     assert "Traceback" not in err
     assert not out.exists()
+
+
+def test_track_csv_has_the_robot_pose_and_both_frames(shared_data: Path, tmp_path: Path) -> None:
+    import math
+
+    from tourbot.cli.people import CSV_HEADER
+
+    out = tmp_path / "tracks.csv"
+    bag = shared_data / "leg_tracker" / "positive_4_extracted.bag"
+    main(["track", str(bag), "--tentative", "-o", str(out)])
+    rows = list(csv.DictReader(out.open()))
+    assert tuple(rows[0].keys()) == CSV_HEADER
+    assert {int(r["scan"]) for r in rows} == set(range(295))  # every scan, with its pose
+    tracked = [r for r in rows if r["track"]]
+    assert tracked
+    moved = max(math.hypot(float(r["robot_x"]), float(r["robot_y"])) for r in rows)
+    assert moved < 20.0
+    for r in tracked:
+        rx, ry, rt = (float(r[k]) for k in ("robot_x", "robot_y", "robot_theta"))
+        lx, ly = float(r["x_robot"]), float(r["y_robot"])
+        # the robot-frame position put back through the robot pose is the world-frame one
+        assert rx + math.cos(rt) * lx - math.sin(rt) * ly == pytest.approx(float(r["x"]), abs=1e-3)
+        assert ry + math.sin(rt) * lx + math.cos(rt) * ly == pytest.approx(float(r["y"]), abs=1e-3)
+
+
+@pytest.mark.parametrize(
+    ("pose", "missing"), [("odom", "have no odometry"), ("reference", "have no reference pose")]
+)
+def test_track_requested_pose_source_absent_is_one_clear_line(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], pose: str, missing: str
+) -> None:
+    bag = shared_data / "leg_tracker" / "positive_1_extracted.bag"
+    out = tmp_path / "t.csv"
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(bag), "--pose", pose, "-o", str(out)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1
+    assert str(bag) in " ".join(err.split())
+    assert missing in " ".join(err.split())
+    assert "Traceback" not in err
+    assert not out.exists()
+
+
+def test_track_auto_uses_the_odometry_of_a_log_that_has_it(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import gzip
+
+    log = tmp_path / "fhw-head.log"
+    with gzip.open(shared_data / "carmen" / "fhw-corrected.log.gz", "rt") as fh:
+        log.write_text("".join(line for _, line in zip(range(2500), fh, strict=False)))
+    out = tmp_path / "t.csv"
+    main(["track", str(log), "-o", str(out)])
+    assert "robot pose from odom" in capsys.readouterr().out
+    rows = list(csv.DictReader(out.open()))
+    assert rows
+    assert float(rows[-1]["robot_x"]) != 0.0  # the odometry pose, not a robot at the origin
+
+
+@pytest.mark.parametrize("requested", ["auto", "scan-matching"])
+def test_track_scan_matching_that_fails_its_check_is_said(
+    shared_data: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    requested: str,
+) -> None:
+    from tourbot.mapping.ego_motion import ScanMatchedPoses
+
+    calls: list[int] = []
+
+    def jumps(self: ScanMatchedPoses) -> str | None:
+        del self
+        calls.append(1)
+        return "a step of 9.9 m/s" if len(calls) == 20 else None
+
+    monkeypatch.setattr(ScanMatchedPoses, "implausible", jumps)
+    bag = shared_data / "leg_tracker" / "positive_4_extracted.bag"
+    out = tmp_path / "t.csv"
+    if requested == "auto":
+        main(["track", str(bag), "-o", str(out)])
+        said = capsys.readouterr().out
+        assert "failed its check at scan 19: a step of 9.9 m/s" in " ".join(said.split())
+        assert "robot pose from none" in said
+        rows = list(csv.DictReader(out.open()))
+        assert {(r["robot_x"], r["robot_y"], r["robot_theta"]) for r in rows} == {("0.000000",) * 3}
+    else:
+        with pytest.raises(SystemExit) as exc:
+            main(["track", str(bag), "--pose", requested, "-o", str(out)])
+        assert exc.value.code == 2
+        err = capsys.readouterr().err
+        assert "failed its check at scan 19" in " ".join(err.split())
+        assert not out.exists()

@@ -135,7 +135,7 @@ def test_a_visitor_standing_where_the_floor_was_seen_free_is_left_out(hall: Occu
     stands still is not mapped, while the walls behind stay."""
     log, people = _walker_log(hall)
     robot = log.reference_poses[0]
-    never = PeopleTracker(SJPDAFConfig(confirm_hits=10_000), rng=np.random.default_rng(0))
+    never = PeopleTracker(SJPDAFConfig(confirm_existence=0.99999), rng=np.random.default_rng(0))
     filtered = PeopleFilteredMapper.create(
         PeopleMappingConfig(filter=PeopleFilterParams.paper()), start=robot, tracker=never
     )

@@ -12,10 +12,11 @@ from tests.people.scenes import legs_of, scan_with_circles
 from tourbot.people.leg_classifier import (
     FEATURE_NAMES,
     MODEL_FEATURES,
+    BoostConfig,
     LegModel,
     LegModelError,
     default_model,
-    fit_logistic,
+    fit_boosted,
     segment_features,
     segment_features_reference,
 )
@@ -48,12 +49,12 @@ def test_a_leg_bulges_towards_the_laser_and_fits_a_circle() -> None:
     assert abs(row["radius"] - 0.06) < 0.02
 
 
-def test_logistic_fit_separates_and_round_trips(tmp_path: Path) -> None:
+def test_boosted_fit_separates_and_round_trips(tmp_path: Path) -> None:
     rng = np.random.default_rng(0)
-    x = rng.normal(size=(400, len(FEATURE_NAMES)))
-    col = FEATURE_NAMES.index(MODEL_FEATURES[0])
-    y = x[:, col] > 0.3
-    model = fit_logistic(x, y, trained_on="synthetic")
+    x = rng.normal(size=(600, len(FEATURE_NAMES)))
+    a, b = (FEATURE_NAMES.index(n) for n in MODEL_FEATURES[:2])
+    y = (x[:, a] > 0.3) & (x[:, b] < 0.5)  # an interaction a logistic model of the features misses
+    model = fit_boosted(x, y, BoostConfig(rounds=60), trained_on="synthetic")
     p = model.probability(x)
     assert ((p > 0.5) == y).mean() > 0.95
     model.save(tmp_path / "m.json")
@@ -62,9 +63,21 @@ def test_logistic_fit_separates_and_round_trips(tmp_path: Path) -> None:
     assert again.trained_on == "synthetic"
 
 
+def test_the_model_reads_the_named_features_only() -> None:
+    # P(leg) does not depend on the number of points or the range: they are no part of the model.
+    model = default_model()
+    assert model is not None
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(50, len(FEATURE_NAMES)))
+    y = x.copy()
+    y[:, FEATURE_NAMES.index("points")] += 3.0
+    y[:, FEATURE_NAMES.index("range")] += 5.0
+    np.testing.assert_array_equal(model.probability(x), model.probability(y))
+
+
 def test_a_model_for_other_features_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "m.json"
-    path.write_text('{"features": ["width"], "mean": [0], "scale": [1], "weights": [0, 0, 0]}')
+    path.write_text('{"features": ["width"], "kind": "boosted-trees"}')
     with pytest.raises(LegModelError, match="other features") as exc:
         LegModel.load(path)
     assert exc.value.path == str(path)
@@ -72,23 +85,24 @@ def test_a_model_for_other_features_is_refused(tmp_path: Path) -> None:
 
 
 def _shipped_doc() -> dict[str, object]:
-    model = default_model()
-    assert model is not None
-    return {
-        "features": list(MODEL_FEATURES),
-        "mean": list(model.mean),
-        "scale": list(model.scale),
-        "weights": list(model.weights),
-    }
+    import json
+
+    from tourbot.people.leg_classifier import DEFAULT_MODEL
+
+    doc = json.loads(DEFAULT_MODEL.read_text())
+    assert isinstance(doc, dict)
+    return doc
 
 
 @pytest.mark.parametrize(
     ("change", "field", "message"),
     [
-        ({"weights": [0.0, 1.0]}, "weights", "expected 23 numbers, found 2"),
-        ({"mean": None}, "mean", "list of 11 numbers"),
-        ({"scale": ["a"] * 11}, "scale", "list of 11 numbers"),
-        ({"scale": [0.0] * 11}, "scale", "positive"),
+        ({"kind": "logistic"}, "kind", "not a boosted-trees leg model"),
+        ({"depth": 0}, "depth", "integer from 1 to 8"),
+        ({"bias": "x"}, "bias", "finite number"),
+        ({"leaf_value": [[0.0, 1.0]]}, "leaf_value", "trees of 8 numbers"),
+        ({"split_feature": [[99] * 7]}, "split_feature", "feature indices"),
+        ({"split_value": None}, "split_value", "trees of 7 numbers"),
         ({"features": None}, "features", "other features"),
     ],
 )
@@ -98,7 +112,12 @@ def test_a_bad_model_file_names_the_file_and_field(
     import json
 
     path = tmp_path / "m.json"
-    path.write_text(json.dumps(_shipped_doc() | change))
+    doc = _shipped_doc() | change
+    if field == "split_feature":  # as many trees as the other tables
+        trees = doc["leaf_value"]
+        assert isinstance(trees, list)
+        doc["split_feature"] = [[99] * 7 for _ in trees]
+    path.write_text(json.dumps(doc))
     with pytest.raises(LegModelError, match=message) as exc:
         LegModel.load(path)
     assert exc.value.path == str(path)
@@ -128,10 +147,8 @@ def test_a_stricter_model_from_a_file_changes_the_detections(tmp_path: Path) -> 
     """A model loaded from a file, not the shipped one, decides P(leg) when given to LegConfig."""
     shipped = default_model()
     assert shipped is not None
-    # the same shape model with a far lower intercept: no segment with a shape is a leg any more
-    strict = replace(
-        shipped, weights=(*shipped.weights[:-1], shipped.weights[-1] - 40.0), trained_on="strict"
-    )
+    # the same trees from far lower log odds: no segment is a leg any more
+    strict = replace(shipped, bias=shipped.bias - 40.0, trained_on="strict")
     strict.save(tmp_path / "strict.json")
     loaded = LegModel.load(tmp_path / "strict.json")
     assert loaded == strict

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -9,11 +10,22 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from tourbot.cli.logs import OdometryOpt, OdometryStream
+from tourbot.errors import InputError
 
 if TYPE_CHECKING:
+    from tourbot.maps.grid import OccupancyGrid
     from tourbot.people.sjpdaf import SJPDAFConfig
+    from tourbot.records import Scan
 
-__all__ = ["TRAINED_MODEL", "LegModelOpt", "PoseSource", "register", "tracker_config"]
+__all__ = [
+    "CSV_HEADER",
+    "TRAINED_MODEL",
+    "LegModelOpt",
+    "PoseSource",
+    "choose_pose_source",
+    "register",
+    "tracker_config",
+]
 
 TRAINED_MODEL = Path("leg-model.json")  # where train-legs writes without -o: the current folder
 
@@ -67,8 +79,10 @@ def register(app: typer.Typer) -> None:
         pose: Annotated[
             PoseSource,
             typer.Option(
-                help="Robot pose per scan: odometry, scan-to-map matching (Burgard Sec. 2.1), the log's "
-                "reference pose, or none (robot still); auto: odometry if the log has it, else scan matching."
+                help="Robot pose per scan: odometry (or tf), scan-to-map matching (Burgard Sec. 2.1), the "
+                "log's reference pose, or none (robot still); a source the log lacks is an error. auto: "
+                "odometry if the log has it, else scan matching while its steps stay plausible, else none "
+                "(the choice is printed)."
             ),
         ] = PoseSource.auto,
         tentative: Annotated[bool, typer.Option(help="Also write tracks not yet confirmed.")] = False,
@@ -77,18 +91,14 @@ def register(app: typer.Typer) -> None:
         leg_model: LegModelOpt = None,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
     ) -> None:
-        """Track people (SJPDAF, Burgard et al. Sec. 4); CSV: scan, time, id, x, y, vx, vy."""
-        import csv
-
-        import numpy as np
-
+        """Track people (SJPDAF, Burgard et al. Sec. 4). CSV: one row per track and scan (a scan
+        with no track has one row with the track columns empty): scan, time, the robot pose used
+        (robot_x, robot_y, robot_theta), track, its position x, y and velocity vx, vy in the world
+        frame, and its position x_robot, y_robot in the robot's frame."""
         from tourbot.io import load_log, log_kind
         from tourbot.io.mapserver import read_map
-        from tourbot.io.output import check_output, output_file
-        from tourbot.io.progress import ScanProgress
+        from tourbot.io.output import check_output
         from tourbot.io.rosbag import read_bag
-        from tourbot.mapping.ego_motion import ScanMatchedPoses
-        from tourbot.people.sjpdaf import PeopleTracker
 
         check_output(output)
         if plot is not None:
@@ -99,44 +109,148 @@ def register(app: typer.Typer) -> None:
         else:
             robot_log = load_log(log, odometry=odometry_stream.value)
         grid = read_map(map_path) if map_path is not None else None
-        if pose is PoseSource.auto:
-            has_odom = bool(robot_log.scans) and all(s.odom is not None for s in robot_log.scans)
-            pose = PoseSource.odom if has_odom else PoseSource.scan_matching
+        requested = pose
+        pose = choose_pose_source(robot_log.scans, requested, log)
+        if pose is PoseSource.scan_matching:
+            typer.echo(
+                "robot pose from scan-matching (the log has no odometry or tf; each matched step is "
+                "checked for a plausible speed and turn rate, the scans for how well they fit the map)"
+            )
+        elif requested is PoseSource.auto:
             typer.echo(f"robot pose from {pose.value}")
-        ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
-        tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), pose_source=ego)
-        rows = 0
-        ids: set[int] = set()
-        paths: dict[int, list[tuple[float, float]]] = {}
-        # written whole or not at all: an error or Ctrl-C mid-log keeps any previous CSV
-        with (
-            output_file(output) as tmp,
-            tmp.open("w", newline="") as fh,
-            ScanProgress(f"tracking {log.name}", len(robot_log.scans)) as progress,
-        ):
-            writer = csv.writer(fh)
-            writer.writerow(["scan", "time", "track", "x", "y", "vx", "vy"])
-            for k, scan in enumerate(robot_log.scans):
-                robot = None
-                if ego is None:
-                    chosen = scan.odom if pose is PoseSource.odom else scan.reference
-                    robot = np.asarray(
-                        chosen if chosen is not None and pose is not PoseSource.none else (0.0, 0.0, 0.0)
-                    )
-                for tr in tracker.update(scan, robot):
-                    if tr.confirmed or tentative:
-                        writer.writerow(
-                            [k, f"{scan.timestamp:.6f}", tr.id]
-                            + [f"{v:.4f}" for v in (*tr.position, *tr.velocity)]
-                        )
-                        rows += 1
-                        ids.add(tr.id)
-                        paths.setdefault(tr.id, []).append(tr.position)
-                progress.advance()
+        try:
+            ids, rows, paths = _track_log(robot_log.scans, pose, config, grid, seed, tentative, output, log)
+        except _UnverifiedPosesError as exc:
+            if requested is not PoseSource.auto:
+                raise InputError(
+                    f"scan matching failed its check at scan {exc.scan}: {exc.reason}; "
+                    "try --pose none (robot still)",
+                    path=log,
+                    field="--pose",
+                ) from None
+            typer.echo(
+                f"scan matching failed its check at scan {exc.scan}: {exc.reason}; "
+                "robot pose from none (the robot taken as still)"
+            )
+            ids, rows, paths = _track_log(
+                robot_log.scans, PoseSource.none, config, grid, seed, tentative, output, log
+            )
         typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")
         if plot is not None:
             _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")
             typer.echo(f"picture -> {plot}")
+
+
+def choose_pose_source(scans: Sequence[Scan], requested: PoseSource, log: Path) -> PoseSource:
+    """The pose source to use for ``scans`` of ``log``: ``auto`` is odometry (or tf, which the bag
+    reader turns into odometry) when every scan has it, else scan matching; a requested source the
+    log lacks is an :class:`~tourbot.errors.InputError` naming the file and what is missing."""
+    has_odom = bool(scans) and all(s.odom is not None for s in scans)
+    if requested is PoseSource.auto:
+        return PoseSource.odom if has_odom else PoseSource.scan_matching
+    lacking = {
+        PoseSource.odom: (
+            sum(s.odom is None for s in scans),
+            "odometry (no odometry readings, no Odometry topic and no odom -> base_link transform on /tf)",
+        ),
+        PoseSource.reference: (
+            sum(s.reference is None for s in scans),
+            "reference pose (only CARMEN logs carry one, in their FLASER lines)",
+        ),
+    }
+    if requested in lacking:
+        missing, what = lacking[requested]
+        if missing or not scans:
+            raise InputError(
+                f"--pose {requested.value}, but {missing} of {len(scans)} scans have no {what}",
+                path=log,
+                field="--pose",
+            )
+    return requested
+
+
+class _UnverifiedPosesError(Exception):
+    """Scan matching produced a step no robot makes: its poses are not to be used."""
+
+    def __init__(self, scan: int, reason: str) -> None:
+        super().__init__(reason)
+        self.scan = scan
+        self.reason = reason
+
+
+CSV_HEADER = (
+    "scan",
+    "time",
+    "robot_x",
+    "robot_y",
+    "robot_theta",
+    "track",
+    "x",
+    "y",
+    "vx",
+    "vy",
+    "x_robot",
+    "y_robot",
+)
+
+
+def _track_log(
+    scans: Sequence[Scan],
+    pose: PoseSource,
+    config: SJPDAFConfig,
+    grid: OccupancyGrid | None,
+    seed: int,
+    tentative: bool,
+    output: Path,
+    log: Path,
+) -> tuple[set[int], int, dict[int, list[tuple[float, float]]]]:
+    """Track ``scans`` with the robot poses of ``pose`` and write the CSV ``output`` whole; the
+    track ids, the number of track rows and each track's path. Scan matching raises
+    :class:`_UnverifiedPosesError` at the first implausible step (nothing is written then)."""
+    import csv
+
+    import numpy as np
+
+    from tourbot.geometry import invert, transform_points
+    from tourbot.io.output import output_file
+    from tourbot.io.progress import ScanProgress
+    from tourbot.mapping.ego_motion import ScanMatchedPoses
+    from tourbot.people.sjpdaf import PeopleTracker
+
+    ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
+    tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), pose_source=ego)
+    rows = 0
+    ids: set[int] = set()
+    paths: dict[int, list[tuple[float, float]]] = {}
+    # written whole or not at all: an error or Ctrl-C mid-log keeps any previous CSV
+    with (
+        output_file(output) as tmp,
+        tmp.open("w", newline="") as fh,
+        ScanProgress(f"tracking {log.name}", len(scans)) as progress,
+    ):
+        writer = csv.writer(fh)
+        writer.writerow(CSV_HEADER)
+        for k, scan in enumerate(scans):
+            robot = None
+            if ego is None:
+                chosen = {PoseSource.odom: scan.odom, PoseSource.reference: scan.reference}.get(pose)
+                robot = np.asarray(chosen if chosen is not None else (0.0, 0.0, 0.0), dtype=np.float64)
+            tracks = [tr for tr in tracker.update(scan, robot) if tr.confirmed or tentative]
+            if ego is not None and (reason := ego.implausible()) is not None:
+                raise _UnverifiedPosesError(k, reason)
+            used = tracker.last_pose
+            head = [k, f"{scan.timestamp:.6f}", *(f"{v:.6f}" for v in used)]
+            if not tracks:
+                writer.writerow([*head, *[""] * 7])
+            pts = np.array([tr.position for tr in tracks], dtype=np.float64).reshape(-1, 2)
+            local = transform_points(invert(used), pts) if len(pts) else pts
+            for tr, (lx, ly) in zip(tracks, local.tolist(), strict=True):
+                writer.writerow([*head, tr.id, *(f"{v:.4f}" for v in (*tr.position, *tr.velocity, lx, ly))])
+                rows += 1
+                ids.add(tr.id)
+                paths.setdefault(tr.id, []).append(tr.position)
+            progress.advance()
+    return ids, rows, paths
 
 
 def _register_train(app: typer.Typer) -> None:

@@ -111,7 +111,7 @@ class AlignmentParams:
 
     ``bin_size``: the side of the histogram bins of each person's samples (m). ``body_radius``: a
     beam ending this close to a person's samples may be reflected by them (m); a tentative track
-    counts with the share ``hits / confirm_hits`` of the way to its confirmation.
+    counts with its probability of existence (:attr:`~tourbot.people.sjpdaf.Track.existence`).
     ``align_features``: beams ending on the scan's person features get no weight in alignment
     (Eq. 12 with ``P(hit) = 1``): in a sparse log the walking visitors have no track.
     """
@@ -389,8 +389,7 @@ class PeopleFilteredMapper:
             if self._evidence_map is None and self._map_only_rules():
                 self._evidence_map = IncrementalMapper(self.mapper.params)
             sets = self.tracker.sample_sets()
-            confirm = self.tracker.config.confirm_hits
-            existence = [1.0 if t.confirmed else min(t.hits / confirm, 1.0) for t in tracks]
+            existence = [1.0 if t.confirmed else t.existence for t in tracks]
             pts, _ = beam_endpoints(scan, predicted)
             h = hit_probability([sets[t.id] for t in tracks], pts, p.alignment, existence)
             if p.alignment.align_features:

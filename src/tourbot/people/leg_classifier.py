@@ -1,4 +1,4 @@
-"""P(leg) of a scan segment from its shape: geometric features and a logistic model learnt from
+"""P(leg) of a scan segment from its shape: geometric features and boosted trees learnt from
 annotated scans.
 
 Burgard et al. (Sec. 4, Fig. 5 middle) give each feature "a probability of being a leg"; the width
@@ -10,12 +10,17 @@ radius, the boundary length against the width, the range jumps to the neighbouri
 the segment bulges towards the laser, and how densely the beams sample it.
 
 The features are a numba kernel (:func:`segment_features`) with a plain-numpy reference
-(:func:`segment_features_reference`). The model is a logistic regression on the standardised
-features and their squares, fitted by Newton's method with a small ridge penalty
-(:func:`fit_logistic`); its parameters live in a small JSON file built by ``tourbot train-legs``
-from annotated ``leg_tracker`` bags. The package ships one (:data:`DEFAULT_MODEL`); a model
-trained on one's own laser is loaded with :meth:`LegModel.load` and given to the detector through
-:class:`tourbot.people.legs.LegConfig` (``--leg-model`` of ``tourbot track`` and ``tourbot slam``).
+(:func:`segment_features_reference`). The model (:class:`LegModel`) is boosted regression trees
+(gradient boosting of the logistic loss, :func:`fit_boosted`) on the features in metric units
+(``MODEL_FEATURES``: widths, fit residuals, radius, range jumps, bulge, spread, the nearest other
+candidate, and the share of the expected beams, which does not grow with the beam count); the
+number of points and the range are left out (the one depends on the laser's resolution, the
+other on where people happened to walk in the recordings). Its trees live in a small JSON file
+built by ``tourbot train-legs`` from annotated ``leg_tracker`` bags (each scan also seen as a
+coarser, noisier laser would see it, :func:`tourbot.people.leg_training.thinned`). The package
+ships one (:data:`DEFAULT_MODEL`); a model trained on one's own laser is loaded with
+:meth:`LegModel.load` and given to the detector through :class:`tourbot.people.legs.LegConfig`
+(``--leg-model`` of ``tourbot track`` and ``tourbot slam``).
 """
 
 from __future__ import annotations
@@ -37,11 +42,12 @@ __all__ = [
     "DEFAULT_MODEL",
     "FEATURE_NAMES",
     "MODEL_FEATURES",
+    "BoostConfig",
     "LegModel",
     "LegModelError",
     "candidate_features",
     "default_model",
-    "fit_logistic",
+    "fit_boosted",
     "segment_features",
     "segment_features_reference",
 ]
@@ -68,9 +74,10 @@ FEATURE_NAMES = (
 )
 SHAPE_FEATURES = 12  # the first twelve come from the segment alone
 # The model leaves out the range and the number of points: in annotated data they say more about
-# where the people happened to walk than about legs (a model trained where people walked near
-# the laser learns "near is a leg" and misses the legs of another recording), and the width
-# against the beam spacing ("density") carries what the number of points says about the shape.
+# where the people happened to walk and the laser's resolution than about legs (a model trained
+# where people walked near the laser learns "near is a leg" and misses the legs of another
+# recording), and the width against the beam spacing ("density") carries what the number of
+# points says about the shape.
 MODEL_FEATURES = tuple(n for n in FEATURE_NAMES if n not in ("points", "range"))
 _MODEL_COLUMNS = np.array([FEATURE_NAMES.index(n) for n in MODEL_FEATURES])
 NEIGHBOUR_CAP = 1.0  # m: the nearest other candidate, "none" beyond this
@@ -322,41 +329,63 @@ def default_model() -> LegModel | None:
     return LegModel.load(DEFAULT_MODEL) if DEFAULT_MODEL.exists() else None
 
 
-def _expand(z: FloatArray) -> FloatArray:
-    """Standardised features, their squares and a constant: the logistic model's inputs."""
-    return np.concatenate([z, z * z, np.ones((z.shape[0], 1))], axis=1)
+MAX_DEPTH = 8  # deeper trees than this in a model file are refused (2^depth leaves per tree)
 
 
 @dataclass(frozen=True)
 class LegModel:
-    """A logistic model of P(leg | segment features): ``mean``/``scale`` standardise the features
-    named in ``MODEL_FEATURES``,
-    ``weights`` apply to [z, z^2, 1]. ``trained_on`` names the data it was fitted to."""
+    """Boosted regression trees for P(leg | segment features), after Arras et al. (2007), whose
+    detector boosts the same geometric features (here gradient boosting of the logistic loss, the
+    successor of their AdaBoost). Every tree is complete, of ``depth`` levels: for tree ``t`` the
+    internal node ``n`` (heap order, children ``2n + 1`` and ``2n + 2``) sends a segment right when
+    its feature ``split_feature[t][n]`` (an index into ``MODEL_FEATURES``) is above
+    ``split_value[t][n]``; the leaf reached adds ``leaf_value[t][leaf]`` to the log odds, which
+    start at ``bias``. ``trained_on`` names the data it was fitted to."""
 
-    mean: tuple[float, ...]
-    scale: tuple[float, ...]
-    weights: tuple[float, ...]
+    depth: int
+    bias: float
+    split_feature: tuple[tuple[int, ...], ...]
+    split_value: tuple[tuple[float, ...], ...]
+    leaf_value: tuple[tuple[float, ...], ...]
     trained_on: str = ""
+
+    def log_odds(self, features: FloatArray) -> FloatArray:
+        """The model's log odds of a leg for each row of ``features`` ``(S, len(FEATURE_NAMES))``."""
+        x = np.asarray(features, dtype=np.float64)[:, _MODEL_COLUMNS]
+        S = x.shape[0]
+        out = np.full(S, self.bias)
+        if S == 0 or not self.leaf_value:
+            return out
+        feat = np.asarray(self.split_feature, dtype=np.int64)  # (T, 2^d - 1)
+        value = np.asarray(self.split_value, dtype=np.float64)
+        leaves = np.asarray(self.leaf_value, dtype=np.float64)  # (T, 2^d)
+        T = feat.shape[0]
+        trees = np.arange(T)[None, :]
+        node = np.zeros((S, T), dtype=np.int64)
+        rows = np.arange(S)[:, None]
+        for _ in range(self.depth):
+            right = x[rows, feat[trees, node]] > value[trees, node]
+            node = 2 * node + 1 + right
+        out += leaves[trees, node - (2**self.depth - 1)].sum(axis=1)
+        return out
 
     def probability(self, features: FloatArray) -> FloatArray:
         """P(leg) of each row of ``features`` ``(S, len(FEATURE_NAMES))``."""
-        if features.shape[0] == 0:
-            return np.zeros(0)
-        z = (features[:, _MODEL_COLUMNS] - np.asarray(self.mean)) / np.asarray(self.scale)
-        z = np.clip(z, -8.0, 8.0)  # a segment unlike any seen in training is not extrapolated wildly
-        logit = _expand(z) @ np.asarray(self.weights)
-        return 1.0 / (1.0 + np.exp(-np.clip(logit, -50.0, 50.0)))
+        return 1.0 / (1.0 + np.exp(-np.clip(self.log_odds(features), -50.0, 50.0)))
 
     def save(self, path: Path) -> None:
         """Write the model as JSON, whole or not at all (:func:`tourbot.io.output.write_text_whole`)."""
         doc = {
+            "kind": "boosted-trees",
             "features": list(MODEL_FEATURES),
-            "mean": list(self.mean),
-            "scale": list(self.scale),
-            "weights": list(self.weights),
+            "depth": self.depth,
+            "bias": self.bias,
+            "split_feature": [list(t) for t in self.split_feature],
+            "split_value": [list(t) for t in self.split_value],
+            "leaf_value": [list(t) for t in self.leaf_value],
             "trained_on": self.trained_on,
         }
-        write_text_whole(path, json.dumps(doc, indent=1) + "\n")
+        write_text_whole(path, json.dumps(doc) + "\n")
 
     @staticmethod
     def load(path: Path) -> LegModel:
@@ -381,54 +410,132 @@ class LegModel:
                 path=path,
                 field="features",
             )
-        n = len(MODEL_FEATURES)
-        sizes = {"mean": n, "scale": n, "weights": 2 * n + 1}  # weights of [z, z^2, 1]
-        values: dict[str, tuple[float, ...]] = {}
+        if doc.get("kind") != "boosted-trees":
+            raise LegModelError(
+                f"not a boosted-trees leg model: kind {doc.get('kind')!r} (retrain: tourbot train-legs)",
+                path=path,
+                field="kind",
+            )
+        depth = doc.get("depth")
+        if not isinstance(depth, int) or isinstance(depth, bool) or not 1 <= depth <= MAX_DEPTH:
+            raise LegModelError(f"expected an integer from 1 to {MAX_DEPTH}", path=path, field="depth")
+        bias = doc.get("bias")
+        if not isinstance(bias, int | float) or isinstance(bias, bool) or not math.isfinite(bias):
+            raise LegModelError("expected a finite number", path=path, field="bias")
+        sizes = {"split_feature": 2**depth - 1, "split_value": 2**depth - 1, "leaf_value": 2**depth}
+        tables: dict[str, list[list[float]]] = {}
         for name, size in sizes.items():
             raw = doc.get(name)
             if not isinstance(raw, list) or not all(
-                isinstance(v, int | float) and not isinstance(v, bool) for v in raw
+                isinstance(t, list) and len(t) == size and all(_is_number(v) for v in t) for t in raw
             ):
-                raise LegModelError(f"expected a list of {size} numbers", path=path, field=name)
-            if len(raw) != size:
-                raise LegModelError(f"expected {size} numbers, found {len(raw)}", path=path, field=name)
-            if not all(math.isfinite(v) for v in raw):
+                raise LegModelError(f"expected a list of trees of {size} numbers each", path=path, field=name)
+            if not all(math.isfinite(v) for t in raw for v in t):
                 raise LegModelError("numbers must be finite", path=path, field=name)
-            values[name] = tuple(float(v) for v in raw)
-        if any(v <= 0.0 for v in values["scale"]):
-            raise LegModelError("scales must be positive", path=path, field="scale")
-        return LegModel(values["mean"], values["scale"], values["weights"], str(doc.get("trained_on", "")))
+            tables[name] = raw
+        if not len(tables["split_feature"]) == len(tables["split_value"]) == len(tables["leaf_value"]):
+            raise LegModelError("split_feature, split_value and leaf_value differ in trees", path=path)
+        n = len(MODEL_FEATURES)
+        if not all(float(v).is_integer() and 0 <= v < n for t in tables["split_feature"] for v in t):
+            raise LegModelError(
+                f"feature indices must be integers from 0 to {n - 1}", path=path, field="split_feature"
+            )
+        return LegModel(
+            depth,
+            float(bias),
+            tuple(tuple(int(v) for v in t) for t in tables["split_feature"]),
+            tuple(tuple(float(v) for v in t) for t in tables["split_value"]),
+            tuple(tuple(float(v) for v in t) for t in tables["leaf_value"]),
+            str(doc.get("trained_on", "")),
+        )
 
 
-def fit_logistic(
+def _is_number(v: object) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+@dataclass(frozen=True, slots=True)
+class BoostConfig:
+    """Gradient boosting of :class:`LegModel`: ``rounds`` trees of ``depth`` levels, each shrunk by
+    ``learning_rate``; splits are searched among ``bins`` quantiles of each feature; a node with
+    fewer than ``min_leaf`` samples is not split; ``l2`` regularises the leaf values (Newton steps
+    of the logistic loss, as in XGBoost). Positives and negatives weigh the same in all."""
+
+    rounds: int = 150
+    depth: int = 3
+    learning_rate: float = 0.2
+    bins: int = 32
+    min_leaf: int = 20
+    l2: float = 1.0
+
+
+def fit_boosted(
     features: FloatArray,
     labels: NDArray[np.bool_],
+    config: BoostConfig | None = None,
     *,
-    ridge: float = 1.0,
-    iterations: int = 50,
     trained_on: str = "",
 ) -> LegModel:
-    """Fit a :class:`LegModel` to ``features`` ``(S, len(FEATURE_NAMES))`` by Newton's method
-    (iteratively reweighted least squares) on the penalised log likelihood; positives and
-    negatives weighted to count equally."""
+    """Fit a :class:`LegModel` to ``features`` ``(S, len(FEATURE_NAMES))`` and ``labels``."""
+    cfg = config or BoostConfig()
     x = np.asarray(features, dtype=np.float64)[:, _MODEL_COLUMNS]
     y = np.asarray(labels, dtype=np.float64)
-    mean = x.mean(axis=0)
-    scale = x.std(axis=0)
-    scale[scale < 1e-9] = 1.0
-    a = _expand(np.clip((x - mean) / scale, -8.0, 8.0))
+    S, F = x.shape
     npos = max(float(y.sum()), 1.0)
-    nneg = max(float(len(y) - y.sum()), 1.0)
-    sw = np.where(y > 0.5, 0.5 / npos, 0.5 / nneg) * len(y)
-    w = np.zeros(a.shape[1])
-    penalty = ridge * np.eye(a.shape[1])
-    penalty[-1, -1] = 0.0  # the intercept is not penalised
-    for _ in range(iterations):
-        p = 1.0 / (1.0 + np.exp(-np.clip(a @ w, -50.0, 50.0)))
-        grad = a.T @ (sw * (p - y)) + penalty @ w
-        hess = (a * (sw * p * (1.0 - p))[:, None]).T @ a + penalty
-        delta = np.linalg.solve(hess, grad)
-        w -= delta
-        if float(np.abs(delta).max()) < 1e-8:
-            break
-    return LegModel(tuple(mean.tolist()), tuple(scale.tolist()), tuple(w.tolist()), trained_on)
+    nneg = max(float(S - y.sum()), 1.0)
+    weight = np.where(y > 0.5, 0.5 / npos, 0.5 / nneg) * S
+    bias = 0.0
+    qs = np.linspace(0.0, 1.0, cfg.bins + 1)[1:-1]
+    edges = [np.unique(np.quantile(x[:, f], qs)) if S else np.zeros(0) for f in range(F)]
+    binned = (
+        np.stack([np.searchsorted(edges[f], x[:, f]) for f in range(F)], 1) if S else np.zeros((0, F), int)
+    )
+    score = np.full(S, bias)
+    feats: list[tuple[int, ...]] = []
+    values: list[tuple[float, ...]] = []
+    leaves: list[tuple[float, ...]] = []
+    internal = 2**cfg.depth - 1
+    for _ in range(cfg.rounds):
+        p = 1.0 / (1.0 + np.exp(-score))
+        g = weight * (p - y)
+        h = weight * p * (1.0 - p)
+        tf = np.zeros(internal, dtype=np.int64)
+        tv = np.full(internal, np.finfo(np.float64).max)  # no split: every segment goes left
+        tl = np.zeros(internal + 1)
+        node = np.zeros(S, dtype=np.int64)
+        for n in range(internal):
+            idx = np.flatnonzero(node == n)
+            best = _best_split(binned[idx], g[idx], h[idx], edges, cfg) if idx.size >= cfg.min_leaf else None
+            if best is not None:
+                tf[n], tv[n] = best
+            go = x[idx, tf[n]] > tv[n]
+            node[idx] = 2 * n + 1 + go
+        leaf = node - internal
+        gs = np.bincount(leaf, weights=g, minlength=internal + 1)
+        hs = np.bincount(leaf, weights=h, minlength=internal + 1)
+        tl = -cfg.learning_rate * gs / (hs + cfg.l2)
+        score += tl[leaf]
+        feats.append(tuple(tf.tolist()))
+        values.append(tuple(tv.tolist()))
+        leaves.append(tuple(tl.tolist()))
+    return LegModel(cfg.depth, bias, tuple(feats), tuple(values), tuple(leaves), trained_on)
+
+
+def _best_split(
+    binned: NDArray[np.int64], g: FloatArray, h: FloatArray, edges: list[FloatArray], cfg: BoostConfig
+) -> tuple[int, float] | None:
+    """The (feature, value) split of one node with the largest gain of the second-order logistic
+    loss, or None when no split gains."""
+    G, H = float(g.sum()), float(h.sum())
+    base = G * G / (H + cfg.l2)
+    best_gain, best = 1e-12, None
+    for f, e in enumerate(edges):
+        if e.size == 0:
+            continue
+        gl = np.cumsum(np.bincount(binned[:, f], weights=g, minlength=e.size + 1))[:-1]
+        hl = np.cumsum(np.bincount(binned[:, f], weights=h, minlength=e.size + 1))[:-1]
+        gain = gl**2 / (hl + cfg.l2) + (G - gl) ** 2 / (H - hl + cfg.l2) - base
+        t = int(np.argmax(gain))
+        if gain[t] > best_gain:
+            best_gain, best = float(gain[t]), (f, float(e[t]))
+    return best

@@ -13,7 +13,7 @@ The segmentation is a numba kernel over the beams with a vectorised numpy refere
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numba
 import numpy as np
@@ -53,8 +53,12 @@ class LegConfig:
     near the laser that they are the robot's own body (a person's leg centre cannot come nearer
     than the robot's skin around the laser).
     ``max_leg_separation`` is the largest distance between a person's two legs (a long stride).
-    ``model``: the learnt P(leg) of :mod:`tourbot.people.leg_classifier` (None: the rule above),
-    for segments of at least ``model_min_points`` points (fewer have no shape: the rule decides).
+    ``model``: the learnt P(leg) of :mod:`tourbot.people.leg_classifier` (None: the rule above);
+    with a model the candidates are all segments ``model_min_width``-``model_max_width`` wide,
+    local minimum or not (two legs seen as one blob near the laser are up to 0.5 m wide; a leg
+    half hidden by the other has no contrast on one side), and the model decides for those of
+    ``model_min_points`` points or more; fewer have no shape to speak of (a line and a circle fit
+    them exactly), and the rule decides (a far leg, or a coarse laser's).
     ``depth_offset`` moves a segment's centroid away from the laser towards the leg's axis: the
     laser sees only the near side of a leg (about 2/3 of a 6 cm radius behind the visible arc).
     """
@@ -73,7 +77,9 @@ class LegConfig:
     depth_offset: float = 0.04
     min_probability: float = 0.1
     model: LegModel | None = field(default_factory=default_model)
-    model_min_points: int = 4
+    model_min_points: int = 3
+    model_min_width: float = 0.02
+    model_max_width: float = 0.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,9 +131,7 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
     legs, features = leg_candidates(scan, cfg, with_features=cfg.model is not None)
     if cfg.model is None or len(legs) == 0:
         return legs
-    # Segments of a few points have no shape to speak of (a line and a circle fit them exactly):
-    # the model, learnt on legs seen near the laser with many beams each, would call them clutter.
-    shaped = features[:, FEATURE_NAMES.index("points")] >= math.log(cfg.model_min_points)
+    shaped = features[:, FEATURE_NAMES.index("points")] >= math.log(cfg.model_min_points) - 1e-9
     prob = np.where(shaped, cfg.model.probability(features), legs.probability)
     keep = prob >= cfg.min_probability
     return LegFeatures(legs.points[keep], legs.width[keep], prob[keep])
@@ -136,14 +140,23 @@ def detect_legs(scan: Scan, config: LegConfig | None = None) -> LegFeatures:
 def leg_candidates(
     scan: Scan, config: LegConfig | None = None, *, with_features: bool = True
 ) -> tuple[LegFeatures, FloatArray]:
-    """The candidates of the width and contrast rule (P(leg) from that rule) and, with
-    ``with_features``, their classifier features ``(M, F)`` (:func:`~tourbot.people.
-    leg_classifier.candidate_features`; an empty array otherwise)."""
+    """The candidates of the width and contrast rule (P(leg) from that rule) or, with
+    ``with_features``, the model's wider candidates (see :class:`LegConfig`) with their classifier
+    features ``(M, F)`` (:func:`~tourbot.people.leg_classifier.candidate_features`; an empty array
+    otherwise)."""
     cfg = config or LegConfig()
     r = np.asarray(scan.ranges, dtype=np.float64)
     valid = _valid_ranges(scan, np.inf)
     angles = scan.geometry.angles
-    pts, width, prob, first, last = leg_segments(r, angles, valid, cfg)
+    seg_cfg = cfg
+    if with_features:
+        seg_cfg = replace(
+            cfg,
+            min_width=cfg.model_min_width,
+            max_width=cfg.model_max_width,
+            min_probability=0.0,
+        )
+    pts, width, prob, first, last = leg_segments(r, angles, valid, seg_cfg)
     if pts.shape[0]:
         d = np.linalg.norm(pts, axis=1, keepdims=True)
         pts = pts + cfg.depth_offset * pts / np.maximum(d, 1e-9)

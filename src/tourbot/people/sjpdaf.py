@@ -18,13 +18,14 @@ Leg detections that stay fixed in the laser frame while the robot moves are its 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.geometry import compose, invert, transform_points
+from tourbot.geometry import compose
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.people.association import cluster_betas, pair_likelihoods, sample_weights
 from tourbot.people.legs import LegConfig, LegFeatures, PersonFeatures, detect_legs, group_legs
@@ -74,33 +75,39 @@ class SJPDAFConfig:
     ``max_gate`` metres, which keeps the joint events few with 20-50 people; ``max_events`` caps the
     joint events of one cluster (the weakest pairs are pruned first).
 
-    Track rules: a feature no person explains (sum of its betas below ``birth_threshold``), with
-    P(person) >= ``birth_probability`` and P(moving) >= ``birth_moving`` (above the 0.5 of
-    "unknown": a feature must be seen to move) starts a tentative track; with a map and
-    ``birth_off_map``, any person feature off the map starts one too (the map is the static world,
-    so a person standing still is not taken for furniture); ``confirm_hits`` detections confirm
-    it, and without such a map the track must also have been seen moving: its features moving
-    (P(moving) >= ``birth_moving``) in ``confirm_moving`` hits, and the track ``confirm_distance``
-    (m) away from where it started both in the world (people walk; furniture seen from a robot
-    whose pose is a little off jitters by a few centimetres) and relative to the robot (the robot's
-    own body seen by its laser moves with it); it must be walking now, its samples' mean
-    velocity at least ``confirm_speed`` (m/s: furniture outlines whose "leg" slides along as the
-    viewpoint changes come to rest, and features jumping between two chair legs have no steady
-    velocity), and it must have been detected in at least ``confirm_hit_rate`` of its scans (a
-    piece of furniture is seen on and off); a track not confirmed within ``confirm_window``
-    scans ends (the values, 5 hits and 0.5 m, 0.5 m/s and 0.6, were chosen on
-    ``negative_2.bag``, a robot driving through a cluttered lab without odometry, and the two
-    annotated positive bags; they delay a walker's confirmation to about 0.7 s);
-    a tentative track ends after ``tentative_misses`` misses while visible, a confirmed one after
-    ``max_misses``, or when its samples spread beyond ``max_position_std`` (an occluded
-    person lost for good), or leave ``max_range`` of the robot, or after ``max_unseen`` seconds
-    without a detection, occluded or not (the occlusion map keeps a hidden person's track alive
-    for a while, Fig. 7, but a track coasting longer drifts off the person and is a false alarm).
+    Track rules, on evidence (after the persistent existence of Schulz et al.'s sample-based
+    JPDAF, with the occlusion map, the map difference and the static-feature filter of Burgard et
+    al. Sec. 4 as the evidence): a feature no person explains (sum of its betas below
+    ``birth_threshold``) with P(person) >= ``birth_probability`` starts a tentative track unless
+    its cell was seen occupied before: P(moving) of the static filter >= ``birth_moving`` (with a
+    map and ``birth_off_map``: anywhere off the map, which is the static world). Every track holds
+    the log odds of its existence: ``existence_prior`` at birth, plus what its features said, scan
+    by scan (shared out by the betas): ``free_evidence`` for a feature on a cell seen free before
+    (P(moving) >= ``free_moving``, or off a given map), ``hidden_evidence`` for one on a cell
+    hidden before (P(moving) about 0.5: a person walking away from the laser stands where their
+    own body hid the floor), ``still_evidence`` for one on a cell seen occupied before while the
+    track is tentative (a fixed object fades out; a confirmed visitor standing at an exhibit loses
+    nothing), ``static_evidence`` for one on the static world built so far (the map of the
+    scan-matched poses), ``shape_weight`` times the
+    feature's log odds of P(person) (a leg pair's shape; capped at ``shape_cap``: furniture keeps
+    its shape scan after scan), and ``miss_evidence`` for a scan without a detection while the
+    person is visible; an occluded person (its predicted position behind a nearer return, the
+    occlusion map) is not missed. The accumulated evidence is kept within
+    [``min_evidence``, ``max_evidence``]. A track is confirmed once P(exists) reaches
+    ``confirm_existence``, and ends below ``end_existence``: a visitor who walked to an exhibit and
+    stands there keeps the evidence of the walk (standing adds nothing and takes nothing), a group
+    walking with the robot stands on floor the laser saw free, and a chair seen from a still or a
+    moving robot never was seen free. A track ends too when its samples spread beyond
+    ``max_position_std`` (an occluded person lost for good), or leave ``max_range`` of the robot,
+    or after ``max_unseen`` seconds without a detection, occluded or not (the occlusion map keeps a
+    hidden person's track alive for a while, Fig. 7, but a track coasting longer drifts off the
+    person and is a false alarm). The evidence values were chosen on the simulated scenes of the
+    tests and the annotated positive bags, not on ``negative_2.bag``.
     With a ``pose_source`` (scan-matched poses) and ``map_without_people``, beams ending on a
-    confirmed person are left out of the map built on the fly.
+    tracked person (tentative or confirmed) are left out of the map built on the fly.
     Two tracks nearer than ``merge_distance`` are one person: the younger ends (a person seen as
-    two separate legs may start two). ``confirm_hits`` (2), ``max_unseen`` (1.5 s) and
-    ``merge_distance`` (0.35 m) were chosen on simulated crowds of 20 (crowd seeds 100-105, not
+    two separate legs may start two). ``max_unseen`` (1.5 s) and ``merge_distance`` (0.35 m) were
+    chosen on simulated crowds of 20 (crowd seeds 100-105, not
     those of the benchmark).
     """
 
@@ -114,18 +121,23 @@ class SJPDAFConfig:
     max_events: int = 5000
     birth_threshold: float = 0.5
     birth_probability: float = 0.3
-    birth_moving: float = 0.6
+    birth_moving: float = 0.45
+    free_moving: float = 0.6
     birth_off_map: bool = True
     birth_position_std: float = 0.08
     birth_velocity_std: float = 0.5
-    confirm_hits: int = 2
-    confirm_distance: float = 0.5
-    confirm_moving: int = 5
-    confirm_window: int = 15
-    confirm_speed: float = 0.5
-    confirm_hit_rate: float = 0.6
-    tentative_misses: int = 2
-    max_misses: int = 10
+    existence_prior: float = 0.2
+    free_evidence: float = 1.0
+    hidden_evidence: float = 0.4
+    still_evidence: float = -0.6
+    static_evidence: float = -1.5
+    shape_weight: float = 0.5
+    shape_cap: float = 1.0
+    miss_evidence: float = -1.0
+    min_evidence: float = -4.0
+    max_evidence: float = 8.0
+    confirm_existence: float = 0.95
+    end_existence: float = 0.1
     max_position_std: float = 1.0
     max_unseen: float = 1.5
     map_without_people: bool = True
@@ -143,7 +155,8 @@ class Track:
     """A person's track: the mean of its samples (Burgard et al. Sec. 4, Fig. 7), in the world frame.
 
     ``covariance`` is the ``(4, 4)`` sample covariance of ``(x, y, vx, vy)``; ``occluded`` says the
-    person is currently hidden from the laser (its samples spreading out).
+    person is currently hidden from the laser (its samples spreading out); ``existence`` is the
+    probability that the track is a person (see :class:`SJPDAFConfig`).
     """
 
     id: int
@@ -154,22 +167,23 @@ class Track:
     occluded: bool = False
     hits: int = 0
     age: int = 0
+    existence: float = 0.0
 
 
 @dataclass
 class _TrackState:
     id: int
+    evidence: float  # log odds of existence gathered from the scans, beyond the prior
+    shape: float = 0.0  # the log odds of P(person) of the features, averaged over the hits
     hits: int = 0
-    misses: int = 0
     age: int = 0
     confirmed: bool = False
     occluded: bool = False
-    origin: tuple[float, float] = (0.0, 0.0)
-    travel: float = 0.0
-    origin_robot: tuple[float, float] = (0.0, 0.0)
-    travel_robot: float = 0.0
-    moving_hits: int = 0
     unseen: float = 0.0  # seconds since the last detection
+
+    def log_odds(self, config: SJPDAFConfig) -> float:
+        prior = math.log(config.existence_prior / (1.0 - config.existence_prior))
+        return prior + config.shape_weight * self.shape + self.evidence
 
 
 @dataclass
@@ -229,20 +243,22 @@ class PeopleTracker:
             pose = np.asarray(robot_pose, dtype=np.float64)
         self.last_pose = pose
         dt = self._advance_time(scan.timestamp)
-        features, moving = self._features(scan, pose)  # legs -> person features z_j(t), world frame
+        features, moving, static = self._features(scan, pose)  # legs -> person features z_j(t), world frame
         self._predict(dt)  # p(x_i^t | x_i^{t-1}, dt) for every sample
         detect = self._detection_probability(scan, pose)  # P_D per sample, 0 where occluded
         assoc = self._associate(features, detect)  # Eq. 6-8 over gated clusters
         self._correct(assoc)  # Eq. 9 weights and bootstrap resampling
-        self._manage(assoc, features, moving, detect, pose, dt)  # start, confirm, end tracks
+        self._manage(assoc, features, moving, static, detect, pose, dt)  # start, confirm, end tracks
         if self.pose_source is not None:
-            # The scan joins the map built on the fly, but for the beams that end on a confirmed
-            # person (Burgard et al. Sec. 5): a person walking where they walked before would
-            # otherwise stand on "static" cells of their own making.
+            # The scan joins the map built on the fly, but for the beams that end on a tracked
+            # person, tentative or confirmed (Burgard et al. Sec. 5): a person walking where they
+            # walked before, or slowly away from the laser, would otherwise stand on "static"
+            # cells of their own making before the evidence could confirm them. A fixed object's
+            # tentative track fades out (its cell seen occupied scan after scan), and the object
+            # joins the map then.
             people = None
-            if self.config.map_without_people:
-                confirmed = np.array([st.confirmed for st in self._states], dtype=bool)
-                people = self._samples[confirmed, :, 0:2].mean(axis=1) if confirmed.any() else None
+            if self.config.map_without_people and self._states:
+                people = self._samples[..., 0:2].mean(axis=1)
             self.pose_source.integrate(scan, pose, people)
         return self.tracks()
 
@@ -262,6 +278,7 @@ class PeopleTracker:
                 occluded=st.occluded,
                 hits=st.hits,
                 age=st.age,
+                existence=1.0 / (1.0 + math.exp(-st.log_odds(self.config))),
             )
             for k, st in enumerate(self._states)
         ]
@@ -277,7 +294,9 @@ class PeopleTracker:
         self._time = t
         return dt
 
-    def _features(self, scan: Scan, pose: FloatArray) -> tuple[PersonFeatures, FloatArray]:
+    def _features(self, scan: Scan, pose: FloatArray) -> tuple[PersonFeatures, FloatArray, FloatArray]:
+        """The person features of ``scan`` in the world frame, each one's P(moving) (static
+        filter: its cell seen free before) and whether it is on the static world built so far."""
         cfg = self.config
         legs = detect_legs(scan, cfg.legs)
         body = self.body.is_body(legs.points)  # the robot's own body, not a person's legs
@@ -294,21 +313,27 @@ class PeopleTracker:
             legs.probability,
         )
         leg_moving = self.static.moving_probability(world_legs.points, scan, pose)
+        leg_static = np.zeros(len(legs), dtype=bool)
         if self.pose_source is not None:  # legs on the map built so far stand still
-            leg_moving[self.pose_source.on_map(world_legs.points)] = 0.0
+            leg_static = self.pose_source.on_map(world_legs.points)
+            leg_moving[leg_static] = 0.0
         # A person moves when one of its legs does (the stance leg stands still while walking).
         m = persons.members
         moving = np.zeros(len(persons))
+        static = np.zeros(len(persons))
         if len(persons):
             second = np.where(m[:, 1] >= 0, leg_moving[np.maximum(m[:, 1], 0)], 0.0)
             moving = np.maximum(leg_moving[m[:, 0]], second)
+            # static when every leg of it is on the static world
+            second_static = np.where(m[:, 1] >= 0, leg_static[np.maximum(m[:, 1], 0)], True)
+            static = (leg_static[m[:, 0]] & second_static).astype(np.float64)
         # Features on the map are furniture: drop them (Burgard et al. Sec. 4, static objects).
         keep = ~self.static.on_map(persons.points)
         persons = PersonFeatures(persons.points[keep], persons.probability[keep], persons.members[keep])
         self.last_legs = world_legs
         self.last_features = persons
         self.last_moving = moving[keep]
-        return persons, moving[keep]
+        return persons, moving[keep], static[keep]
 
     def _predict(self, dt: float) -> None:
         if self._samples.shape[0] and dt > 0.0:
@@ -362,11 +387,32 @@ class PeopleTracker:
         idx = systematic_resample_rows(w, self.rng.random(K))
         self._samples = np.take_along_axis(self._samples, idx[:, :, None], axis=1)
 
+    def _feature_evidence(
+        self, features: PersonFeatures, moving: FloatArray, static: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """The log odds each feature adds to the existence of a tentative and of a confirmed
+        person it is assigned to: its cell seen free, hidden or occupied before, or on the static
+        world (the shape is counted apart)."""
+        cfg = self.config
+        if cfg.birth_off_map and self.static.has_map:
+            moving = np.ones(len(features))  # the map saw every cell off it free
+        free = moving >= cfg.free_moving
+        hidden = ~free & (moving >= 1.0 - cfg.free_moving)
+        seen = np.where(free, cfg.free_evidence, np.where(hidden, cfg.hidden_evidence, 0.0))
+        seen = seen + cfg.static_evidence * static
+        still = np.where(free | hidden, 0.0, cfg.still_evidence)
+        return seen + still, seen
+
+    def _shape_log_odds(self, features: PersonFeatures) -> FloatArray:
+        p = np.clip(features.probability, 1e-6, 1.0 - 1e-6)
+        return np.clip(np.log(p / (1.0 - p)), -self.config.shape_cap, self.config.shape_cap)
+
     def _manage(
         self,
         a: _Association,
         features: PersonFeatures,
         moving: FloatArray,
+        static: FloatArray,
         detect: FloatArray,
         pose: FloatArray,
         dt: float,
@@ -378,42 +424,38 @@ class PeopleTracker:
         spread = np.sqrt(self._samples[..., 0:2].var(axis=1).sum(axis=1)) if K else np.zeros(0)
         mean = self._samples[..., 0:2].mean(axis=1) if K else np.zeros((0, 2))
         far = np.linalg.norm(mean - pose[None, 0:2], axis=1) > cfg.max_range + 1.0
-        speed = np.linalg.norm(self._samples[..., 2:4].mean(axis=1), axis=1) if K else np.zeros(0)
-        robot_frame = transform_points(invert(pose), mean) if K else mean
-        # Without a map of the static world, a track must also have been seen moving to be confirmed.
-        need_motion = not (cfg.birth_off_map and self.static.has_map)
-        # A hit is a moving hit when the features explaining the person were seen moving.
-        moved = np.zeros(K)
+        evidence, confirmed_evidence = self._feature_evidence(features, moving, static)
+        shape = self._shape_log_odds(features)
+        # What the features explaining each person said, weighted by the betas (Eq. 6-7).
+        gained = np.zeros(K)
+        gained_confirmed = np.zeros(K)
+        shaped = np.zeros(K)
         if K and a.pair_track.size:
-            np.add.at(moved, a.pair_track, a.pair_beta * (moving[a.pair_feature] >= cfg.birth_moving))
+            np.add.at(gained, a.pair_track, a.pair_beta * evidence[a.pair_feature])
+            np.add.at(gained_confirmed, a.pair_track, a.pair_beta * confirmed_evidence[a.pair_feature])
+            np.add.at(shaped, a.pair_track, a.pair_beta * shape[a.pair_feature])
+        end = math.log(cfg.end_existence / (1.0 - cfg.end_existence))
+        confirm = math.log(cfg.confirm_existence / (1.0 - cfg.confirm_existence))
         for k, st in enumerate(self._states):
             st.age += 1
-            st.travel = max(st.travel, float(np.hypot(*(mean[k] - st.origin))))
-            st.travel_robot = max(st.travel_robot, float(np.hypot(*(robot_frame[k] - st.origin_robot))))
             st.occluded = not bool(visible[k])
+            detected = 1.0 - a.beta0[k]
             if a.beta0[k] < 0.5:
                 st.hits += 1
-                st.misses = 0
-                st.moving_hits += int(moved[k] >= 0.5)
                 st.unseen = 0.0
+                st.shape += (shaped[k] / max(detected, 1e-9) - st.shape) / st.hits
             else:
                 st.unseen += dt
-                if visible[k]:
-                    st.misses += 1  # an occluded person is not missed: its samples just spread out
-            seen_moving = (
-                min(st.travel, st.travel_robot) >= cfg.confirm_distance
-                and st.moving_hits >= cfg.confirm_moving
-                and speed[k] >= cfg.confirm_speed
-                and st.hits >= cfg.confirm_hit_rate * (st.age + 1)
-            )
-            if st.hits >= cfg.confirm_hits and (seen_moving or not need_motion):
+            # An occluded person is not missed: its samples just spread out (occlusion map).
+            missed = a.beta0[k] * cfg.miss_evidence if visible[k] else 0.0
+            said = gained_confirmed[k] if st.confirmed else gained[k]
+            st.evidence = float(np.clip(st.evidence + said + missed, cfg.min_evidence, cfg.max_evidence))
+            odds = st.log_odds(cfg)
+            if odds >= confirm:
                 st.confirmed = True
-            limit = cfg.max_misses if st.confirmed else cfg.tentative_misses
             lost = spread[k] > cfg.max_position_std or st.unseen > cfg.max_unseen
-            if st.misses >= limit or lost or far[k]:
+            if odds < end or lost or far[k]:
                 keep[k] = False
-            if need_motion and not st.confirmed and st.age >= cfg.confirm_window:
-                keep[k] = False  # never seen moving: furniture
         # Duplicates: two tracks on one person; the younger (fewer hits) ends.
         if K > 1:
             d = np.linalg.norm(mean[:, None] - mean[None, :], axis=-1)
@@ -421,7 +463,7 @@ class PeopleTracker:
                 if keep[i] and keep[j]:
                     older = (self._states[i].hits, -i) >= (self._states[j].hits, -j)
                     keep[j if older else i] = False
-        # Births: features no person explains, that look like a person and move.
+        # Births: features no person explains, that look like a person, on floor seen free before.
         M = len(features)
         explained = np.zeros(M)
         np.add.at(explained, a.pair_feature, a.pair_beta)
@@ -442,10 +484,8 @@ class PeopleTracker:
             ] + cfg.birth_position_std * self.rng.standard_normal((new.size, N, 2))
             s[..., 2:4] = cfg.birth_velocity_std * self.rng.standard_normal((new.size, N, 2))
             self._samples = np.concatenate([self._samples, s], axis=0)
-            local = transform_points(invert(pose), features.points[new])
-            for j, (lx, ly) in zip(new.tolist(), local.tolist(), strict=True):
-                origin = (float(features.points[j, 0]), float(features.points[j, 1]))
+            for j in new.tolist():
                 self._states.append(
-                    _TrackState(id=self._next_id, hits=1, origin=origin, origin_robot=(lx, ly), moving_hits=1)
+                    _TrackState(id=self._next_id, evidence=float(evidence[j]), shape=float(shape[j]), hits=1)
                 )
                 self._next_id += 1
