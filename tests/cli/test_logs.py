@@ -180,3 +180,37 @@ def test_log_info_never_prints_a_duration_it_cannot_know(
     main(["log", "info", str(path)])
     out = " ".join(capsys.readouterr().out.split())
     assert "duration │ unknown (the scan timestamps are all zero)" in out
+
+
+@pytest.mark.parametrize("name", ["fhw.mcap", "fhw_bag"])
+def test_convert_to_a_ros2_bag_reads_back_the_same_scans_and_odometry(
+    fhw_log_path: Path, tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from tourbot.io import load_log
+
+    out = tmp_path / name
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(out)]) == 0
+    if out.suffix == "":
+        assert (out / "metadata.yaml").is_file()
+        assert [f.suffix for f in out.iterdir() if f.name != "metadata.yaml"] == [".db3"]
+    assert not list(tmp_path.glob("*.partial*"))
+    original, back = load_log(fhw_log_path), load_log(out)
+    assert len(back.scans) == len(original.scans) == 488
+    assert len(back.odometry) == len(original.odometry)
+    for a, b in zip(original.scans, back.scans, strict=True):
+        assert abs(a.timestamp - b.timestamp) < 1e-6
+        ret = a.ranges < a.geometry.max_range  # returns the same; "no return" stays no return
+        np.testing.assert_allclose(b.ranges[ret], a.ranges[ret], atol=1e-5)
+        assert np.all(b.ranges[~ret] >= b.geometry.max_range - 1e-5)
+        assert a.odom is not None
+        assert b.odom is not None
+        np.testing.assert_allclose(b.odom, a.odom, atol=1e-5)
+    assert back.scans[0].geometry.offset == pytest.approx(original.scans[0].geometry.offset, abs=1e-6)
+    # an existing output is kept unless --force (and --force never replaces a plain folder)
+    capsys.readouterr()
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(out), "--force"]) == 0
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    assert _run(["log", "convert", str(fhw_log_path), "-o", str(plain), "--force"]) == 2

@@ -93,16 +93,42 @@ def register(app: typer.Typer) -> None:
     def convert(
         log: LogArg,
         output: Annotated[
-            Path, typer.Option("-o", "--output", help="CARMEN log to write (.log or .log.gz).")
+            Path,
+            typer.Option(
+                "-o",
+                "--output",
+                help="Log to write: CARMEN (.log, .log.gz), ROS 2 MCAP (.mcap), or a ROS 2 bag folder "
+                "(sqlite3; a name without a suffix).",
+            ),
         ],
         lenient: LenientOpt = False,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        force: Annotated[
+            bool, typer.Option("--force", help="Replace an existing ROS 2 output (.mcap or bag folder).")
+        ] = False,
     ) -> None:
-        """Write a log (CARMEN or ROS bag) as a CARMEN log that reads back identically."""
+        """Write a log (CARMEN or ROS bag) as a CARMEN log that reads back identically, or as a
+        ROS 2 bag (scans and odometry; reference poses have no place in a bag)."""
+        from tourbot.errors import InputError
         from tourbot.io import load_log, write_carmen
 
+        ros2 = output.suffix in {".mcap", ""}
+        if ros2:
+            from tourbot.io.mcap_out import check_mcap_output, write_log_as_ros2
+
+            if output.suffix == ".mcap":
+                check_mcap_output(output, force=force, option="--output")
+            elif output.exists() and not (force and (output / "metadata.yaml").exists()):
+                raise InputError(
+                    "exists; --force replaces a ROS 2 bag folder (never another folder or file)",
+                    path=output,
+                    field="--output",
+                )
         robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
-        write_carmen(robot_log, output)
+        if ros2:
+            write_log_as_ros2(robot_log, output)
+        else:
+            write_carmen(robot_log, output)
         typer.echo(f"wrote {output} ({len(robot_log)} scans, {len(robot_log.odometry)} odometry readings)")
 
     @log_app.command("tum")

@@ -195,8 +195,11 @@ class Ros2Channels:
         )
         self._write(topic, stamp, msg)
 
-    def write_odometry(self, odom_pose: ArrayLike, timestamp: float) -> None:
-        """``/odom`` (the odometry pose, no twist) and the ``odom -> base_link`` transform."""
+    def write_odometry(
+        self, odom_pose: ArrayLike, timestamp: float, tv: float = 0.0, rv: float = 0.0
+    ) -> None:
+        """``/odom`` (the odometry pose; the twist ``tv`` m/s and ``rv`` rad/s where known) and the
+        ``odom -> base_link`` transform."""
         t = self._types
         stamp = _ns(timestamp)
         msg = t["nav_msgs/msg/Odometry"](
@@ -207,8 +210,8 @@ class Ros2Channels:
             ),
             twist=t["geometry_msgs/msg/TwistWithCovariance"](
                 twist=t["geometry_msgs/msg/Twist"](
-                    linear=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
-                    angular=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                    linear=t["geometry_msgs/msg/Vector3"](x=float(tv), y=0.0, z=0.0),
+                    angular=t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=float(rv)),
                 ),
                 covariance=np.zeros(36, dtype=np.float64),
             ),
