@@ -299,6 +299,14 @@ def run_task_with(sweeps: dict[str, Sweep], name: str, seed: int, method: str, k
 _SWEEPS_ID = [0]
 
 
+def _take(out: dict[Task, SeedOutcome], task: Task, future: Any) -> None:
+    """A finished task's outcome into ``out``; its exception as one error naming the task."""
+    try:
+        out[task] = future.result()
+    except Exception as exc:
+        raise _failed(task, exc) from exc
+
+
 def run_tasks(
     sweeps: dict[str, Sweep],
     tasks: list[Task],
@@ -340,11 +348,7 @@ def run_tasks(
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for future in done:
-                task = pending.pop(future)
-                try:
-                    out[task] = future.result()
-                except Exception as exc:
-                    raise _failed(task, exc) from exc
+                _take(out, pending.pop(future), future)
                 if advance is not None:
                     advance(min(workers, len(pending)))
     except BaseException:
@@ -391,11 +395,7 @@ def _run_on_dask(
             for task in tasks
         }
         for future in as_completed(list(pending)):
-            task = pending.pop(future)
-            try:
-                out[task] = future.result()
-            except Exception as exc:
-                raise _failed(task, exc) from exc
+            _take(out, pending.pop(future), future)
             if advance is not None:
                 advance(min(len(pending), max(1, len(client.scheduler_info().get("workers", {})))))
     return out
