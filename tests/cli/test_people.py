@@ -255,3 +255,25 @@ def test_track_scan_matching_that_fails_its_check_is_said(
         err = capsys.readouterr().err
         assert "failed its check at scan 19" in " ".join(err.split())
         assert not out.exists()
+
+
+def test_track_writes_the_run_as_mcap_with_the_tracks(shared_data: Path, tmp_path: Path) -> None:
+    from tests.io.test_mcap_out import _decode
+
+    out, mcap = tmp_path / "tracks.csv", tmp_path / "tracks.mcap"
+    bag = str(shared_data / "leg_tracker" / "positive_1_extracted.bag")
+    main(["track", bag, "--pose", "none", "-o", str(out), "--mcap", str(mcap)])
+    rows = list(csv.DictReader(out.open()))
+    msgs = _decode(mcap)
+    scans = sorted({int(r["scan"]) for r in rows})
+    assert len(msgs["/scan"]) == len(msgs["/people"]) == len(scans)
+    assert len(msgs["/estimate"]) == len(scans)
+    # the tracks of each scan are its /people markers (after the one that clears the last set)
+    by_scan: dict[int, set[int]] = {}
+    for r in rows:
+        by_scan.setdefault(int(r["scan"]), set()).update({int(r["track"])} if r["track"] else set())
+    for k, (_, m) in zip(scans, msgs["/people"], strict=True):
+        assert {mk.id for mk in m.markers[1:]} == by_scan[k]
+    assert any(by_scan.values())
+    with pytest.raises(SystemExit):  # an existing file is kept unless --force
+        main(["track", bag, "--pose", "none", "-o", str(out), "--mcap", str(mcap)])

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from tourbot.cli._checks import McapOpt
 from tourbot.cli.logs import OdometryOpt, OdometryStream
 from tourbot.errors import InputError
 
@@ -90,6 +91,8 @@ def register(app: typer.Typer) -> None:
         plot: Annotated[Path | None, typer.Option(help="Also draw the tracks in this PNG.")] = None,
         leg_model: LegModelOpt = None,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        mcap: McapOpt = None,
+        force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
         """Track people (SJPDAF, Burgard et al. Sec. 4). CSV: one row per track and scan (a scan
         with no track has one row with the track columns empty): scan, time, the robot pose used
@@ -103,6 +106,10 @@ def register(app: typer.Typer) -> None:
         check_output(output)
         if plot is not None:
             check_output(plot, "--plot")
+        if mcap is not None:
+            from tourbot.io.mcap_out import check_mcap_output
+
+            check_mcap_output(mcap, force=force)
         config = tracker_config(leg_model)  # a bad model file is refused before reading the log
         if log_kind(log) == "rosbag" and log.exists():
             robot_log = read_bag(log, scan_topic=scan_topic)
@@ -119,7 +126,9 @@ def register(app: typer.Typer) -> None:
         elif requested is PoseSource.auto:
             typer.echo(f"robot pose from {pose.value}")
         try:
-            ids, rows, paths = _track_log(robot_log.scans, pose, config, grid, seed, tentative, output, log)
+            ids, rows, paths = _track_log(
+                robot_log.scans, pose, config, grid, seed, tentative, output, log, mcap
+            )
         except _UnverifiedPosesError as exc:
             if requested is not PoseSource.auto:
                 raise InputError(
@@ -133,9 +142,11 @@ def register(app: typer.Typer) -> None:
                 "robot pose from none (the robot taken as still)"
             )
             ids, rows, paths = _track_log(
-                robot_log.scans, PoseSource.none, config, grid, seed, tentative, output, log
+                robot_log.scans, PoseSource.none, config, grid, seed, tentative, output, log, mcap
             )
         typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")
+        if mcap is not None:
+            typer.echo(f"the run as MCAP (ROS 2 messages; the tracks on /people) -> {mcap}")
         if plot is not None:
             _plot_tracks(paths, plot, f"{log.name}: {len(ids)} tracks")
             typer.echo(f"picture -> {plot}")
@@ -203,19 +214,24 @@ def _track_log(
     tentative: bool,
     output: Path,
     log: Path,
+    mcap: Path | None = None,
 ) -> tuple[set[int], int, dict[int, list[tuple[float, float]]]]:
-    """Track ``scans`` with the robot poses of ``pose`` and write the CSV ``output`` whole; the
-    track ids, the number of track rows and each track's path. Scan matching raises
+    """Track ``scans`` with the robot poses of ``pose`` and write the CSV ``output`` whole (and the
+    run as MCAP: each scan, the robot pose used as odometry and estimate, the tracks as ``/people``);
+    the track ids, the number of track rows and each track's path. Scan matching raises
     :class:`_UnverifiedPosesError` at the first implausible step (nothing is written then)."""
     import csv
+    from contextlib import nullcontext
 
     import numpy as np
 
     from tourbot.geometry import invert, transform_points
+    from tourbot.io.mcap_out import McapRun
     from tourbot.io.output import output_file
     from tourbot.io.progress import ScanProgress
     from tourbot.mapping.ego_motion import ScanMatchedPoses
     from tourbot.people.sjpdaf import PeopleTracker
+    from tourbot.snapshot import PersonState
 
     ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
     tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), pose_source=ego)
@@ -227,9 +243,12 @@ def _track_log(
         output_file(output) as tmp,
         tmp.open("w", newline="") as fh,
         ScanProgress(f"tracking {log.name}", len(scans)) as progress,
+        McapRun(mcap) if mcap is not None else nullcontext() as run,
     ):
         writer = csv.writer(fh)
         writer.writerow(CSV_HEADER)
+        if run is not None and grid is not None:
+            run.write_map(grid, scans[0].timestamp if scans else 0.0)
         for k, scan in enumerate(scans):
             robot = None
             if ego is None:
@@ -249,6 +268,12 @@ def _track_log(
                 rows += 1
                 ids.add(tr.id)
                 paths.setdefault(tr.id, []).append(tr.position)
+            if run is not None:
+                run.write_scan(scan)
+                run.write_odometry(used, scan.timestamp)  # the pose used, as odom -> base_link
+                run.write_estimate(used, np.zeros((3, 3)), used, scan.timestamp)  # map -> odom: identity
+                people = [PersonState(tr.id, *tr.position, *tr.velocity, tr.confirmed) for tr in tracks]
+                run.write_people(people, scan.timestamp)
             progress.advance()
     return ids, rows, paths
 
