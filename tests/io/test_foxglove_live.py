@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import pytest
 import websockets
+from websockets.typing import Subprotocol
 
 from tourbot.errors import InputError
 from tourbot.io.foxglove_live import FoxgloveLive
@@ -30,7 +31,9 @@ async def receive(port: int, topics: set[str], timeout: float = 20.0) -> dict[st
     deadline = time.monotonic() + timeout
     while True:  # the server may not be up yet
         try:
-            ws = await websockets.connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1"])
+            ws = await websockets.connect(
+                f"ws://127.0.0.1:{port}", subprotocols=[Subprotocol("foxglove.sdk.v1")]
+            )
             break
         except OSError:
             if time.monotonic() > deadline:

@@ -38,8 +38,10 @@ def test_estimator_follows_odometry_between_images() -> None:
     moved = est.state().extra
     assert moved["images"] == 1
     # the tracker carries the pose by the odometry's motion until the next image
-    assert abs(est.tracker.pose[0] - 0.5) < 0.05  # type: ignore[index]
+    assert est.tracker.pose is not None
+    assert abs(est.tracker.pose[0] - 0.5) < 0.05
     st = est.on_image(Image(1.0, sim.frame(1.0, pose + np.array([0.5, 0.0, 0.0])).image, camera="ceiling"))
     assert st is not None
     assert st.how == "tracked"
-    assert math.hypot(st.pose[0] - 0.5, st.pose[1] + 7.0) < 0.05  # type: ignore[index]
+    assert st.pose is not None
+    assert math.hypot(st.pose[0] - 0.5, st.pose[1] + 7.0) < 0.05
