@@ -112,3 +112,34 @@ def test_tls_serves_https_with_secure_cookies(sqlite_url: str, tmp_path: Path) -
 def test_tls_needs_both_files(tmp_path: Path) -> None:
     with pytest.raises(TourbotError, match="both --certfile and --keyfile"):
         uvicorn_config(_hall_app(f"sqlite:///{tmp_path / 'x.db'}", tmp_path), certfile=tmp_path / "c.pem")
+
+
+def test_the_robots_of_one_museum_share_their_poses() -> None:
+    # two served robots (built as serve builds them, in this process here): each starts at its
+    # own exhibit and writes its true pose where the other's simulator reads it (sim.fleet)
+    import math
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.sim.fleet import FleetPoses
+    from tourbot.site.default import default_site
+    from tourbot.web.runtime_link import RuntimeLink
+    from tourbot.web.serve import SimulatedRobotFactory
+
+    site = default_site()
+    fleet = FleetPoses(2)
+    try:
+        mcl = MCLConfig().with_samples(200)
+        links = [SimulatedRobotFactory("fhw", "empty", i, mcl, fleet=(fleet.name, 2, i))() for i in range(2)]
+        for _ in range(3):
+            for link in links:
+                link.step()
+        for i, link in enumerate(links):
+            assert isinstance(link, RuntimeLink)
+            sim = link.runtime.source
+            x, y, _ = site.exhibits[i].viewing_pose
+            assert math.hypot(sim.robot.pose[0] - x, sim.robot.pose[1] - y) < 0.2  # type: ignore[attr-defined]
+            (other,) = fleet.others(i)
+            there = links[1 - i].runtime.source.robot.pose  # type: ignore[attr-defined]
+            assert math.hypot(other[0] - there[0], other[1] - there[1]) < 1e-9
+    finally:
+        fleet.close()

@@ -21,6 +21,7 @@ from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 from tourbot.runtime.loop import Runtime, RuntimeConfig
 from tourbot.runtime.sinks import MetricsSink, Recorder
 from tourbot.sim.crowd import PRESETS, CrowdConfig, CrowdError
+from tourbot.sim.fleet import FleetPoses
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
 
@@ -79,8 +80,10 @@ def simulated_runtime(
     start: tuple[float, float, float] | None = None,
     record: bool = True,
     sinks: tuple[Sink, ...] = (),
+    fleet: tuple[FleetPoses, int] | None = None,
 ) -> SimulatedRobot:
-    """Wire simulator -> MCL -> navigator -> sinks on ``site``."""
+    """Wire simulator -> MCL -> navigator -> sinks on ``site``; ``fleet``: the shared poses of the
+    museum's robots and this one's index (``tourbot.sim.fleet``)."""
     from tourbot.localization.mcl import MonteCarloLocalization
 
     s = settings or SimulationSettings()
@@ -98,7 +101,7 @@ def simulated_runtime(
         cameras.append(CeilingCameraSim(site, rig, seed=s.seed))  # an error if the site has no lights
         lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
         ceiling = CeilingSensor(rig, lights, site.grid, seed=s.seed)
-    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras)
+    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras, fleet=fleet)
     mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
     mcl.reset_tracking(simulator.robot.pose)

@@ -30,6 +30,7 @@ from tourbot.maps.objects import distance_to_segments
 from tourbot.records import Image, Odometry, Record, RobotLog, Scan
 from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import Crowd, CrowdConfig
+from tourbot.sim.fleet import FleetPoses, nearest
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
@@ -68,10 +69,11 @@ class Collisions:
     person: int = 0
     invisible: int = 0
     static: int = 0  # walls, doors, furniture
+    robot: int = 0  # another robot of the fleet
 
     @property
     def total(self) -> int:
-        return self.person + self.invisible + self.static
+        return self.person + self.invisible + self.static + self.robot
 
 
 class Simulator:
@@ -85,9 +87,12 @@ class Simulator:
         seed: int = 0,
         start: tuple[float, float, float] | None = None,
         cameras: Sequence[SimCamera] = (),
+        fleet: tuple[FleetPoses, int] | None = None,
     ) -> None:
         self.site = site
         self.cameras: list[SimCamera] = list(cameras)
+        # the other robots of the museum (sim.fleet): their bodies stand in this world
+        self.fleet = fleet
         self.config = cfg = config or SimConfig()
         self.name = f"sim:{site.name}"
         self.dt = cfg.dt
@@ -121,7 +126,7 @@ class Simulator:
         self._steps = 0
         self._scan_every = max(1, round(1.0 / (cfg.laser_rate * cfg.dt)))
         self.collisions = Collisions()
-        self._in_contact = {"person": False, "invisible": False, "static": False}
+        self._in_contact = {"person": False, "invisible": False, "static": False, "robot": False}
         self.records: list[Scan | Odometry] = []
         self.truth_poses: list[tuple[float, float, float]] = []
         self.truth_times: list[float] = []
@@ -145,7 +150,10 @@ class Simulator:
         """Advance one step; the odometry reading, at the laser rate a scan, and the images due."""
         dt = self.dt
         before = self.robot.pose
-        self._move_robot(dt)
+        others = self.fleet[0].others(self.fleet[1]) if self.fleet is not None else np.zeros((0, 2))
+        self._move_robot(dt, others)
+        if self.fleet is not None:
+            self.fleet[0].write(self.fleet[1], self.robot.pose)
         self._steps += 1
         self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
@@ -159,7 +167,10 @@ class Simulator:
         out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
         if self._steps % self._scan_every == 0:
             centres, radii = self.legs()
-            people = len(self._crowd_circles()[1]) if self.crowd is not None else 0
+            people = len(radii)
+            if len(others):  # the other robots, after the people: seen, but not as people
+                centres = np.vstack([centres, others])
+                radii = np.concatenate([radii, np.full(len(others), self.config.robot.radius)])
             ranges = self.laser.scan(
                 self.robot.pose,
                 centres,
@@ -247,7 +258,7 @@ class Simulator:
 
     # -- internals --------------------------------------------------------------------------------
 
-    def _move_robot(self, dt: float) -> None:
+    def _move_robot(self, dt: float, others: NDArray[np.float64]) -> None:
         pose, v, w = self.robot.propose(dt)
         radius = self.config.robot.radius
         leaves = self.objects.segments()[0, : 4 * len(self.objects.doors)]
@@ -257,7 +268,12 @@ class Simulator:
         here = self.robot.pose
         self._contact("static", hit_static, _covers(self._occupied, self.static, here, self._near))
         self._contact("invisible", hit_invisible, _covers(self._invisible, self.static, here, self._near))
-        if hit_static or hit_invisible:
+        # another robot: two bases of this radius touch when their centres are 2 radii apart; a
+        # step that moves away from it is always allowed (two robots set down touching part)
+        gap_next, gap_now = nearest(others, pose[0], pose[1]), nearest(others, here[0], here[1])
+        hit_robot = gap_next < 2 * radius and gap_next < gap_now
+        self._contact("robot", hit_robot, gap_now < 2 * radius + 0.05)
+        if hit_static or hit_invisible or hit_robot:
             # a bump: the base stops where it was (its bumper halts it)
             self.robot.halt()
         else:

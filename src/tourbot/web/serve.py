@@ -27,6 +27,8 @@ from tourbot.web.sitedata import import_site
 if TYPE_CHECKING:
     import uvicorn
 
+    from tourbot.sim.fleet import FleetPoses
+
 __all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
 
@@ -78,6 +80,8 @@ class SimulatedRobotFactory:
     start: tuple[float, float, float] | None = None  # None: the site's start pose
     foxglove: int | None = None  # serve the robot's channels live to Foxglove on this port
     foxglove_host: str = "127.0.0.1"  # ... on this address (the web server's)
+    # several robots in one museum: (shared-memory name, robots, this robot's index), sim.fleet
+    fleet: tuple[str, int, int] | None = None
 
     def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
         """The same robot standing at ``pose`` (its last estimate, when its process restarts)."""
@@ -94,7 +98,16 @@ class SimulatedRobotFactory:
 
         site = load_site(site_path(self.site))
         sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
-        robot = simulated_runtime(site, sim_settings, start=self.start, record=False)
+        fleet = None
+        start = self.start
+        if self.fleet is not None:
+            from tourbot.sim.fleet import FleetPoses
+
+            name, size, index = self.fleet
+            fleet = (FleetPoses(size, name=name), index)
+            if start is None and site.exhibits:  # robot k starts at exhibit k, not on another robot
+                start = site.exhibits[index % len(site.exhibits)].viewing_pose
+        robot = simulated_runtime(site, sim_settings, start=start, record=False, fleet=fleet)
         # the people the pages show are the ones the robot perceives: its tracker on its laser
         rng = np.random.default_rng(self.seed)
         robot.runtime.add_estimator(PeopleEstimator(grid_map=site.grid, rng=rng))
@@ -111,15 +124,30 @@ class SimulatedRobotFactory:
         return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
 
 
+def _fleet(robots: int) -> FleetPoses | None:
+    """The shared poses of several robots, freed when the server's process ends."""
+    if robots < 2:
+        return None
+    import atexit
+
+    from tourbot.sim.fleet import FleetPoses
+
+    fleet = FleetPoses(robots)
+    atexit.register(fleet.close)
+    return fleet
+
+
 def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
     when ``settings.robot_process`` (else stepped by the server's thread)."""
     from tourbot.web.process_link import ProcessLink
 
     links: dict[str, RobotLink] = {}
+    fleet = _fleet(settings.robots)
     for i, name in enumerate(_robot_names(settings.robots)):
         seed = settings.seed + i
         fox = None if settings.foxglove is None else settings.foxglove + i
+        share = None if fleet is None else (fleet.name, settings.robots, i)
         if settings.robot_process:
             factory = SimulatedRobotFactory(
                 settings.site, settings.crowd, seed, settings.mcl, foxglove=fox, foxglove_host=settings.host
@@ -134,6 +162,7 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
                 settings.speedup,
                 foxglove=fox,
                 foxglove_host=settings.host,
+                fleet=share,
             )
             links[name] = factory()
     for link in links.values():

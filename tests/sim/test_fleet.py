@@ -1,0 +1,77 @@
+"""Several robots in one museum: their poses shared between processes, their bodies in each
+other's worlds (seen by the laser, stopping the base)."""
+
+from __future__ import annotations
+
+import math
+import multiprocessing
+
+import numpy as np
+import pytest
+
+from tourbot.sim.fleet import FleetPoses
+from tourbot.sim.simulator import SimConfig, Simulator
+from tourbot.site.default import default_site
+
+
+def _write_from_another_process(name: str) -> None:
+    fleet = FleetPoses(3, name=name)
+    fleet.write(2, (4.0, 5.0, 0.5))
+    fleet.close()
+
+
+def test_poses_are_shared_between_processes() -> None:
+    fleet = FleetPoses(3)
+    try:
+        assert fleet.others(0).shape == (0, 2)  # nobody has written yet
+        fleet.write(0, (1.0, 2.0, 0.0))
+        assert fleet.others(0).shape == (0, 2)  # one's own pose is not another robot
+        process = multiprocessing.get_context("spawn").Process(
+            target=_write_from_another_process, args=(fleet.name,)
+        )
+        process.start()
+        process.join(timeout=60)
+        assert process.exitcode == 0
+        assert fleet.others(0).tolist() == [[4.0, 5.0]]
+        assert fleet.others(2).tolist() == [[1.0, 2.0]]
+    finally:
+        fleet.close()
+    with pytest.raises(ValueError, match="at least one robot"):
+        FleetPoses(0)
+
+
+def test_robots_see_and_stop_at_each_other() -> None:
+    site = default_site()
+    x, y, heading = site.exhibits[0].viewing_pose
+    start = (x, y, heading + math.pi)  # turned away from the exhibit: the hall is open ahead
+    ahead = (start[0] + 2.0 * math.cos(start[2]), start[1] + 2.0 * math.sin(start[2]), start[2])
+    fleet = FleetPoses(2)
+    try:
+        config = SimConfig(dynamic_objects=False)
+        a = Simulator(site, config, seed=0, start=start, fleet=(fleet, 0))
+        b = Simulator(site, config, seed=1, start=ahead, fleet=(fleet, 1))
+        alone = Simulator(site, config, seed=0, start=start)
+        b.poll()  # b is there
+        scan = next(r for r in a.poll() if hasattr(r, "ranges"))
+        clean = next(r for r in alone.poll() if hasattr(r, "ranges"))
+        front = np.argmin(np.abs(scan.geometry.angles))  # the beam straight ahead
+        radius = config.robot.radius
+        assert scan.ranges[front] == pytest.approx(2.0 - radius - scan.geometry.offset[0], abs=0.1)
+        assert clean.ranges[front] > scan.ranges[front] + 0.3  # without the other robot: farther
+        assert not a.laser.last_person_hits.any()  # seen, but not as a person
+        # a drives into b: it stops at b's body, one collision with a robot
+        a.command(0.5, 0.0)
+        for _ in range(60):
+            a.poll()
+            b.poll()
+        gap = math.hypot(a.robot.pose[0] - b.robot.pose[0], a.robot.pose[1] - b.robot.pose[1])
+        assert gap >= 2 * radius - 0.06
+        assert a.collisions.robot == 1
+        assert a.collisions.person == a.collisions.static == 0
+        # it may back away
+        a.command(-0.3, 0.0)
+        for _ in range(30):
+            a.poll()
+        assert math.hypot(a.robot.pose[0] - b.robot.pose[0], a.robot.pose[1] - b.robot.pose[1]) > gap + 0.2
+    finally:
+        fleet.close()
