@@ -181,25 +181,21 @@ def _split(points: FloatArray, threshold: float, out: list[tuple[int, int]], lo:
 
 
 def _runs(points: FloatArray, angle_step: float, params: ExtractionParams) -> list[tuple[int, int]]:
-    """Index ranges of consecutive returned points without a jump between them."""
-    ok = ~np.isnan(points[:, 0])
-    runs: list[tuple[int, int]] = []
-    start = -1
-    prev = -1
-    for i in np.flatnonzero(ok):
-        if start < 0:
-            start = prev = int(i)
-            continue
-        gap = float(np.hypot(*(points[i] - points[prev])))
-        rng = float(np.hypot(*points[prev]))
-        limit = max(params.break_distance, params.break_ratio * rng * angle_step * (i - prev))
-        if i - prev > 2 or gap > limit:
-            runs.append((start, prev + 1))
-            start = int(i)
-        prev = int(i)
-    if start >= 0:
-        runs.append((start, prev + 1))
-    return runs
+    """Index ranges of consecutive returned points without a jump between them (one missing or
+    two missing returns do not break a run)."""
+    idx = np.flatnonzero(~np.isnan(points[:, 0]))
+    if len(idx) == 0:
+        return []
+    p, q = points[idx[:-1]], points[idx[1:]]
+    skip = np.diff(idx)
+    gap = np.hypot(q[:, 0] - p[:, 0], q[:, 1] - p[:, 1])
+    limit = np.maximum(
+        params.break_distance, params.break_ratio * np.hypot(p[:, 0], p[:, 1]) * angle_step * skip
+    )
+    cut = np.flatnonzero((skip > 2) | (gap > limit))
+    starts = np.concatenate([[idx[0]], idx[cut + 1]])
+    ends = np.concatenate([idx[cut] + 1, [idx[-1] + 1]])
+    return [(int(a), int(b)) for a, b in zip(starts, ends, strict=True)]
 
 
 def _segment(points: FloatArray, params: ExtractionParams) -> Segment:

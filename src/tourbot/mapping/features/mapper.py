@@ -50,7 +50,14 @@ from tourbot.mapping.features.extraction import (
     fit_line,
     scan_points,
 )
-from tourbot.mapping.features.smoother import MotionNoise, line_measurement, predict, rts_smooth, update
+from tourbot.mapping.features.smoother import (
+    MotionNoise,
+    line_measurement,
+    line_measurements,
+    predict,
+    rts_smooth,
+    update,
+)
 from tourbot.records import Scan
 from tourbot.union_find import components
 
@@ -179,6 +186,16 @@ class _Scan:
 
 
 @dataclass
+class _Table:
+    source: list[MapLine]
+    alpha: FloatArray
+    r: FloatArray
+    cov: FloatArray
+    ends: FloatArray
+    born: FloatArray
+
+
+@dataclass
 class _Hypothesis:
     mean: FloatArray
     cov: FloatArray
@@ -221,6 +238,8 @@ class FeatureMapper:
 
     def __init__(self, params: FeatureMappingParams | None = None) -> None:
         self.params = params or FeatureMappingParams()
+        self._table: _Table | None = None
+        self._dirty = True
 
     # ------------------------------------------------------------------------------------------
     def run(
@@ -282,14 +301,10 @@ class FeatureMapper:
         p = self.params
         total = 0.0
         for t, pairs in enumerate(assoc):
-            f = feats[t]
-            for i, j in pairs:
-                line = lines[j]
-                z, _, jj = line_measurement(poses[t], line.alpha, line.r)
-                nu = f.z[i] - z
-                nu[0] = float(wrap_angle(nu[0]))
-                d2 = float(nu @ np.linalg.solve(f.r[i] + jj @ line.cov @ jj.T, nu))
-                total += min(d2, p.gate)
+            if pairs:
+                nu, _, noise = self._pair_terms(feats[t], lines, pairs, poses[t])
+                d2 = np.einsum("ki,ki->k", nu, np.linalg.solve(noise, nu[..., None])[..., 0])
+                total += float(np.minimum(d2, p.gate).sum())
         moved = relative(poses[:-1], poses[1:])
         for step, odo in zip(moved, steps, strict=True):
             _, q, _ = predict(np.zeros(3), np.zeros((3, 3)), odo, p.motion)
@@ -380,21 +395,40 @@ class FeatureMapper:
                 progress()
         return out
 
-    def _visible(self, lines: list[MapLine], pose: FloatArray, old: float | None) -> list[int]:
+    def _arrays(self, lines: list[MapLine]) -> _Table:
+        """The lines as arrays (rebuilt when a line was added or grew since the last call)."""
+        if (
+            self._table is None
+            or self._table.source is not lines
+            or self._dirty
+            or len(self._table.born) != len(lines)
+        ):
+            rows = np.array([(ln.alpha, ln.r, ln.s0, ln.s1, ln.born) for ln in lines]).reshape(-1, 5)
+            alpha, r = rows[:, 0], rows[:, 1]
+            n = np.stack([np.cos(alpha), np.sin(alpha)], axis=1)
+            t = np.stack([-n[:, 1], n[:, 0]], axis=1)
+            foot = r[:, None] * n
+            ends = np.stack([foot + rows[:, 2:3] * t, foot + rows[:, 3:4] * t], axis=1)
+            cov = np.array([ln.cov for ln in lines]).reshape(-1, 2, 2)
+            self._table = _Table(lines, alpha, r, cov, ends, rows[:, 4])
+            self._dirty = False
+        return self._table
+
+    def _visible(self, lines: list[MapLine], pose: FloatArray, old: float | None) -> NDArray[np.int64]:
         """Map lines within sensing range of ``pose`` (and first seen before path length ``old``)."""
         if not lines:
-            return []
+            return np.zeros(0, np.int64)
+        table = self._arrays(lines)
         reach = self.params.extraction.max_range + self.params.overlap_margin
-        ends = np.array([line.ends() for line in lines])
-        a, b = ends[:, 0], ends[:, 1]
+        a, b = table.ends[:, 0], table.ends[:, 1]
         ab = b - a
         u = np.clip(
             np.einsum("ij,ij->i", pose[:2] - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1
         )
         near = np.hypot(*(a + u[:, None] * ab - pose[:2]).T) < reach
         if old is not None:
-            near &= np.array([line.born for line in lines]) < old
-        return [int(k) for k in np.flatnonzero(near)]
+            near &= table.born < old
+        return np.flatnonzero(near)
 
     def _associate(
         self, f: _Scan, lines: list[MapLine], mean: FloatArray, cov: FloatArray, old: float | None
@@ -405,27 +439,22 @@ class FeatureMapper:
         if len(f.segments) == 0:
             return [], []
         cand = self._visible(lines, mean, old)
-        if not cand:
+        if len(cand) == 0:
             return [], []
-        zs, hs, js, bearings, spans = [], [], [], [], []
-        half_fov = math.pi  # lines behind the laser are dropped by the bearing order below
-        for k in cand:
-            line = lines[k]
-            z, h, jac = line_measurement(mean, line.alpha, line.r)
-            zs.append(z)
-            hs.append(h)
-            js.append(jac)
-            e = transform_points(_inverse(mean), line.ends())
-            mid = _clipped_middle(e, p.extraction.max_range)
-            bearings.append(math.atan2(mid[1], mid[0]))
-            spans.append(e)
-        zm, hm, jm = np.array(zs), np.array(hs), np.array(js)
-        sigma = np.array([lines[k].cov for k in cand])
-        order = np.argsort(bearings)
-        keep = [i for i in order if abs(bearings[i]) < half_fov]
-        zm, hm, jm, sigma = zm[keep], hm[keep], jm[keep], sigma[keep]
-        cand_k = [cand[i] for i in keep]
-        spans_k = np.array([spans[i] for i in keep])
+        table = self._arrays(lines)
+        zm, hm, jm = line_measurements(mean, table.alpha[cand], table.r[cand])
+        sigma = table.cov[cand]
+        ends = table.ends[cand] - mean[:2]
+        c, s_ = math.cos(mean[2]), math.sin(mean[2])
+        local = np.stack(
+            [c * ends[..., 0] + s_ * ends[..., 1], -s_ * ends[..., 0] + c * ends[..., 1]], axis=-1
+        )
+        mid = _clipped_middles(local, p.extraction.max_range)
+        # the map's lines in the scan's angular order (the string the scan's segments are matched to)
+        order = np.argsort(np.arctan2(mid[:, 1], mid[:, 0]))
+        zm, hm, jm, sigma = zm[order], hm[order], jm[order], sigma[order]
+        cand_k = [int(k) for k in cand[order]]
+        spans_k = local[order]
         # innovations (n, m, 2) and covariances (n, m, 2, 2)
         nu = f.z[:, None, :] - zm[None, :, :]
         nu[..., 0] = wrap_angle(nu[..., 0])
@@ -464,22 +493,32 @@ class FeatureMapper:
                 extra.append((i, cand_k[j], float(d2[i, j])))
         return pairs, extra
 
+    def _pair_terms(
+        self, f: _Scan, lines: list[MapLine], pairs: list[tuple[int, int]], pose: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """For ``(segment, line)`` pairs at ``pose``: innovations ``(k, 2)`` (angles wrapped),
+        Jacobians ``H`` ``(k, 2, 3)`` and the noise ``(k, 2, 2)`` (the segment's plus the line's)."""
+        seg = np.array([i for i, _ in pairs], dtype=np.int64)
+        idx = np.array([j for _, j in pairs], dtype=np.int64)
+        alpha = np.array([lines[j].alpha for j in idx])
+        r = np.array([lines[j].r for j in idx])
+        sigma = np.array([lines[j].cov for j in idx])
+        z, h, jac = line_measurements(pose, alpha, r)
+        nu = f.z[seg] - z
+        nu[:, 0] = wrap_angle(nu[:, 0])
+        return nu, h, f.r[seg] + jac @ sigma @ jac.transpose(0, 2, 1)
+
     def _gated(
         self, f: _Scan, lines: list[MapLine], pairs: list[tuple[int, int]], mean: FloatArray, cov: FloatArray
     ) -> list[tuple[int, int, float]]:
         """The given ``(segment, line)`` pairs with their squared Mahalanobis distances, those
         outside the gate left out."""
-        out = []
-        for i, j in pairs:
-            line = lines[j]
-            z, h, jj = line_measurement(mean, line.alpha, line.r)
-            nu = f.z[i] - z
-            nu[0] = float(wrap_angle(nu[0]))
-            s = h @ cov @ h.T + f.r[i] + jj @ line.cov @ jj.T
-            d2 = float(nu @ np.linalg.solve(s, nu))
-            if d2 < self.params.gate:
-                out.append((i, j, d2))
-        return out
+        if not pairs:
+            return []
+        nu, h, noise = self._pair_terms(f, lines, pairs, mean)
+        s = h @ cov @ h.transpose(0, 2, 1) + noise
+        d2 = np.einsum("ki,ki->k", nu, np.linalg.solve(s, nu[..., None])[..., 0])
+        return [(i, j, float(d)) for (i, j), d in zip(pairs, d2, strict=True) if d < self.params.gate]
 
     def _update(
         self,
@@ -491,17 +530,12 @@ class FeatureMapper:
     ) -> tuple[FloatArray, FloatArray]:
         """The EKF update with the paired lines (their own uncertainty added to the noise)."""
         k = len(pairs)
-        residual = np.zeros(2 * k)
-        h = np.zeros((2 * k, 3))
+        nu, hk, nk = self._pair_terms(f, lines, [(i, j) for i, j, _ in pairs], mean)
+        residual = nu.reshape(-1)
+        h = hk.reshape(2 * k, 3)
         noise = np.zeros((2 * k, 2 * k))
-        for n, (i, j, _) in enumerate(pairs):
-            line = lines[j]
-            z, hj, jj = line_measurement(mean, line.alpha, line.r)
-            nu = f.z[i] - z
-            nu[0] = float(wrap_angle(nu[0]))
-            residual[2 * n : 2 * n + 2] = nu
-            h[2 * n : 2 * n + 2] = hj
-            noise[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] = f.r[i] + jj @ line.cov @ jj.T
+        for n in range(k):
+            noise[2 * n : 2 * n + 2, 2 * n : 2 * n + 2] = nk[n]
         return update(mean, cov, residual, h, noise)
 
     def _record(
@@ -515,6 +549,7 @@ class FeatureMapper:
         along: float,
     ) -> None:
         """Note the observations, grow the paired lines' extents, start lines for the rest."""
+        self._dirty = True
         paired = set()
         for i, j, _ in pairs:
             lines[j].obs.append((t, i))
@@ -701,30 +736,21 @@ class FeatureMapper:
         return line
 
 
-def _inverse(pose: FloatArray) -> FloatArray:
-    from tourbot.geometry import invert
-
-    return invert(pose)
-
-
-def _clipped_middle(ends: FloatArray, reach: float) -> FloatArray:
-    """The middle of the part of the segment ``ends`` (robot frame) within ``reach`` of the robot."""
-    a, b = ends
+def _clipped_middles(ends: FloatArray, reach: float) -> FloatArray:
+    """The middles ``(m, 2)`` of the parts of the segments ``ends`` ``(m, 2, 2)`` (robot frame)
+    within ``reach`` of the robot (the whole segment where none of it is)."""
+    a, b = ends[:, 0], ends[:, 1]
     d = b - a
-    dd = float(d @ d)
-    if dd < 1e-12:
-        return np.asarray(a, dtype=np.float64)
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+    ad, aa = np.einsum("ij,ij->i", a, d), np.einsum("ij,ij->i", a, a)
     # |a + u d| = reach: u^2 dd + 2 u (a.d) + a.a - reach^2 = 0
-    ad, aa = float(a @ d), float(a @ a)
     disc = ad * ad - dd * (aa - reach * reach)
-    if disc <= 0:
-        u0, u1 = 0.0, 1.0
-    else:
-        root = math.sqrt(disc)
-        u0, u1 = max(0.0, (-ad - root) / dd), min(1.0, (-ad + root) / dd)
-        if u1 < u0:
-            u0, u1 = 0.0, 1.0
-    return np.asarray(a + 0.5 * (u0 + u1) * d, dtype=np.float64)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    u0 = np.maximum(0.0, (-ad - root) / dd)
+    u1 = np.minimum(1.0, (-ad + root) / dd)
+    bad = (disc <= 0) | (u1 < u0)
+    u0, u1 = np.where(bad, 0.0, u0), np.where(bad, 1.0, u1)
+    return np.asarray(a + (0.5 * (u0 + u1))[:, None] * d, dtype=np.float64)
 
 
 def _overlaps(scan_ends: FloatArray, map_ends: FloatArray, margin: float) -> NDArray[np.bool_]:

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose, wrap_angle
 
-__all__ = ["MotionNoise", "line_measurement", "predict", "rts_smooth", "update"]
+__all__ = ["MotionNoise", "line_measurement", "line_measurements", "predict", "rts_smooth", "update"]
 
 FloatArray = NDArray[np.float64]
 
@@ -70,16 +70,30 @@ def line_measurement(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The predicted robot-frame line ``(alpha, r)`` of the world line, its Jacobian ``H`` (2 x 3)
     with respect to the pose and ``J`` (2 x 2) with respect to the world line; ``r >= 0``."""
-    ca, sa = math.cos(alpha_w), math.sin(alpha_w)
+    z, h, j = line_measurements(pose, np.array([alpha_w]), np.array([r_w]))
+    return z[0], h[0], j[0]
+
+
+def line_measurements(
+    pose: FloatArray, alpha_w: FloatArray, r_w: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """:func:`line_measurement` of many world lines at once: ``(m, 2)``, ``(m, 2, 3)``, ``(m, 2, 2)``."""
+    ca, sa = np.cos(alpha_w), np.sin(alpha_w)
     alpha = alpha_w - pose[2]
     r = r_w - pose[0] * ca - pose[1] * sa
-    h = np.array([[0.0, 0.0, -1.0], [-ca, -sa, 0.0]])
-    j = np.array([[1.0, 0.0], [pose[0] * sa - pose[1] * ca, 1.0]])
-    if r < 0:  # the robot is on the other side of the line's origin: flip the normal
-        alpha, r = alpha + math.pi, -r
-        h[1] *= -1.0
-        j[1] *= -1.0
-    return np.array([float(wrap_angle(alpha)), r]), h, j
+    m = len(alpha_w)
+    h = np.zeros((m, 2, 3))
+    h[:, 0, 2] = -1.0
+    h[:, 1, 0], h[:, 1, 1] = -ca, -sa
+    j = np.zeros((m, 2, 2))
+    j[:, 0, 0] = j[:, 1, 1] = 1.0
+    j[:, 1, 0] = pose[0] * sa - pose[1] * ca
+    flip = r < 0  # the robot is on the other side of the line's origin: flip the normal
+    alpha = np.where(flip, alpha + np.pi, alpha)
+    r = np.abs(r)
+    h[flip, 1] *= -1.0
+    j[flip, 1] *= -1.0
+    return np.stack([wrap_angle(alpha), r], axis=1), h, j
 
 
 def update(
