@@ -25,13 +25,16 @@ def hall_log(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return path
 
 
-def test_lines_writes_every_output(hall_log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = tmp_path / "out" / "lines.geojson"
-    svg, grid, walls, traj = (tmp_path / "out" / n for n in ("lines.svg", "map.yaml", "walls.yaml", "path.tum"))
-    main(["lines", str(hall_log), "-o", str(out), "--svg", str(svg), "--map", str(grid), "--walls", str(walls),
-          "--trajectory", str(traj)])  # fmt: skip
+def test_lines_writes_every_output(
+    hall_log: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    d = tmp_path / "out"
+    out, svg, grid, walls, traj = (d / n for n in ("l.geojson", "l.svg", "map.yaml", "walls.yaml", "p.tum"))
+    main(["lines", str(hall_log), "-o", str(out), "--svg", str(svg), "--map", str(grid),
+          "--walls", str(walls), "--trajectory", str(traj)])  # fmt: skip
     printed = capsys.readouterr().out
-    assert "line map:" in printed and "EM iterations" in printed
+    assert "line map:" in printed
+    assert "EM iterations" in printed
     segments = read_line_map(out)
     assert len(segments) >= 4
     doc = json.loads(out.read_text())

@@ -15,7 +15,8 @@ SEGMENTS = np.array([[[0.0, 0.0], [4.0, 0.0]], [[4.0, 0.0], [4.0, 3.0]], [[-1.5,
 
 def test_geojson_is_a_valid_feature_collection_and_round_trips(tmp_path: Path) -> None:
     path = tmp_path / "lines.geojson"
-    write_line_map(path, SEGMENTS, corners=[[4.0, 0.0]], trajectory=[[0, 1], [1, 1], [2, 1.5]], observations=[5, 3, 1])
+    path_xy = [[0, 1], [1, 1], [2, 1.5]]
+    write_line_map(path, SEGMENTS, corners=[[4.0, 0.0]], trajectory=path_xy, observations=[5, 3, 1])
     doc = json.loads(path.read_text())
     assert doc["type"] == "FeatureCollection"
     kinds = [f["properties"]["kind"] for f in doc["features"]]
@@ -46,15 +47,19 @@ def test_svg_is_well_formed_xml_with_one_line_per_wall(tmp_path: Path) -> None:
 
 
 def test_unknown_suffix_and_bad_files_are_one_line_errors(tmp_path: Path) -> None:
-    with pytest.raises(MapFormatError, match="geojson or .svg"):
+    with pytest.raises(MapFormatError, match=r"geojson or \.svg"):
         write_line_map(tmp_path / "lines.txt", SEGMENTS)
     assert not (tmp_path / "lines.txt").exists()
     bad = tmp_path / "bad.geojson"
     bad.write_text("{not json")
-    with pytest.raises(MapFormatError, match="bad.geojson"):
+    with pytest.raises(MapFormatError, match=r"bad\.geojson"):
         read_line_map(bad)
-    bad.write_text(json.dumps({"type": "FeatureCollection", "features": [
-        {"type": "Feature", "geometry": {"type": "LineString", "coordinates": [[0, 0]]}, "properties": {}}]}))  # fmt: skip
+    one_point = {
+        "type": "Feature",
+        "geometry": {"type": "LineString", "coordinates": [[0, 0]]},
+        "properties": {},
+    }
+    bad.write_text(json.dumps({"type": "FeatureCollection", "features": [one_point]}))
     with pytest.raises(MapFormatError, match=r"features\[0\]"):
         read_line_map(bad)
     with pytest.raises(MapFormatError, match="no such file"):

@@ -52,7 +52,6 @@ from tourbot.mapping.features.extraction import (
 )
 from tourbot.mapping.features.smoother import (
     MotionNoise,
-    line_measurement,
     line_measurements,
     predict,
     rts_smooth,
