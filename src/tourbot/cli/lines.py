@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 
 from tourbot.cli._checks import ForceOpt
-from tourbot.cli.logs import OdometryOpt, OdometryStream
+from tourbot.cli.logs import LenientOpt, LogArg, OdometryOpt, OdometryStream
 
 __all__ = ["register"]
 
@@ -16,7 +16,7 @@ __all__ = ["register"]
 def register(app: typer.Typer) -> None:
     @app.command("lines")
     def lines(
-        log: Annotated[Path, typer.Argument(help="A CARMEN log (.log, .log.gz) or a ROS bag with odometry.")],
+        log: LogArg,
         output: Annotated[
             Path, typer.Option("-o", "--output", help="The line map to write (.geojson, or .svg).")
         ],
@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
         iterations: Annotated[int, typer.Option(help="Most EM iterations (E-step and M-step).")] = 5,
         resolution: Annotated[float, typer.Option(help="Cell size of --map, metres.")] = 0.05,
-        lenient: Annotated[bool, typer.Option(help="Skip malformed records instead of stopping.")] = False,
+        lenient: LenientOpt = False,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
         force: ForceOpt = False,
     ) -> None:
@@ -59,6 +59,7 @@ def register(app: typer.Typer) -> None:
         from tourbot.io.tum import write_tum
         from tourbot.mapping.features import FeatureMapper, FeatureMappingParams
         from tourbot.mapping.incremental import MappingError
+        from tourbot.mapping.new_site import require_odometry
         from tourbot.site.model import segment_walls, walls_grid
 
         if iterations < 1:
@@ -80,12 +81,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"warning: {warning}", err=True)
         if len(robot_log.scans) < 2:
             raise MappingError(f"{log}: {len(robot_log.scans)} laser scans; a map needs at least 2")
-        missing = sum(s.odom is None for s in robot_log.scans)
-        if missing:
-            raise MappingError(
-                f"{log}: {missing} of {len(robot_log.scans)} scans have no odometry pose; mapping needs "
-                "the odometry of every scan"
-            )
+        require_odometry(robot_log, str(log))
         for warning in check_before_work(log_problems(robot_log), path=log, force=force):
             typer.echo(f"warning: {warning}", err=True)
         mapper = FeatureMapper(FeatureMappingParams(iterations=iterations))
