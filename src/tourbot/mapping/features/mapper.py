@@ -81,9 +81,10 @@ class FeatureMappingParams:
     uncertainty, ``confirm_scans`` and ``win_log_odds`` to win, ``lose_log_odds`` and
     ``max_age`` scans to vanish, ``max_hypotheses`` alive at once, ``distinct_xy`` m /
     ``distinct_theta`` rad from the main track and each other to be new, ``cooldown`` scans after
-    a closure. M-step: ``merge_angle`` rad, ``merge_distance`` m, ``merge_gap`` m between
-    extents; ``min_observations`` scans for a line to be drawn in the finished map. EM:
-    ``iterations``, ``converged`` m.
+    a closure, ``spawn_distance`` m of path between two rounds of new hypotheses (a corner that
+    appears is matched once, not at every scan that still shows it). M-step: ``merge_angle``
+    rad, ``merge_distance`` m, ``merge_gap`` m between extents; ``min_observations`` scans for a
+    line to be drawn in the finished map. EM: ``iterations``, ``converged`` m.
     """
 
     extraction: ExtractionParams = field(default_factory=ExtractionParams)
@@ -109,6 +110,7 @@ class FeatureMappingParams:
     distinct_xy: float = 0.3
     distinct_theta: float = math.radians(3.0)
     cooldown: int = 10
+    spawn_distance: float = 0.5
     merge_angle: float = math.radians(3.0)
     merge_distance: float = 0.08
     merge_gap: float = 0.3
@@ -239,6 +241,7 @@ class FeatureMapper:
         self.params = params or FeatureMappingParams()
         self._table: _Table | None = None
         self._dirty = True
+        self._spawned_at = -math.inf
 
     # ------------------------------------------------------------------------------------------
     def run(
@@ -351,6 +354,7 @@ class FeatureMapper:
         hyps: list[_Hypothesis] = []
         corners = _MapCorners()
         cooldown = 0
+        self._spawned_at = -math.inf
         for t in range(n):
             if t:
                 mean, cov, jac = predict(mean, cov, steps[t - 1], p.motion)
@@ -615,6 +619,9 @@ class FeatureMapper:
             return winner, cooldown
         if cooldown > 0:
             return None, cooldown - 1
+        if along - self._spawned_at < p.spawn_distance:
+            return None, 0
+        self._spawned_at = along
         for h in self._spawn(f, along, mean, cov, corners, hyps):
             if len(hyps) >= p.max_hypotheses:
                 break
