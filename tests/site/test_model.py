@@ -105,3 +105,21 @@ def test_rasterize_fills_polygons() -> None:
     mask = rasterize_polygons(site.grid, [[(1.0, 1.0), (3.0, 1.0), (3.0, 3.0), (1.0, 3.0)]])
     assert mask.sum() == pytest.approx(400, rel=0.15)
     assert mask.dtype == np.bool_
+
+
+def test_segment_walls_draw_as_the_segments() -> None:
+    from tourbot.site.model import MapSpec, segment_walls, walls_grid
+
+    segments = np.array([[[0.0, 0.0], [5.0, 0.0]], [[5.0, 0.0], [5.0, 3.0]]])
+    walls = segment_walls(segments)
+    MapSpec(walls=walls)  # valid wall polygons of a site
+    grid = walls_grid(walls, resolution=0.05, margin=0.5)
+    occ = grid.occupied()
+    for x, y in [(1.0, 0.0), (2.5, 0.0), (5.0, 1.5), (5.0, 2.9)]:
+        r, c = grid.world_to_cell([x, y])
+        assert occ[max(r - 1, 0) : r + 2, max(c - 1, 0) : c + 2].any()
+    r, c = grid.world_to_cell([2.5, 1.5])
+    assert not occ[r, c]
+    assert occ.sum() < 2 * (5.0 + 3.0) / 0.05  # one or two cells thick, not filled
+    with pytest.raises(ValueError, match="no walls"):
+        walls_grid([])

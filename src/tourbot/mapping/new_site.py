@@ -21,21 +21,26 @@ from tourbot.maps.doors import Doorway
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
-__all__ = ["MIN_SCANS", "check_log", "map_log", "site_document", "tour_stops"]
+__all__ = ["MIN_SCANS", "check_log", "map_log", "require_odometry", "site_document", "tour_stops"]
 
 MIN_SCANS = 50  # fewer scans than this do not make a building's map
 
 
-def check_log(log: RobotLog, source: str) -> None:
-    """Refuse a log that cannot be mapped, in one line: no scans, too few, no odometry."""
-    if len(log.scans) < MIN_SCANS:
-        raise MappingError(f"{source}: {len(log.scans)} laser scans; a site's map needs at least {MIN_SCANS}")
+def require_odometry(log: RobotLog, source: str) -> None:
+    """Refuse, in one line, a log some of whose scans have no odometry pose."""
     missing = sum(s.odom is None for s in log.scans)
     if missing:
         raise MappingError(
             f"{source}: {missing} of {len(log.scans)} scans have no odometry pose; mapping needs the "
             "odometry of every scan"
         )
+
+
+def check_log(log: RobotLog, source: str) -> None:
+    """Refuse a log that cannot be mapped, in one line: no scans, too few, no odometry."""
+    if len(log.scans) < MIN_SCANS:
+        raise MappingError(f"{source}: {len(log.scans)} laser scans; a site's map needs at least {MIN_SCANS}")
+    require_odometry(log, source)
     odom = log.odom_poses
     travelled = float(np.sum(np.hypot(np.diff(odom[:, 0]), np.diff(odom[:, 1]))))
     if travelled < 1.0:

@@ -36,6 +36,8 @@ __all__ = [
     "SiteError",
     "Tour",
     "load_site",
+    "segment_walls",
+    "walls_grid",
 ]
 
 Point = tuple[float, float]
@@ -270,25 +272,45 @@ def site_from_dict(data: dict[str, Any], *, base_dir: Path, path: Path | None = 
 
 def _static_grid(site: Site) -> OccupancyGrid:
     spec = site.map
-    if spec.grid is not None:
-        from tourbot.io.mapserver import read_map
+    if spec.grid is None:
+        return walls_grid(spec.walls, spec.resolution, spec.margin)
+    from tourbot.io.mapserver import read_map
 
-        grid = read_map(site.base_dir / spec.grid)
-    else:
-        pts = np.array([p for poly in spec.walls for p in poly], dtype=np.float64)
-        lo = pts.min(axis=0) - spec.margin
-        hi = pts.max(axis=0) + spec.margin
-        cols = max(1, math.ceil((hi[0] - lo[0]) / spec.resolution))
-        rows = max(1, math.ceil((hi[1] - lo[1]) / spec.resolution))
-        grid = OccupancyGrid(
-            np.zeros((rows, cols), dtype=np.float32), spec.resolution, (float(lo[0]), float(lo[1]), 0.0)
-        )
-    if spec.walls:
-        mask = rasterize_polygons(grid, spec.walls, outline_only=True)
-        prob = grid.prob.copy()
-        prob[mask] = 1.0
-        grid = OccupancyGrid(prob, grid.resolution, grid.origin, grid.occupied_thresh, grid.free_thresh)
-    return grid
+    grid = read_map(site.base_dir / spec.grid)
+    return _draw_walls(grid, spec.walls) if spec.walls else grid
+
+
+def walls_grid(walls: list[list[Point]], resolution: float = 0.05, margin: float = 1.0) -> OccupancyGrid:
+    """The occupancy grid of wall polygons alone, as a site without a grid file has it: free over
+    the walls' bounding box plus ``margin``, the walls' outlines occupied."""
+    pts = np.array([p for poly in walls for p in poly], dtype=np.float64).reshape(-1, 2)
+    if len(pts) == 0:
+        raise ValueError("no walls to draw")
+    lo = pts.min(axis=0) - margin
+    hi = pts.max(axis=0) + margin
+    cols = max(1, math.ceil((hi[0] - lo[0]) / resolution))
+    rows = max(1, math.ceil((hi[1] - lo[1]) / resolution))
+    grid = OccupancyGrid(
+        np.zeros((rows, cols), dtype=np.float32), resolution, (float(lo[0]), float(lo[1]), 0.0)
+    )
+    return _draw_walls(grid, walls)
+
+
+def segment_walls(segments: np.ndarray) -> list[list[Point]]:
+    """Wall segments ``(N, 2, 2)`` (a line map) as the site's wall polygons: each the closed
+    polyline ``a, b, a`` whose outline is the segment."""
+    return [
+        [(round(float(a[0]), 3), round(float(a[1]), 3)), (round(float(b[0]), 3), round(float(b[1]), 3)),
+         (round(float(a[0]), 3), round(float(a[1]), 3))]
+        for a, b in np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
+    ]  # fmt: skip
+
+
+def _draw_walls(grid: OccupancyGrid, walls: list[list[Point]]) -> OccupancyGrid:
+    mask = rasterize_polygons(grid, walls, outline_only=True)
+    prob = grid.prob.copy()
+    prob[mask] = 1.0
+    return OccupancyGrid(prob, grid.resolution, grid.origin, grid.occupied_thresh, grid.free_thresh)
 
 
 def rasterize_polygons(
