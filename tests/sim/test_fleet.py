@@ -9,6 +9,7 @@ import multiprocessing
 import numpy as np
 import pytest
 
+from tourbot.records import Scan
 from tourbot.sim.fleet import FleetPoses
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.default import default_site
@@ -52,8 +53,8 @@ def test_robots_see_and_stop_at_each_other() -> None:
         b = Simulator(site, config, seed=1, start=ahead, fleet=(fleet, 1))
         alone = Simulator(site, config, seed=0, start=start)
         b.poll()  # b is there
-        scan = next(r for r in a.poll() if hasattr(r, "ranges"))
-        clean = next(r for r in alone.poll() if hasattr(r, "ranges"))
+        scan = next(r for r in a.poll() or () if isinstance(r, Scan))
+        clean = next(r for r in alone.poll() or () if isinstance(r, Scan))
         front = np.argmin(np.abs(scan.geometry.angles))  # the beam straight ahead
         radius = config.robot.radius
         assert scan.ranges[front] == pytest.approx(2.0 - radius - scan.geometry.offset[0], abs=0.1)
