@@ -15,7 +15,7 @@ SEGMENTS = np.array([[[0.0, 0.0], [4.0, 0.0]], [[4.0, 0.0], [4.0, 3.0]], [[-1.5,
 
 def test_geojson_is_a_valid_feature_collection_and_round_trips(tmp_path: Path) -> None:
     path = tmp_path / "lines.geojson"
-    path_xy = [[0, 1], [1, 1], [2, 1.5]]
+    path_xy = np.array([[0.0, 1.0], [1.0, 1.0], [2.0, 1.5]])
     write_line_map(path, SEGMENTS, corners=[[4.0, 0.0]], trajectory=path_xy, observations=[5, 3, 1])
     doc = json.loads(path.read_text())
     assert doc["type"] == "FeatureCollection"
