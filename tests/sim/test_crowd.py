@@ -41,15 +41,20 @@ def _room(
 @given(
     arrays(np.float64, (12, 2), elements=st.floats(-3.0, 3.0)),
     arrays(np.float64, (12,), elements=st.floats(0.05, 0.4)),
+    arrays(np.float64, (12,), elements=st.floats(-4.0, 4.0)),
+    arrays(np.bool_, (12,), elements=st.booleans()),
+    st.floats(0.0, 1.0),
 )
-def test_social_forces_match_reference(pos: np.ndarray, radius: np.ndarray) -> None:
+def test_social_forces_match_reference(
+    pos: np.ndarray, radius: np.ndarray, heading: np.ndarray, standing: np.ndarray, anisotropy: float
+) -> None:
     # Coincident people get an arbitrary push in the kernel; the reference leaves them out.
     d = np.linalg.norm(pos[:, None] - pos[None], axis=-1) + np.eye(len(pos))
     if (d < 1e-6).any():
         return
     np.testing.assert_allclose(
-        social_forces(pos, radius, 2.1, 0.3),
-        social_forces_reference(pos, radius, 2.1, 0.3),
+        social_forces(pos, radius, heading, standing, 2.1, 0.3, anisotropy),
+        social_forces_reference(pos, radius, heading, standing, 2.1, 0.3, anisotropy),
         rtol=1e-9,
         atol=1e-9,
     )
@@ -57,9 +62,34 @@ def test_social_forces_match_reference(pos: np.ndarray, radius: np.ndarray) -> N
 
 def test_social_forces_push_apart_and_cancel() -> None:
     pos = np.array([[0.0, 0.0], [0.5, 0.0]])
-    f = social_forces(pos, np.array([0.25, 0.25]), 2.1, 0.3)
+    walking = np.zeros(2, dtype=bool)
+    f = social_forces(pos, np.array([0.25, 0.25]), np.zeros(2), walking, 2.1, 0.3, 1.0)
     assert f[0, 0] < 0 < f[1, 0]
     np.testing.assert_allclose(f.sum(axis=0), 0.0, atol=1e-12)
+
+
+def test_standing_people_do_not_push_each_other_until_they_touch() -> None:
+    radii, heading = np.full(3, 0.25), np.zeros(3)
+    standing = np.array([True, True, False])
+    # Two standing 0.6 m apart: no force; a walker 0.6 m from a standing one: pushed both ways.
+    pos = np.array([[0.0, 0.0], [0.6, 0.0], [0.6, 5.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    np.testing.assert_array_equal(f[:2], 0.0)
+    pos = np.array([[0.0, 0.0], [0.0, 5.0], [0.6, 0.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    assert f[0, 0] < 0.0 < f[2, 0]
+    # Touching standing people push each other apart.
+    pos = np.array([[0.0, 0.0], [0.4, 0.0], [0.0, 5.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    assert f[0, 0] < 0.0 < f[1, 0]
+
+
+def test_social_forces_weaker_from_behind() -> None:
+    """Both face +x: the one in front (index 1) has the other behind it and is pushed less."""
+    pos = np.array([[0.0, 0.0], [0.6, 0.0]])
+    f = social_forces(pos, np.array([0.25, 0.25]), np.zeros(2), np.zeros(2, dtype=bool), 2.1, 0.3, 0.3)
+    assert f[0, 0] < 0 < f[1, 0]
+    np.testing.assert_allclose(f[1, 0], 0.3 * -f[0, 0])
 
 
 @settings(max_examples=40, deadline=None)
@@ -170,6 +200,7 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
         "vel": rng.normal(0.0, 0.7, size=(n, 2)),
         "desired": rng.normal(0.0, 1.0, size=(n, 2)),
         "cap": rng.uniform(0.5, 1.5, size=n),
+        "radii": rng.uniform(0.2, 0.35, size=n),
         "group": np.minimum(np.arange(n), rng.integers(0, n, size=n)),
         "at_robot": rng.random(n) < 0.5,
         "phase": rng.uniform(0.0, 6.0, size=n),
@@ -185,12 +216,13 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
 @given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2))
 def test_move_people_matches_reference(seed: int, n: int, h: float) -> None:
     w = _world(seed, n)
-    params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3])
+    params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3, 0.3])
     args = (
         w["pos"],
         w["vel"],
         w["desired"],
         w["cap"],
+        w["radii"],
         w["group"],
         w["at_robot"],
         w["phase"],
