@@ -103,7 +103,8 @@ class CrowdConfig:
     than a far one (weights ``exp(-walking distance / exhibit_reach)``). At exhibits they stand in a loose
     ring ``exhibit_distance`` metres away for a log-normal time (median ``dwell_median``,
     log-sd ``dwell_sigma``, clipped to ``dwell_time``); walkers pause at the points they wander
-    to for ``pause_mean`` seconds on average. Legs at sensor height: radius 5-8 cm, 20 cm apart,
+    to for ``pause_mean`` seconds on average; one held up on the way for ``give_up_after``
+    seconds stops there and goes elsewhere. Legs at sensor height: radius 5-8 cm, 20 cm apart,
     swinging ``leg_swing`` metres with a gait cycle of ``stride_length`` metres.
     """
 
@@ -149,6 +150,7 @@ class CrowdConfig:
     dwell_sigma: float = 0.8
     dwell_time: tuple[float, float] = (2.0, 120.0)
     pause_mean: float = 2.0
+    give_up_after: float = 5.0
     wander_distance: tuple[float, float] = (2.0, 12.0)
     group_weights: tuple[float, ...] = (0.6, 0.27, 0.09, 0.03, 0.01)
     group_spacing: float = 0.75
@@ -761,6 +763,7 @@ class _People:
     leg_radius: FloatArray  # (N, 2)
     group: NDArray[np.int64]  # index of the group's leader
     slot: FloatArray  # offset beside the leader while walking (m, + = left), 0 for leaders
+    stuck: FloatArray  # seconds a walking leader has been held up (slower than 0.2 m/s)
 
 
 class Crowd:
@@ -968,6 +971,7 @@ class Crowd:
             leg_radius=rng.uniform(cfg.leg_radius[0], cfg.leg_radius[1], size=(n, 2)),
             group=group,
             slot=slot,
+            stuck=np.zeros(n),
         )
         self._people = people
         leaders = np.flatnonzero(interested & (group == np.arange(n)))
@@ -1300,6 +1304,11 @@ class Crowd:
             j = np.maximum(p.goal_poi, 0)
             to_poi = np.hypot(self._poi[j, 0] - p.pos[:, 0], self._poi[j, 1] - p.pos[:, 1])
             near |= (p.goal_poi >= 0) & slow & (to_poi < cfg.exhibit_distance[1] + 1.0)
+        # A leader held up for ``give_up_after`` seconds on the way (a jam in a doorway) gives up
+        # that goal and picks another after a pause.
+        p.stuck = np.where((p.mode == WALK) & slow & ~near, p.stuck + elapsed, 0.0)
+        near |= p.stuck > cfg.give_up_after
+        p.stuck[near] = 0.0
         arrived = np.flatnonzero(leader & (p.mode == WALK) & near)
         if len(arrived):
             p.mode[arrived] = DWELL
@@ -1376,8 +1385,12 @@ class Crowd:
         desired = steer(
             p.pos, target, moving, self._in_view, field_index, self._fields, sp.coarse_res, p.speed, cfg.tau
         )
+        # Group members walking beside their leader match its velocity, plus what closes the gap;
+        # those keeping a spot at the driving robot match the robot's.
+        lead = p.group
+        beside = (p.mode == WALK) & (lead != np.arange(self.num_people)) & self._in_view & (dist < 2.0)
+        desired[beside] += p.vel[lead[beside]]
         if self._robot_moving:
-            # Those keeping a spot at the driving robot walk at its pace, plus what closes the gap.
             along = at_robot & self._in_view & (dist < 2.0)
             desired[along] += self._robot_vel[None, :]
 
