@@ -140,17 +140,86 @@ def test_interest_draws_visitors_around_the_robot() -> None:
     grid = _room(24.0, 16.0)
     robot = (12.0, 8.0, 0.0)
 
-    def near(interest: float) -> int:
-        rng = np.random.default_rng(5)
-        crowd = Crowd(
-            CrowdConfig(num_people=40, robot_interest=interest, interest_duration=1e6), grid, rng, robot
-        )
-        for _ in range(150):
-            crowd.step(0.2, robot, rng)
-        return int((np.linalg.norm(crowd.positions - robot[:2], axis=1) < 2.5).sum())
+    def near(interest: float) -> float:
+        counts = []
+        for seed in range(3):
+            rng = np.random.default_rng(seed)
+            crowd = Crowd(
+                CrowdConfig(num_people=40, robot_interest=interest, interest_duration=1e6), grid, rng, robot
+            )
+            for _ in range(150):
+                crowd.step(0.2, robot, rng)
+            counts.append(int((np.linalg.norm(crowd.positions - robot[:2], axis=1) < 2.5).sum()))
+        return float(np.mean(counts))
 
-    assert near(1.0) >= 10
-    assert near(0.0) <= 5
+    drawn, indifferent = near(1.0), near(0.0)
+    assert drawn >= 8
+    assert drawn >= 2 * indifferent
+
+
+def _settled_ring(seed: int) -> tuple[Crowd, tuple[float, float, float], np.random.Generator]:
+    grid = _room(24.0, 16.0)
+    robot = (12.0, 8.0, 0.0)
+    rng = np.random.default_rng(seed)
+    cfg = CrowdConfig(num_people=40, robot_interest=1.0, interest_duration=1e6, blocker_share=0.0)
+    crowd = Crowd(cfg, grid, rng, robot)
+    for _ in range(200):
+        crowd.step(0.2, robot, rng)
+    return crowd, robot, rng
+
+
+def test_the_ring_at_the_robot_is_loose_and_in_front() -> None:
+    crowd, robot, _ = _settled_ring(1)
+    ring = crowd.positions[crowd.at_robot]
+    assert len(ring) >= 6
+    rel = ring - np.array(robot[:2])
+    # In front (the robot faces +x) and no closer to each other than people who touch.
+    assert np.mean(rel[:, 0] > 0.0) >= 0.8
+    gaps = np.linalg.norm(ring[:, None] - ring[None], axis=-1) + 10 * np.eye(len(ring))
+    assert gaps.min() >= 0.44
+    # Not a lattice: the nearest-neighbour distances spread.
+    nn = gaps.min(axis=1)
+    assert np.ptp(nn) >= 0.2
+
+
+def test_the_ring_steps_aside_and_follows_the_driving_robot() -> None:
+    crowd, robot, rng = _settled_ring(4)
+    x, y, th = robot
+    members = crowd.at_robot.copy()
+
+    def in_way(rel: np.ndarray) -> int:
+        """People in the 0.9 m wide lane 0.5-2.5 m ahead of the robot (which faces +x)."""
+        return int(np.sum((rel[:, 0] > 0.5) & (rel[:, 0] < 2.5) & (np.abs(rel[:, 1]) < 0.45)))
+
+    assert in_way(crowd.positions[members] - np.array(robot[:2])) >= 2
+    for k in range(1, 76):  # 7.5 s at 0.4 m/s along +x
+        crowd.step(0.1, (x + 0.04 * k, y, th), rng)
+    rx = x + 0.04 * 75
+    pos = crowd.positions
+    still = members & crowd.at_robot
+    assert still.sum() >= 4
+    rel = pos[still] - np.array([rx, y])
+    # They came along (within a few metres of the robot) ...
+    assert np.median(np.linalg.norm(rel, axis=1)) <= 3.5
+    # ... and keep out of its way: at most one (on the way out) in the lane ahead.
+    assert in_way(rel) <= 1
+
+
+def test_groups_walk_abreast() -> None:
+    grid = _room(24.0, 16.0)
+    rng = np.random.default_rng(3)
+    crowd = Crowd(CrowdConfig(num_people=30, robot_interest=0.0), grid, rng, (1.0, 1.0, 0.0))
+    lead = crowd.groups
+    members = np.flatnonzero(lead != np.arange(crowd.num_people))
+    assert len(members) >= 5
+    close = []
+    for _ in range(300):
+        crowd.step(0.1, (1.0, 1.0, 0.0), rng)
+        v = np.linalg.norm(crowd.velocities, axis=1)
+        walking = members[(v[members] > 0.3) & (v[lead[members]] > 0.3)]
+        d = np.linalg.norm(crowd.positions[walking] - crowd.positions[lead[walking]], axis=1)
+        close.extend(d.tolist())
+    assert np.median(close) <= 1.2
 
 
 def test_legs_two_per_person_near_the_body() -> None:
