@@ -11,7 +11,7 @@ from tourbot.cli.main import main
 from tourbot.data import data_dir
 
 
-def test_bench_crowd_writes_json_and_figure(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_bench_crowd_writes_json_and_figure(tmp_path: Path) -> None:
     root = data_dir()
     if root is None or not (root / "pedestrians").is_dir():
         pytest.skip("the pedestrian recordings (../shared/data/pedestrians) are absent")

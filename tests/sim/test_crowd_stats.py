@@ -13,9 +13,8 @@ from tourbot.sim.crowd import Crowd, CrowdConfig
 def _walkers(frames: int = 30) -> Trajectories:
     """Persons 0 and 1 walk side by side at 1 m/s 0.8 m apart; 2 walks the other way far off;
     3 stands until frame 12, then walks."""
-    t = np.arange(frames)
-    rows = []
-    for k in t:
+    rows: list[tuple[float, float, float, float]] = []
+    for k in range(frames):
         x = 0.4 * k
         rows += [(k, 0, x, 0.0), (k, 1, x, 0.8), (k, 2, 20.0 - x, 10.0)]
         rows.append((k, 3, 5.0 + (0.0 if k < 12 else 0.5 * (k - 12)), -6.0))
