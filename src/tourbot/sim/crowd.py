@@ -137,7 +137,7 @@ class CrowdConfig:
     stand_arc: float = math.radians(95.0)
     stand_spacing: tuple[float, float] = (0.5, 1.4)
     corridor: float = 0.9
-    give_up_distance: float = 4.0
+    give_up_distance: float = 8.0
     lookahead: float = 3.0
     blocker_share: float = 0.1
     block_duration: float = 15.0
@@ -213,7 +213,7 @@ class CrowdConfig:
 PRESETS: dict[str, CrowdConfig] = {
     "empty": CrowdConfig(num_people=0, robot_interest=0.0),
     "sparse": CrowdConfig(density=0.015, robot_interest=0.1, interest_duration=30.0),
-    "peak": CrowdConfig(density=0.4, robot_interest=0.85, notice_distance=15.0, interest_duration=120.0),
+    "peak": CrowdConfig(density=0.3, robot_interest=0.85, notice_distance=15.0, interest_duration=60.0),
 }
 
 
