@@ -71,3 +71,22 @@ def test_track_scores_count_misses_and_switches_of_the_walker(shared_data: Path,
     assert 0.0 < s["recall"] <= 1.0
     _draw_traces({bag.name: trace}, tmp_path / "t.png")
     assert (tmp_path / "t.png").stat().st_size > 1000
+
+
+def test_tour_scene_has_followers_and_standing_visitors() -> None:
+    from tourbot.bench.tracking import SimConfig, simulate_tour, standing_tracked, tour_path
+
+    cfg = SimConfig()
+    # The robot stands at its first stop, then drives at its speed.
+    np.testing.assert_allclose(tour_path(0.0, cfg)[:2], tour_path(19.0, cfg)[:2])
+    moved = np.linalg.norm(tour_path(21.0, cfg)[:2] - tour_path(20.0, cfg)[:2])
+    assert abs(moved - cfg.robot_speed) < 1e-9
+    run = simulate_tour(10, 80, seed=0)
+    assert sum(int(a.sum()) for a in run.at_robot) > 0
+    assert sum(int((s & c).sum()) for s, c in zip(run.standing, run.counted, strict=True)) > 0
+    truth = [
+        [(int(i), float(p[i, 0]), float(p[i, 1])) for i in np.flatnonzero(c)]
+        for p, c in zip(run.truth, run.counted, strict=True)
+    ]
+    assert standing_tracked(run, truth) == 1.0
+    assert standing_tracked(run, [[] for _ in truth]) == 0.0

@@ -41,15 +41,20 @@ def _room(
 @given(
     arrays(np.float64, (12, 2), elements=st.floats(-3.0, 3.0)),
     arrays(np.float64, (12,), elements=st.floats(0.05, 0.4)),
+    arrays(np.float64, (12,), elements=st.floats(-4.0, 4.0)),
+    arrays(np.bool_, (12,), elements=st.booleans()),
+    st.floats(0.0, 1.0),
 )
-def test_social_forces_match_reference(pos: np.ndarray, radius: np.ndarray) -> None:
+def test_social_forces_match_reference(
+    pos: np.ndarray, radius: np.ndarray, heading: np.ndarray, standing: np.ndarray, anisotropy: float
+) -> None:
     # Coincident people get an arbitrary push in the kernel; the reference leaves them out.
     d = np.linalg.norm(pos[:, None] - pos[None], axis=-1) + np.eye(len(pos))
     if (d < 1e-6).any():
         return
     np.testing.assert_allclose(
-        social_forces(pos, radius, 2.1, 0.3),
-        social_forces_reference(pos, radius, 2.1, 0.3),
+        social_forces(pos, radius, heading, standing, 2.1, 0.3, anisotropy),
+        social_forces_reference(pos, radius, heading, standing, 2.1, 0.3, anisotropy),
         rtol=1e-9,
         atol=1e-9,
     )
@@ -57,9 +62,34 @@ def test_social_forces_match_reference(pos: np.ndarray, radius: np.ndarray) -> N
 
 def test_social_forces_push_apart_and_cancel() -> None:
     pos = np.array([[0.0, 0.0], [0.5, 0.0]])
-    f = social_forces(pos, np.array([0.25, 0.25]), 2.1, 0.3)
+    walking = np.zeros(2, dtype=bool)
+    f = social_forces(pos, np.array([0.25, 0.25]), np.zeros(2), walking, 2.1, 0.3, 1.0)
     assert f[0, 0] < 0 < f[1, 0]
     np.testing.assert_allclose(f.sum(axis=0), 0.0, atol=1e-12)
+
+
+def test_standing_people_do_not_push_each_other_until_they_touch() -> None:
+    radii, heading = np.full(3, 0.25), np.zeros(3)
+    standing = np.array([True, True, False])
+    # Two standing 0.6 m apart: no force; a walker 0.6 m from a standing one: pushed both ways.
+    pos = np.array([[0.0, 0.0], [0.6, 0.0], [0.6, 5.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    np.testing.assert_array_equal(f[:2], 0.0)
+    pos = np.array([[0.0, 0.0], [0.0, 5.0], [0.6, 0.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    assert f[0, 0] < 0.0 < f[2, 0]
+    # Touching standing people push each other apart.
+    pos = np.array([[0.0, 0.0], [0.4, 0.0], [0.0, 5.0]])
+    f = social_forces(pos, radii, heading, standing, 2.1, 0.3, 1.0)
+    assert f[0, 0] < 0.0 < f[1, 0]
+
+
+def test_social_forces_weaker_from_behind() -> None:
+    """Both face +x: the one in front (index 1) has the other behind it and is pushed less."""
+    pos = np.array([[0.0, 0.0], [0.6, 0.0]])
+    f = social_forces(pos, np.array([0.25, 0.25]), np.zeros(2), np.zeros(2, dtype=bool), 2.1, 0.3, 0.3)
+    assert f[0, 0] < 0 < f[1, 0]
+    np.testing.assert_allclose(f[1, 0], 0.3 * -f[0, 0])
 
 
 @settings(max_examples=40, deadline=None)
@@ -110,17 +140,86 @@ def test_interest_draws_visitors_around_the_robot() -> None:
     grid = _room(24.0, 16.0)
     robot = (12.0, 8.0, 0.0)
 
-    def near(interest: float) -> int:
-        rng = np.random.default_rng(5)
-        crowd = Crowd(
-            CrowdConfig(num_people=40, robot_interest=interest, interest_duration=1e6), grid, rng, robot
-        )
-        for _ in range(150):
-            crowd.step(0.2, robot, rng)
-        return int((np.linalg.norm(crowd.positions - robot[:2], axis=1) < 2.5).sum())
+    def near(interest: float) -> float:
+        counts = []
+        for seed in range(3):
+            rng = np.random.default_rng(seed)
+            crowd = Crowd(
+                CrowdConfig(num_people=40, robot_interest=interest, interest_duration=1e6), grid, rng, robot
+            )
+            for _ in range(150):
+                crowd.step(0.2, robot, rng)
+            counts.append(int((np.linalg.norm(crowd.positions - robot[:2], axis=1) < 2.5).sum()))
+        return float(np.mean(counts))
 
-    assert near(1.0) >= 10
-    assert near(0.0) <= 5
+    drawn, indifferent = near(1.0), near(0.0)
+    assert drawn >= 8
+    assert drawn >= 2 * indifferent
+
+
+def _settled_ring(seed: int) -> tuple[Crowd, tuple[float, float, float], np.random.Generator]:
+    grid = _room(24.0, 16.0)
+    robot = (12.0, 8.0, 0.0)
+    rng = np.random.default_rng(seed)
+    cfg = CrowdConfig(num_people=40, robot_interest=1.0, interest_duration=1e6, blocker_share=0.0)
+    crowd = Crowd(cfg, grid, rng, robot)
+    for _ in range(200):
+        crowd.step(0.2, robot, rng)
+    return crowd, robot, rng
+
+
+def test_the_ring_at_the_robot_is_loose_and_in_front() -> None:
+    crowd, robot, _ = _settled_ring(1)
+    ring = crowd.positions[crowd.at_robot]
+    assert len(ring) >= 6
+    rel = ring - np.array(robot[:2])
+    # In front (the robot faces +x) and no closer to each other than people who touch.
+    assert np.mean(rel[:, 0] > 0.0) >= 0.8
+    gaps = np.linalg.norm(ring[:, None] - ring[None], axis=-1) + 10 * np.eye(len(ring))
+    assert gaps.min() >= 0.44
+    # Not a lattice: the nearest-neighbour distances spread.
+    nn = gaps.min(axis=1)
+    assert np.ptp(nn) >= 0.2
+
+
+def test_the_ring_steps_aside_and_follows_the_driving_robot() -> None:
+    crowd, robot, rng = _settled_ring(4)
+    x, y, th = robot
+    members = crowd.at_robot.copy()
+
+    def in_way(rel: np.ndarray) -> int:
+        """People in the 0.9 m wide lane 0.5-2.5 m ahead of the robot (which faces +x)."""
+        return int(np.sum((rel[:, 0] > 0.5) & (rel[:, 0] < 2.5) & (np.abs(rel[:, 1]) < 0.45)))
+
+    assert in_way(crowd.positions[members] - np.array(robot[:2])) >= 2
+    for k in range(1, 76):  # 7.5 s at 0.4 m/s along +x
+        crowd.step(0.1, (x + 0.04 * k, y, th), rng)
+    rx = x + 0.04 * 75
+    pos = crowd.positions
+    still = members & crowd.at_robot
+    assert still.sum() >= 4
+    rel = pos[still] - np.array([rx, y])
+    # They came along (within a few metres of the robot) ...
+    assert np.median(np.linalg.norm(rel, axis=1)) <= 3.5
+    # ... and keep out of its way: at most one (on the way out) in the lane ahead.
+    assert in_way(rel) <= 1
+
+
+def test_groups_walk_abreast() -> None:
+    grid = _room(24.0, 16.0)
+    rng = np.random.default_rng(3)
+    crowd = Crowd(CrowdConfig(num_people=30, robot_interest=0.0), grid, rng, (1.0, 1.0, 0.0))
+    lead = crowd.groups
+    members = np.flatnonzero(lead != np.arange(crowd.num_people))
+    assert len(members) >= 5
+    close = []
+    for _ in range(300):
+        crowd.step(0.1, (1.0, 1.0, 0.0), rng)
+        v = np.linalg.norm(crowd.velocities, axis=1)
+        walking = members[(v[members] > 0.3) & (v[lead[members]] > 0.3)]
+        d = np.linalg.norm(crowd.positions[walking] - crowd.positions[lead[walking]], axis=1)
+        close.extend(d.tolist())
+    assert np.median(close) <= 1.2
 
 
 def test_legs_two_per_person_near_the_body() -> None:
@@ -170,6 +269,7 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
         "vel": rng.normal(0.0, 0.7, size=(n, 2)),
         "desired": rng.normal(0.0, 1.0, size=(n, 2)),
         "cap": rng.uniform(0.5, 1.5, size=n),
+        "radii": rng.uniform(0.2, 0.35, size=n),
         "group": np.minimum(np.arange(n), rng.integers(0, n, size=n)),
         "at_robot": rng.random(n) < 0.5,
         "phase": rng.uniform(0.0, 6.0, size=n),
@@ -185,12 +285,13 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
 @given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2))
 def test_move_people_matches_reference(seed: int, n: int, h: float) -> None:
     w = _world(seed, n)
-    params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3])
+    params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3, 0.3])
     args = (
         w["pos"],
         w["vel"],
         w["desired"],
         w["cap"],
+        w["radii"],
         w["group"],
         w["at_robot"],
         w["phase"],

@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 from tourbot.bench._report import BenchReport
 from tourbot.geometry import wrap_angle
 
-__all__ = ["SimConfig", "SimRun", "register", "score_frames", "simulate_crowd"]
+__all__ = ["SimConfig", "SimRun", "TourRun", "register", "score_frames", "simulate_crowd", "simulate_tour"]
 
 FloatArray = NDArray[np.float64]
 
@@ -388,12 +388,21 @@ def register(bench: typer.Typer) -> None:
         real_seeds: Annotated[
             str, typer.Option(help="Seeds of the tracker's particle filters on the real bags.")
         ] = "0",
+        tour: Annotated[
+            str, typer.Option(help="Visitors in the tour-group scene, comma-separated ('' to skip).")
+        ] = "12",
+        tour_seeds: Annotated[str, typer.Option(help="Seeds of the tour-group scene.")] = "0-4",
+        tour_scans: Annotated[int, typer.Option(help="Scans of the tour-group scene (10 Hz).")] = 600,
+        tour_figure: Annotated[
+            Path | None, typer.Option(help="Picture of the tour scene's tracks against the truth.")
+        ] = Path("docs/results/tracking-tour.png"),
         output: Annotated[Path | None, typer.Option("-o", "--output", help="JSON file.")] = None,
         figure: Annotated[
             Path | None, typer.Option(help="PNG of the real recordings' tracks against their annotations.")
         ] = None,
     ) -> None:
-        """People tracking: SJPDAF vs Stone Soup JPDA on simulated crowds; legs on the real bags."""
+        """People tracking: SJPDAF vs Stone Soup JPDA on simulated crowds and a tour-group scene;
+        legs on the real bags."""
         from rich.progress import Progress
 
         from tourbot.data import data_dir
@@ -446,6 +455,16 @@ def register(bench: typer.Typer) -> None:
                             peers.append(peer_row)
                         progress.advance(task)
                 _summary(report, n, crowd_seeds, ours, peers)
+        if tour.strip():
+            try:
+                tour_sizes = [int(x) for x in tour.split(",") if x.strip()]
+                tour_seed_list = parse_seeds(tour_seeds)
+            except ValueError:
+                raise InputError(
+                    f"expected visitor counts like '12' and seeds like '0-4', got {tour!r} / {tour_seeds!r}",
+                    field="--tour",
+                ) from None
+            tour_section(report, tour_sizes, tour_scans, tour_seed_list, tour_figure)
         root = data_dir()
         if real and root is not None:
             _real_bags(report, root / "leg_tracker", bag_seeds, figure)
@@ -665,3 +684,216 @@ def _row(m: dict[str, float], cost: tuple[float, float]) -> dict[str, float]:
         "scans/s": 1.0 / sec if sec > 0 else float("nan"),
         "wall ms/scan": cost[1] * 1e3,
     }
+
+
+# --------------------------------------------------------------------------------------------
+# The tour-group scene: visitors who follow the robot, stand at exhibits and walk past
+# --------------------------------------------------------------------------------------------
+
+TARGET_TOUR_MOTA = 0.90
+TARGET_TOUR_IDF1 = 0.85
+TARGET_STANDING_TRACKED = 0.95
+#: Below this speed (m/s) a visitor counts as standing.
+STANDING_SPEED = 0.2
+#: The exhibits of the tour in the hall (between the pillars) and the robot's stops before them.
+TOUR_EXHIBITS = ((7.0, 10.0), (13.0, 10.0), (13.0, 6.0), (7.0, 6.0))
+TOUR_STOPS = ((7.0, 8.6), (13.0, 8.6), (13.0, 7.4), (7.0, 7.4))
+
+
+@dataclass
+class TourRun(SimRun):
+    """A :class:`SimRun` of the tour scene, with who stands and who is at the robot per scan."""
+
+    standing: list[NDArray[np.bool_]] = field(default_factory=list)
+    at_robot: list[NDArray[np.bool_]] = field(default_factory=list)
+    times: list[float] = field(default_factory=list)
+
+
+def tour_path(t: float, cfg: SimConfig, stand: float = 20.0) -> FloatArray:
+    """The robot's pose at ``t`` on the tour: it stands ``stand`` seconds at each stop of
+    :data:`TOUR_STOPS` facing the exhibit, then drives to the next at ``cfg.robot_speed``
+    (turning on the spot), round and round."""
+    stops = np.array(TOUR_STOPS)
+    exhibits = np.array(TOUR_EXHIBITS)
+    legs = np.linalg.norm(np.roll(stops, -1, axis=0) - stops, axis=1) / cfg.robot_speed
+    period = float(len(stops) * stand + legs.sum())
+    t = t % period
+    for k in range(len(stops)):
+        facing = exhibits[k] - stops[k]
+        if t < stand:
+            return np.array([*stops[k], math.atan2(facing[1], facing[0])])
+        t -= stand
+        if t < legs[k]:
+            a, b = stops[k], stops[(k + 1) % len(stops)]
+            d = b - a
+            return np.array([*(a + d * t / legs[k]), math.atan2(d[1], d[0])])
+        t -= legs[k]
+    return np.array([*stops[0], 0.0])
+
+
+def simulate_tour(num_people: int, scans: int, seed: int, cfg: SimConfig | None = None) -> TourRun:
+    """The tour-group scene: ``num_people`` visitors of the one crowd model in the hall, with the
+    tour's exhibits as points of interest and a strong interest in the robot (a group gathers in
+    a loose ring when it stands and follows it at its pace when it drives, others stand at the
+    exhibits or walk past), the robot touring :func:`tour_path`; scans and ground truth as in
+    :func:`simulate_crowd`, plus who stands (slower than :data:`STANDING_SPEED`) at each scan."""
+    from tourbot.maps.raycast import DDACaster
+    from tourbot.records import LaserGeometry, Scan
+    from tourbot.sim.crowd import Crowd, CrowdConfig
+
+    cfg = cfg or SimConfig()
+    rng = np.random.default_rng(seed)
+    grid = hall_map(cfg)
+    geometry = LaserGeometry(
+        num_beams=cfg.beams,
+        angle_min=-math.pi,
+        angle_increment=2 * math.pi / cfg.beams,
+        max_range=cfg.max_range,
+    )
+    crowd_cfg = CrowdConfig(
+        num_people=num_people,
+        robot_interest=0.6,
+        notice_distance=12.0,
+        interest_duration=180.0,
+        points_of_interest=TOUR_EXHIBITS,
+    )
+    crowd = Crowd(crowd_cfg, grid, rng, tour_path(0.0, cfg))
+    caster = DDACaster(grid, cfg.max_range)
+    for _ in range(round(cfg.warmup / cfg.dt)):
+        crowd.step(cfg.dt, tour_path(0.0, cfg), rng)
+    run = TourRun(grid=grid)
+    last_seen = np.full(num_people, -(10**9))
+    angles = geometry.angles
+    for k in range(scans):
+        t = k * cfg.dt
+        pose = tour_path(t, cfg)
+        crowd.step(cfg.dt, pose, rng)
+        centres, radii = crowd.legs()
+        ranges = caster.cast_with_circles(pose[None, :], angles, centres, radii)[0].astype(np.float64)
+        ranges += rng.normal(0.0, cfg.range_noise, ranges.shape)
+        ends = pose[None, 0:2] + ranges[:, None] * np.stack(
+            [np.cos(angles + pose[2]), np.sin(angles + pose[2])], -1
+        )
+        d = np.linalg.norm(ends[:, None, :] - centres[None, :, :], axis=-1) - radii[None, :]
+        seen = (d < 0.03).any(axis=0).reshape(-1, 2).any(axis=1)
+        last_seen[seen] = k
+        positions = crowd.positions.copy()
+        near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
+        run.scans.append(Scan(t, ranges, geometry))
+        run.poses.append(pose)
+        run.truth.append(positions)
+        run.counted.append(near & (k - last_seen < cfg.seen_window))
+        run.standing.append(np.linalg.norm(crowd.velocities, axis=1) < STANDING_SPEED)
+        run.at_robot.append(crowd.at_robot.copy())
+        run.times.append(t)
+    return run
+
+
+def standing_tracked(
+    run: TourRun, hypotheses: list[list[tuple[int, float, float]]], cfg: SimConfig | None = None
+) -> float:
+    """Share of the (visitor, scan) pairs counted in the ground truth while the visitor stands
+    that have a confirmed track within ``match_distance``."""
+    cfg = cfg or SimConfig()
+    hit = total = 0
+    for truth, counted, standing, hyps in zip(run.truth, run.counted, run.standing, hypotheses, strict=True):
+        who = np.flatnonzero(counted & standing)
+        total += len(who)
+        if not len(who) or not hyps:
+            continue
+        h = np.array([(x, y) for _, x, y in hyps], dtype=np.float64)
+        d = np.linalg.norm(truth[who][:, None, :] - h[None, :, :], axis=-1).min(axis=1)
+        hit += int((d <= cfg.match_distance).sum())
+    return hit / total if total else float("nan")
+
+
+def tour_section(
+    report: BenchReport, people: list[int], scans: int, seeds: list[int], figure: Path | None
+) -> None:
+    """The tour-group scene over the seeds: a row per crowd and seed, the means with 95 % intervals
+    against the targets, and a picture of the tracks against the truth (first seed, first size)."""
+    from tourbot.metrics import mean_ci
+
+    for n in people:
+        rows: list[dict[str, float]] = []
+        for seed in seeds:
+            run = simulate_tour(n, scans, seed)
+            hyps, _, cost = run_sjpdaf(run)
+            row = _row(score_frames(run, hyps), cost)
+            row["standing tracked"] = standing_tracked(run, hyps)
+            row["standing share"] = float(
+                np.mean([np.mean(s[c]) for s, c in zip(run.standing, run.counted, strict=True) if c.any()])
+            )
+            report.add(tracker="sjpdaf tour", people=n, seed=seed, **row)
+            rows.append(row)
+            if figure is not None and n == people[0] and seed == seeds[0]:
+                draw_tour_figure(run, hyps, figure)
+                report.notes.append(f"tour scene picture ({n} visitors, seed {seed}): {figure}")
+        m = {
+            k: mean_ci([r[k] for r in rows])
+            for k in ("MOTA", "IDF1", "standing tracked", "recall", "precision")
+        }
+        ok = (
+            m["MOTA"][0] >= TARGET_TOUR_MOTA
+            and m["IDF1"][0] >= TARGET_TOUR_IDF1
+            and m["standing tracked"][0] >= TARGET_STANDING_TRACKED
+        )
+        report.add(
+            tracker="sjpdaf tour mean",
+            people=n,
+            seed=f"{len(rows)} seeds",
+            **{k: float(np.mean([r[k] for r in rows])) for k in rows[0]},
+        )
+        st = m["standing tracked"]
+        report.notes.append(
+            f"tour scene, {n} visitors, seeds {','.join(map(str, seeds))} ({scans} scans): MOTA "
+            f"{m['MOTA'][0]:.3f} ± {m['MOTA'][1]:.3f}, IDF1 {m['IDF1'][0]:.3f} ± {m['IDF1'][1]:.3f}, "
+            f"standing visitors tracked {100 * st[0]:.1f} ± {100 * st[1]:.1f} % of the time (recall "
+            f"{m['recall'][0]:.3f}, precision {m['precision'][0]:.3f}); targets MOTA >= {TARGET_TOUR_MOTA}, "
+            f"IDF1 >= {TARGET_TOUR_IDF1}, standing >= {100 * TARGET_STANDING_TRACKED:.0f} %: "
+            f"{'met' if ok else 'MISSED'}"
+        )
+
+
+def draw_tour_figure(run: TourRun, hypotheses: list[list[tuple[int, float, float]]], path: Path) -> Path:
+    """Tracks against the truth over time: x and y of every counted visitor (grey; thick where it
+    stands) and of every confirmed track (a colour per id), and the robot (black)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from tourbot.plotting import PATH_COLORS, save_figure
+
+    t = np.array(run.times)
+    truth = np.array(run.truth)  # (S, P, 2)
+    counted = np.array(run.counted)
+    standing = np.array(run.standing)
+    poses = np.array(run.poses)
+    fig, axes = plt.subplots(2, 1, figsize=(12, 7), sharex=True)
+    for ax, k, label in ((axes[0], 0, "x (m)"), (axes[1], 1, "y (m)")):
+        for p in range(truth.shape[1]):
+            v = np.where(counted[:, p], truth[:, p, k], np.nan)
+            ax.plot(t, v, color="0.6", lw=0.8)
+            ax.plot(t, np.where(standing[:, p], v, np.nan), color="0.6", lw=2.5, alpha=0.6)
+        ids = sorted({i for hyps in hypotheses for i, _, _ in hyps})
+        for j, tid in enumerate(ids):
+            pts = [
+                (tt, (x, y)[k])
+                for tt, hyps in zip(t, hypotheses, strict=True)
+                for i, x, y in hyps
+                if i == tid
+            ]
+            a = np.array(pts)
+            ax.scatter(a[:, 0], a[:, 1], s=2, color=PATH_COLORS[1 + j % (len(PATH_COLORS) - 2)])
+        ax.plot(t, poses[:, k], color="k", lw=1.2)
+        ax.set_ylabel(label)
+    axes[0].set_title(
+        "tour scene: visitors in view (grey, thick while standing), confirmed tracks (colour per id), "
+        "robot (black)"
+    )
+    axes[1].set_xlabel("time (s)")
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+    return Path(path)

@@ -68,52 +68,92 @@ class CrowdError(TourbotError):
 class CrowdConfig:
     """Every parameter of the crowd, with its source.
 
-    Speeds: preferred walking speeds uniform in ``[speed_min, speed_max]`` = 0.5-1.5 m/s (issue 3
-    §2; Helbing & Molnár 1995 use a mean of 1.34 m/s, sd 0.26). Social force (Helbing & Molnár
-    1995, Eq. 3-5, per unit mass): relaxation time ``tau`` = 0.5 s, person-person potential
-    ``social_strength`` = 2.0 m²/s² over ``social_range`` = 0.08 m (Helbing, Farkas & Vicsek
-    2000), wall potential
-    ``wall_strength`` U0 = 10 m²/s² over ``wall_range`` R = 0.2 m. Attraction to the robot
-    (Fox et al. 1998, Fig. 1a: visitors surround the robot): in the long run a fraction
-    ``robot_interest`` of the visitor groups stands around the robot, each for
-    ``interest_duration`` seconds on average, at ``stand_distance`` metres inside an arc of
-    ``±stand_arc`` radians in front of it (where its screen and face are); only visitors within
-    ``notice_distance`` metres who can see the robot become interested, and those left farther
-    than ``field_max_distance`` behind lose interest. Legs at sensor height:
-    radius 5-8 cm, 20 cm apart, swinging ``leg_swing`` metres with a gait cycle of
-    ``stride_length`` metres.
+    Walking (measured on the ETH/UCY pedestrian recordings with ``tourbot bench crowd``, see
+    :mod:`tourbot.sim.crowd_stats`): preferred speeds normal with mean ``speed_mean`` = 1.2 m/s and
+    sd ``speed_sd`` = 0.25 m/s, clipped to ``[speed_min, speed_max]`` (Helbing & Molnár 1995:
+    1.34 ± 0.26 m/s; the Zara and Hotel walkers' medians are 1.2-1.5 m/s). Social force
+    (Helbing & Molnár 1995, Eq. 3-5, per unit mass): relaxation time ``tau`` = 0.5 s,
+    person-person potential ``social_strength`` = 2.0 m²/s² over ``social_range`` = 0.08 m
+    (Helbing, Farkas & Vicsek 2000) between personal-space radii drawn per visitor from
+    ``personal_radius``, weighted by the anisotropy ``anisotropy`` (λ of Helbing et al. 2005:
+    people mind who is in front more than who is behind); walls with the same short-range term
+    (Helbing, Farkas & Vicsek 2000 use A and B alike for walls: ``wall_strength`` 2.0 m²/s² over
+    ``wall_range`` 0.08 m from the body's edge; the 10 m²/s² over 0.2 m of Helbing & Molnár 1995
+    are measured from the centre, and from the edge they held walkers 0.8 m off every wall, stuck
+    in doorways). Groups (Moussaïd et al. 2010): sizes 1-5 with the
+    weights ``group_weights`` (the recordings: 50-90 % of the groups are singles, 20-40 % pairs),
+    members walking abreast of their leader ``group_spacing`` apart.
+
+    Museum behaviour (Fox, Burgard, Thrun & Cremers 1998, Sec. "Experimental results", Fig. 1a;
+    Burgard et al. 1999, "Experiences with an interactive museum tour-guide robot", Sec. 5-6):
+    in the long run a fraction ``robot_interest`` of the visitor groups gathers at the robot, each
+    for ``interest_duration`` seconds on average; only visitors within ``notice_distance`` metres
+    who can see the robot become interested, and those left farther than ``field_max_distance``
+    behind lose interest. Those at the robot stand in a loose ring: spots at ``stand_distance``
+    metres within ``±stand_arc`` of its heading (in front, where its screen and face are), two
+    visitors at least the mean of their personal distances apart, each drawn from
+    ``stand_spacing`` (Hall's personal distance, 0.45-1.2 m); one who finds no room there stands
+    in a looser row up to 1.5 m farther out, and a group that finds none does not join. While the
+    robot stands the ring stays where it is; when it drives they come along at its pace (a tour
+    group following it; a group left more than ``give_up_distance`` metres behind its spot gives
+    up), and whoever stands in its way
+    (``corridor`` metres either side of its path, ``lookahead`` metres ahead) steps aside. A share
+    ``blocker_share`` of the groups blocks it on purpose: they stand right in front and keep there
+    as it moves, for ``block_duration`` seconds on average. Visitors pick a near exhibit more often
+    than a far one (weights ``exp(-walking distance / exhibit_reach)``). At exhibits they stand in a loose
+    ring ``exhibit_distance`` metres away for a log-normal time (median ``dwell_median``,
+    log-sd ``dwell_sigma``, clipped to ``dwell_time``); walkers pause at the points they wander
+    to for ``pause_mean`` seconds on average; one held up on the way for ``give_up_after``
+    seconds stops there and goes elsewhere. Legs at sensor height: radius 5-8 cm, 20 cm apart,
+    swinging ``leg_swing`` metres with a gait cycle of ``stride_length`` metres.
     """
 
     num_people: int = 40
     # People per square metre of walkable space; when set, it overrides ``num_people``.
     density: float | None = None
+    speed_mean: float = 1.2
+    speed_sd: float = 0.25
     speed_min: float = 0.5
-    speed_max: float = 1.5
+    speed_max: float = 1.8
     # Helbing & Molnár 1995, Eq. 2-5 (per unit mass); the person-person term with the short range
-    # of Helbing, Farkas & Vicsek 2000 (A = 2000 N over B = 0.08 m for 80 kg: A·B/m = 2.0 m²/s²),
-    # which lets visitors pack as closely around the robot as real ones do.
+    # of Helbing, Farkas & Vicsek 2000 (A = 2000 N over B = 0.08 m for 80 kg: A·B/m = 2.0 m²/s²).
     tau: float = 0.5
     social_strength: float = 2.0
     social_range: float = 0.08
-    wall_strength: float = 10.0
-    wall_range: float = 0.2
+    personal_radius: tuple[float, float] = (0.22, 0.32)
+    anisotropy: float = 0.3
+    wall_strength: float = 2.0
+    wall_range: float = 0.08
     person_radius: float = 0.25
     # The robot as an obstacle people keep clear of (RHINO/TOURBOT robots are ~0.5-0.6 m wide).
     robot_radius: float = 0.4
     robot_strength: float = 10.0
     robot_range: float = 0.2
-    # Interest in the robot (Fox et al. 1998, Fig. 1a).
+    # Interest in the robot (Fox et al. 1998, Fig. 1a; Burgard et al. 1999).
     robot_interest: float = 0.3
     interest_duration: float = 120.0
     notice_distance: float = 10.0
-    stand_distance: tuple[float, float] = (0.6, 1.6)
-    stand_arc: float = math.radians(90.0)
+    stand_distance: tuple[float, float] = (0.9, 3.2)
+    stand_arc: float = math.radians(95.0)
+    stand_spacing: tuple[float, float] = (0.5, 1.4)
+    corridor: float = 0.9
+    give_up_distance: float = 8.0
+    lookahead: float = 3.0
+    blocker_share: float = 0.1
+    block_duration: float = 15.0
     # Where visitors go when not at the robot.
     points_of_interest: tuple[tuple[float, float], ...] = ()
     poi_probability: float = 0.5
-    dwell_time: tuple[float, float] = (3.0, 30.0)
+    exhibit_distance: tuple[float, float] = (1.0, 2.5)
+    exhibit_reach: float = 10.0
+    dwell_median: float = 12.0
+    dwell_sigma: float = 0.8
+    dwell_time: tuple[float, float] = (2.0, 120.0)
+    pause_mean: float = 2.0
+    give_up_after: float = 5.0
     wander_distance: tuple[float, float] = (2.0, 12.0)
-    group_size_max: int = 3
+    group_weights: tuple[float, ...] = (0.6, 0.27, 0.09, 0.03, 0.01)
+    group_spacing: float = 0.75
     group_cohesion: float = 0.5
     # What the laser sees.
     target: Literal["legs", "body"] = "legs"
@@ -133,12 +173,22 @@ class CrowdConfig:
             (self.num_people >= 0, "num_people must be >= 0"),
             (self.density is None or self.density >= 0.0, "density must be >= 0"),
             (0.0 < self.speed_min <= self.speed_max, "need 0 < speed_min <= speed_max"),
+            (self.speed_sd >= 0.0, "speed_sd must be >= 0"),
             (0.0 <= self.robot_interest <= 1.0, "robot_interest must be in [0, 1]"),
             (0.0 <= self.poi_probability <= 1.0, "poi_probability must be in [0, 1]"),
+            (0.0 <= self.blocker_share <= 1.0, "blocker_share must be in [0, 1]"),
+            (0.0 <= self.anisotropy <= 1.0, "anisotropy must be in [0, 1]"),
             (self.interest_duration > 0.0, "interest_duration must be positive"),
+            (self.block_duration > 0.0 and self.pause_mean > 0.0, "durations must be positive"),
             (self.tau > 0.0 and self.max_substep > 0.0, "tau and max_substep must be positive"),
-            (self.group_size_max >= 1, "group_size_max must be >= 1"),
+            (
+                len(self.group_weights) >= 1 and min(self.group_weights) >= 0 and sum(self.group_weights) > 0,
+                "group_weights must be non-negative with a positive sum",
+            ),
             (0.0 < self.stand_distance[0] <= self.stand_distance[1], "bad stand_distance"),
+            (0.0 < self.stand_spacing[0] <= self.stand_spacing[1], "bad stand_spacing"),
+            (0.0 < self.personal_radius[0] <= self.personal_radius[1], "bad personal_radius"),
+            (0.0 < self.exhibit_distance[0] <= self.exhibit_distance[1], "bad exhibit_distance"),
             (0.0 < self.wander_distance[0] <= self.wander_distance[1], "bad wander_distance"),
             (0.0 <= self.dwell_time[0] <= self.dwell_time[1], "bad dwell_time"),
             (self.target in ("legs", "body"), "target must be 'legs' or 'body'"),
@@ -159,11 +209,11 @@ class CrowdConfig:
 # museum closed (a few % of the beams corrupted), "peak" the most crowded day at peak hours (on
 # average >= 40 % corrupted, stretches above 50 % lasting minutes). Densities and interest were
 # calibrated with `tourbot crowd` on the FHW log over its reference map (docs/results.md,
-# "Crowd presets"): sparse gives ~2-3 % of the beams corrupted, peak ~45 %.
+# "Crowd presets").
 PRESETS: dict[str, CrowdConfig] = {
     "empty": CrowdConfig(num_people=0, robot_interest=0.0),
     "sparse": CrowdConfig(density=0.015, robot_interest=0.1, interest_duration=30.0),
-    "peak": CrowdConfig(density=0.25, robot_interest=0.85, notice_distance=15.0, interest_duration=300.0),
+    "peak": CrowdConfig(density=0.3, robot_interest=0.85, notice_distance=15.0, interest_duration=60.0),
 }
 
 
@@ -173,16 +223,33 @@ PRESETS: dict[str, CrowdConfig] = {
 
 
 @numba.njit(cache=True)
-def social_forces(pos: FloatArray, radius: FloatArray, strength: float, scale: float) -> FloatArray:
+def social_forces(
+    pos: FloatArray,
+    radius: FloatArray,
+    heading: FloatArray,
+    standing: NDArray[np.bool_],
+    strength: float,
+    scale: float,
+    anisotropy: float,
+) -> FloatArray:
     """Pairwise repulsion between people, ``(N, 2)`` accelerations.
 
     Helbing & Molnár 1995, Eq. 3 in its common circular form: person ``j`` pushes ``i`` along
-    ``n_ij = (x_i - x_j)/d_ij`` with magnitude ``(V0/σ) exp((r_i + r_j - d_ij)/σ)``.
+    ``n_ij = (x_i - x_j)/d_ij`` with magnitude ``(V0/σ) exp((r_i + r_j - d_ij)/σ)``, weighted by
+    the anisotropy of Helbing & Molnár 1995, Eq. 7 in the form of Helbing, Buzna, Johansson &
+    Werner 2005 (Transp. Sci. 39, Eq. 3): ``w = λ + (1 - λ)(1 + cos φ_ij)/2`` with ``φ_ij`` the
+    angle between ``i``'s heading and the direction to ``j`` (people react less to those behind
+    them; ``λ = 1`` is isotropic and the forces cancel pairwise). Two people ``standing`` still do
+    not push each other unless they touch (``d_ij <= r_i + r_j``): the exponential tail would
+    otherwise spread standing crowds into an even lattice, which real ones are not; a walker still
+    pushes and is pushed by them.
     """
     n = pos.shape[0]
     out = np.zeros((n, 2))
     cutoff = 8.0 * scale
     for i in range(n):
+        ci = math.cos(heading[i])
+        si = math.sin(heading[i])
         for j in range(i + 1, n):
             dx = pos[i, 0] - pos[j, 0]
             dy = pos[i, 1] - pos[j, 1]
@@ -196,16 +263,31 @@ def social_forces(pos: FloatArray, radius: FloatArray, strength: float, scale: f
                 # Coincident people: push apart along a fixed, index-dependent direction.
                 dx, dy, d = math.cos(i - j), math.sin(i - j), 1.0
             mag = strength / scale * math.exp(-gap / scale)
-            fx = mag * dx / d
-            fy = mag * dy / d
-            out[i, 0] += fx
-            out[i, 1] += fy
-            out[j, 0] -= fx
-            out[j, 1] -= fy
+            ux = dx / d
+            uy = dy / d
+            # cos φ: for i the other is at -u, for j at +u.
+            wi = anisotropy + (1.0 - anisotropy) * 0.5 * (1.0 - (ci * ux + si * uy))
+            wj = anisotropy + (1.0 - anisotropy) * 0.5 * (
+                1.0 + (math.cos(heading[j]) * ux + math.sin(heading[j]) * uy)
+            )
+            if gap > 0.0 and standing[i] and standing[j]:
+                continue
+            out[i, 0] += wi * mag * ux
+            out[i, 1] += wi * mag * uy
+            out[j, 0] -= wj * mag * ux
+            out[j, 1] -= wj * mag * uy
     return out
 
 
-def social_forces_reference(pos: FloatArray, radius: FloatArray, strength: float, scale: float) -> FloatArray:
+def social_forces_reference(
+    pos: FloatArray,
+    radius: FloatArray,
+    heading: FloatArray,
+    standing: NDArray[np.bool_],
+    strength: float,
+    scale: float,
+    anisotropy: float,
+) -> FloatArray:
     """Plain-numpy :func:`social_forces` (all pairs, same cutoff) for the property tests."""
     diff = pos[:, None, :] - pos[None, :, :]
     d = np.linalg.norm(diff, axis=-1)
@@ -213,8 +295,13 @@ def social_forces_reference(pos: FloatArray, radius: FloatArray, strength: float
     with np.errstate(divide="ignore", invalid="ignore"):
         unit = diff / d[..., None]
     mag = strength / scale * np.exp(-gap / scale)
-    mask = (gap <= 8.0 * scale) & ~np.eye(len(pos), dtype=bool) & (d >= 1e-9)
-    return np.asarray(np.sum(np.where(mask[..., None], mag[..., None] * unit, 0.0), axis=1))
+    facing = np.stack([np.cos(heading), np.sin(heading)], axis=-1)
+    cos_phi = -np.einsum("ik,ijk->ij", facing, unit)
+    weight = anisotropy + (1.0 - anisotropy) * 0.5 * (1.0 + cos_phi)
+    reach = 8.0 * scale + radius[:, None] + radius[None, :]
+    mask = (d <= reach) & ~np.eye(len(pos), dtype=bool) & (d >= 1e-9)
+    mask &= (gap <= 0.0) | ~(standing[:, None] & standing[None, :])
+    return np.asarray(np.sum(np.where(mask[..., None], (weight * mag)[..., None] * unit, 0.0), axis=1))
 
 
 @numba.njit(cache=True)
@@ -361,7 +448,7 @@ def steer_reference(
 
 # Parameters of move_people, in this order (see CrowdConfig).
 _P_TAU, _P_RADIUS, _P_SOC_A, _P_SOC_B, _P_WALL_A, _P_WALL_B = 0, 1, 2, 3, 4, 5
-_P_ROBOT_R, _P_ROBOT_A, _P_ROBOT_B, _P_COHESION, _P_STRIDE = 6, 7, 8, 9, 10
+_P_ROBOT_R, _P_ROBOT_A, _P_ROBOT_B, _P_COHESION, _P_STRIDE, _P_ANISOTROPY = 6, 7, 8, 9, 10, 11
 
 
 @numba.njit(cache=True)
@@ -370,6 +457,7 @@ def move_people(
     vel: FloatArray,
     desired: FloatArray,
     cap: FloatArray,
+    radii: FloatArray,
     group: NDArray[np.int64],
     at_robot: NDArray[np.bool_],
     phase: FloatArray,
@@ -387,7 +475,9 @@ def move_people(
     """One explicit-Euler step of the social-force model for everyone: new (pos, vel, phase, heading).
 
     Acceleration (Helbing & Molnár 1995, Eq. 1-5, per unit mass): relaxation to the desired
-    velocity over ``tau``; exponential repulsion from other people, from the nearest wall (the
+    velocity over ``tau``; exponential, anisotropic repulsion from other people, each with their own
+    personal-space radius ``radii`` (:func:`social_forces`; those with no desired velocity stand),
+    from the nearest wall (the
     distance transform of the map) and from the robot; a pull towards the group's leader when
     more than 1.5 m away. Speeds are capped at ``cap``. Then hard constraints: a person closer
     than half a radius to a wall is pushed out, one who would leave the walkable space stays
@@ -403,8 +493,12 @@ def move_people(
     for i in range(n):
         acc[i, 0] = (desired[i, 0] - vel[i, 0]) / tau
         acc[i, 1] = (desired[i, 1] - vel[i, 1]) / tau
-    radii = np.full(n, radius)
-    acc += social_forces(pos, radii, params[_P_SOC_A], params[_P_SOC_B])
+    standing = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        standing[i] = desired[i, 0] == 0.0 and desired[i, 1] == 0.0
+    acc += social_forces(
+        pos, radii, heading, standing, params[_P_SOC_A], params[_P_SOC_B], params[_P_ANISOTROPY]
+    )
     new_pos = np.empty((n, 2))
     new_vel = np.empty((n, 2))
     new_phase = np.empty(n)
@@ -497,6 +591,7 @@ def move_people_reference(
     vel: FloatArray,
     desired: FloatArray,
     cap: FloatArray,
+    radii: FloatArray,
     group: NDArray[np.int64],
     at_robot: NDArray[np.bool_],
     phase: FloatArray,
@@ -529,7 +624,10 @@ def move_people_reference(
         return out
 
     acc = (desired - vel) / tau
-    acc += social_forces_reference(pos, np.full(len(pos), radius), params[_P_SOC_A], params[_P_SOC_B])
+    standing = (desired[:, 0] == 0.0) & (desired[:, 1] == 0.0)
+    acc += social_forces_reference(
+        pos, radii, heading, standing, params[_P_SOC_A], params[_P_SOC_B], params[_P_ANISOTROPY]
+    )
     wd, wn = wall(pos)
     acc += (params[_P_WALL_A] / params[_P_WALL_B] * np.exp(-(wd - radius) / params[_P_WALL_B]))[:, None] * wn
     rel = pos - robot
@@ -652,15 +750,20 @@ class _People:
     vel: FloatArray
     heading: FloatArray
     speed: FloatArray  # preferred speed
+    radius: FloatArray  # personal-space radius
+    spacing: FloatArray  # personal distance kept to others when standing at the robot
     mode: NDArray[np.int64]
     goal: FloatArray
     goal_poi: NDArray[np.int64]  # index of the point of interest walked to, -1 for none
     timer: FloatArray  # dwell time left, s
     interested: NDArray[np.bool_]
     stand: FloatArray  # (N, 2) polar (distance, bearing) of the standing spot, robot frame
+    block_until: FloatArray  # time until which the visitor blocks the robot on purpose
     phase: FloatArray  # gait phase, rad
     leg_radius: FloatArray  # (N, 2)
     group: NDArray[np.int64]  # index of the group's leader
+    slot: FloatArray  # offset beside the leader while walking (m, + = left), 0 for leaders
+    stuck: FloatArray  # seconds a walking leader has been held up (slower than 0.2 m/s)
 
 
 class Crowd:
@@ -669,8 +772,8 @@ class Crowd:
     ``Crowd(config, grid, rng, robot_pose)`` spawns ``config.num_people`` visitors in groups in
     the free space, clear of the robot. :meth:`step` advances them by ``dt`` seconds (in substeps
     of at most ``config.max_substep``; the robot is taken to be at ``robot_pose`` throughout, so
-    callers with a moving robot step at their own rate). :meth:`legs` gives what a laser at leg
-    height hits.
+    callers with a moving robot step at their own rate; its speed is taken from the poses of
+    consecutive steps). :meth:`legs` gives what a laser at leg height hits.
     """
 
     def __init__(
@@ -690,6 +793,11 @@ class Crowd:
         if self._count > 0 and len(self._space.free_cells) == 0:
             raise CrowdError("the map has no free space wide enough for a person")
         self._robot = self._local_pose(robot_pose)
+        # The pose the standing ring is laid out from: the robot's while it drives, kept while it
+        # stands (so the ring stays put as it turns on the spot).
+        self._anchor = self._robot.copy()
+        self._robot_moving = False
+        self._robot_vel = np.zeros(2)
         self._poi = np.array(
             [self._local_point(p) for p in config.points_of_interest], dtype=np.float64
         ).reshape(-1, 2)
@@ -715,6 +823,7 @@ class Crowd:
                 config.robot_range,
                 config.group_cohesion,
                 config.stride_length,
+                config.anisotropy,
             ]
         )
 
@@ -762,6 +871,17 @@ class Crowd:
         """Which visitors are currently drawn to the robot, ``(N,)``."""
         return self._people.mode == ROBOT
 
+    @property
+    def groups(self) -> NDArray[np.int64]:
+        """The index of each visitor's group leader, ``(N,)`` (a leader's is its own)."""
+        return self._people.group.copy()
+
+    @property
+    def blocking(self) -> NDArray[np.bool_]:
+        """Which visitors are blocking the robot's way on purpose now, ``(N,)``."""
+        p = self._people
+        return (p.mode == ROBOT) & (p.block_until > self.time)
+
     def legs(self) -> tuple[FloatArray, FloatArray]:
         """Two legs per person at sensor height: world centres ``(2N, 2)`` and radii ``(2N,)``.
 
@@ -794,15 +914,27 @@ class Crowd:
         res = self._space.coarse_res
         return np.stack([(cells[:, 1] + jitter[:, 0]) * res, (cells[:, 0] + jitter[:, 1]) * res], axis=-1)
 
+    def _dwell(self, rng: np.random.Generator, n: int) -> FloatArray:
+        """Log-normal times at an exhibit, clipped to ``dwell_time``."""
+        cfg = self.config
+        t = cfg.dwell_median * np.exp(cfg.dwell_sigma * rng.standard_normal(n))
+        return np.asarray(np.clip(t, cfg.dwell_time[0], cfg.dwell_time[1]))
+
     def _spawn(self, rng: np.random.Generator) -> _People:
         cfg = self.config
         n = self._count
-        # Groups of 1..group_size_max visitors; the first of each group leads.
+        # Groups with sizes drawn from group_weights; the first of each group leads, the others
+        # walk beside it, alternately left and right.
+        weights = np.asarray(cfg.group_weights, dtype=np.float64)
+        weights /= weights.sum()
         group = np.empty(n, dtype=np.int64)
+        slot = np.zeros(n)
         i = 0
         while i < n:
-            size = min(int(rng.integers(1, cfg.group_size_max + 1)), n - i)
+            size = min(int(rng.choice(len(weights), p=weights)) + 1, n - i)
             group[i : i + size] = i
+            for k in range(1, size):
+                slot[i + k] = cfg.group_spacing * ((k + 1) // 2) * (1.0 if k % 2 else -1.0)
             i += size
         pos = np.empty((n, 2))
         keep_clear = cfg.robot_radius + cfg.person_radius + 0.3
@@ -816,33 +948,192 @@ class Crowd:
                 if ok and np.hypot(*(cand - self._robot[:2])) > keep_clear:
                     break
             pos[k] = cand
-        speed = rng.uniform(cfg.speed_min, cfg.speed_max, size=n)
+        speed = np.clip(rng.normal(cfg.speed_mean, cfg.speed_sd, size=n), cfg.speed_min, cfg.speed_max)
         speed = speed[group]  # a group walks at its leader's pace
         heading = rng.uniform(-np.pi, np.pi, size=n)
         near = np.hypot(pos[:, 0] - self._robot[0], pos[:, 1] - self._robot[1]) < cfg.notice_distance
         interested = ((rng.random(n) < cfg.robot_interest) & near)[group]
-        stand = np.stack(
-            [
-                rng.uniform(cfg.stand_distance[0], cfg.stand_distance[1], size=n),
-                rng.uniform(-cfg.stand_arc, cfg.stand_arc, size=n),
-            ],
-            axis=-1,
-        )
-        return _People(
+        people = _People(
             pos=pos,
             vel=np.zeros((n, 2)),
             heading=heading,
             speed=speed,
-            mode=np.where(interested, ROBOT, DWELL).astype(np.int64),
+            radius=rng.uniform(cfg.personal_radius[0], cfg.personal_radius[1], size=n),
+            spacing=rng.uniform(cfg.stand_spacing[0], cfg.stand_spacing[1], size=n),
+            mode=np.full(n, DWELL, dtype=np.int64),
             goal=pos.copy(),
             goal_poi=np.full(n, -1, dtype=np.int64),
-            timer=rng.uniform(0.0, cfg.dwell_time[1], size=n),
-            interested=interested,
-            stand=stand,
+            timer=rng.exponential(cfg.pause_mean, size=n),
+            interested=np.zeros(n, dtype=bool),
+            stand=np.zeros((n, 2)),
+            block_until=np.full(n, -np.inf),
             phase=rng.uniform(0.0, 2.0 * np.pi, size=n),
             leg_radius=rng.uniform(cfg.leg_radius[0], cfg.leg_radius[1], size=(n, 2)),
             group=group,
+            slot=slot,
+            stuck=np.zeros(n),
         )
+        self._people = people
+        leaders = np.flatnonzero(interested & (group == np.arange(n)))
+        self._join_robot(leaders, rng)
+        return people
+
+    # ---- the ring at the robot ---------------------------------------------------------------
+
+    def _anchor_points(self, stand: FloatArray) -> FloatArray:
+        """Grid-frame points of polar spots ``(K, 2)`` around the anchor pose."""
+        ax, ay, ath = self._anchor
+        return np.stack(
+            [ax + stand[:, 0] * np.cos(ath + stand[:, 1]), ay + stand[:, 0] * np.sin(ath + stand[:, 1])],
+            axis=-1,
+        )
+
+    def _taken_spots(self, exclude: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray]:
+        """Spots taken near the robot and their personal distances: the ring's, and where the
+        others stand nearby (at an exhibit, waiting); ``exclude`` leaves some visitors out."""
+        cfg = self.config
+        p = self._people
+        near = (
+            np.hypot(p.pos[:, 0] - self._anchor[0], p.pos[:, 1] - self._anchor[1])
+            < cfg.stand_distance[1] + 3.0
+        )
+        ring = p.mode == ROBOT
+        standing = (p.mode == DWELL) & near
+        if exclude is not None:
+            ring, standing = ring & ~exclude, standing & ~exclude
+        points = np.concatenate([self._anchor_points(p.stand[ring]), p.pos[standing]])
+        return points, np.concatenate([p.spacing[ring], p.spacing[standing]])
+
+    def _find_spot(
+        self,
+        who: int,
+        taken: FloatArray,
+        space: FloatArray,
+        rng: np.random.Generator,
+        *,
+        beside: FloatArray | None = None,
+        blocker: bool = False,
+    ) -> tuple[float, float] | None:
+        """A free spot ``(distance, bearing)`` around the anchor pose for visitor ``who``: walkable,
+        and the mean of the two personal distances away from every spot ``taken`` (random
+        sequential placement, a few tries only, so the ring stays loose): in front of the robot
+        for a blocker, ``beside`` a group mate's spot, else in the ring; in a looser row up to
+        1.5 m farther out after 16 tries; None
+        when there is no room."""
+        cfg = self.config
+        lo, hi = cfg.stand_distance
+        for attempt in range(24):
+            outer = attempt >= 16
+            if blocker and not outer:
+                d, b = rng.uniform(0.8, 1.5), rng.uniform(-0.45, 0.45)
+            elif beside is not None and not outer:
+                ang = rng.uniform(-np.pi, np.pi)
+                rel = (
+                    beside
+                    + rng.uniform(0.6, 1.1) * np.array([math.cos(ang), math.sin(ang)])
+                    - self._anchor[:2]
+                )
+                d = float(np.hypot(rel[0], rel[1]))
+                b = float(wrap_angle(math.atan2(rel[1], rel[0]) - self._anchor[2]))
+                if not (lo <= d <= hi + 1.0):
+                    continue
+            else:
+                d = rng.uniform(hi, hi + 1.5) if outer else rng.uniform(lo, hi)
+                b = rng.uniform(-cfg.stand_arc, cfg.stand_arc)
+            pt = self._anchor_points(np.array([[d, b]]))
+            if not self._space.is_walkable(pt)[0]:
+                continue
+            if len(taken):
+                gaps = np.linalg.norm(taken - pt, axis=1)
+                if np.any(gaps < 0.5 * (space + self._people.spacing[who])):
+                    continue
+            return d, b
+        return None
+
+    def _join_robot(self, leaders: NDArray[np.int64], rng: np.random.Generator) -> None:
+        """Groups of ``leaders`` that find room in the loose ring around the robot join it, each
+        member at a spot of :meth:`_find_spot` (members beside their leader); a group with a
+        member without room does not join. A share ``blocker_share`` of the groups blocks the
+        robot on purpose."""
+        cfg = self.config
+        p = self._people
+        taken, space = self._taken_spots()
+        for lead in leaders.tolist():
+            members = np.flatnonzero(p.group == lead)
+            blocker = bool(rng.random() < cfg.blocker_share)
+            spots: list[tuple[float, float]] = []
+            mine = taken
+            for m in members.tolist():
+                first = self._anchor_points(np.array([spots[0]]))[0] if spots else None
+                found = self._find_spot(
+                    m,
+                    mine,
+                    space[: len(mine)]
+                    if len(spots) == 0
+                    else np.concatenate([space, p.spacing[members[: len(spots)]]]),
+                    rng,
+                    beside=first,
+                    blocker=blocker,
+                )
+                if found is None:
+                    break
+                spots.append(found)
+                mine = np.concatenate([taken, self._anchor_points(np.array(spots))])
+            if len(spots) < len(members):
+                continue
+            p.stand[members] = np.array(spots)
+            p.mode[members] = ROBOT
+            p.interested[members] = True
+            p.block_until[members] = self.time + rng.exponential(cfg.block_duration) if blocker else -np.inf
+            taken = mine
+            space = np.concatenate([space, p.spacing[members]])
+
+    def _relocate(self, rng: np.random.Generator) -> None:
+        """Visitors at the robot whose spot has moved into a wall (the robot drove on) or who have
+        fallen far behind it take a new free spot (no spot: the nearest walkable one)."""
+        cfg = self.config
+        p = self._people
+        ring = np.flatnonzero((p.mode == ROBOT) & (p.block_until <= self.time))
+        if not len(ring):
+            return
+        spot = self._anchor_points(p.stand[ring])
+        bad = ~self._space.is_walkable(spot)
+        bad |= np.hypot(spot[:, 0] - p.pos[ring, 0], spot[:, 1] - p.pos[ring, 1]) > cfg.stand_distance[1]
+        for i in ring[bad].tolist():
+            exclude = np.zeros(self.num_people, dtype=bool)
+            exclude[i] = True
+            taken, space = self._taken_spots(exclude)
+            found = self._find_spot(i, taken, space, rng)
+            if found is not None:
+                p.stand[i] = found
+
+    def _step_aside(self, rng: np.random.Generator) -> None:
+        """While the robot drives, those standing at it in its way (not the blockers) and those
+        standing still in its path move sideways out of the corridor."""
+        cfg = self.config
+        p = self._people
+        rth = float(self._robot[2])
+        c, s = math.cos(rth), math.sin(rth)
+        rel = p.pos - self._robot[:2]
+        fwd = rel[:, 0] * c + rel[:, 1] * s
+        lat = -rel[:, 0] * s + rel[:, 1] * c
+        in_way = (fwd > 0.0) & (fwd < cfg.lookahead) & (np.abs(lat) < cfg.corridor)
+        side = np.where(lat >= 0.0, 1.0, -1.0)
+        ring = np.flatnonzero(in_way & (p.mode == ROBOT) & (p.block_until <= self.time))
+        if len(ring):
+            # New spot in the robot's frame: same distance ahead, beside the corridor.
+            f = np.maximum(p.stand[ring, 0] * np.cos(p.stand[ring, 1]), 0.3)
+            new_lat = side[ring] * (cfg.corridor + rng.uniform(0.2, 0.6, size=len(ring)))
+            p.stand[ring, 0] = np.hypot(f, new_lat)
+            p.stand[ring, 1] = np.arctan2(new_lat, f)
+        still = np.flatnonzero(in_way & (p.mode == DWELL) & (np.abs(lat) < cfg.corridor))
+        if len(still):
+            shift = side[still] * (cfg.corridor + 0.3 - np.abs(lat[still]))
+            cand = p.pos[still] + shift[:, None] * np.array([-s, c])[None, :]
+            ok = self._space.is_walkable(cand)
+            p.goal[still[ok]] = cand[ok]
+            p.mode[still[ok]] = WALK
+            p.goal_poi[still[ok]] = -1
 
     # ---- stepping ----------------------------------------------------------------------------
 
@@ -850,7 +1141,13 @@ class Crowd:
         """Advance the crowd by ``dt`` seconds with the robot at ``robot_pose`` (world)."""
         if dt < 0:
             raise CrowdError(f"cannot step a crowd backwards in time (dt={dt})")
-        self._robot = self._local_pose(robot_pose)
+        robot = self._local_pose(robot_pose)
+        if dt > 0:
+            self._robot_vel = (robot[:2] - self._robot[:2]) / dt
+            self._robot_moving = float(np.hypot(*self._robot_vel)) > 0.05
+        self._robot = robot
+        if self._robot_moving:
+            self._anchor = robot.copy()
         if self.num_people == 0:
             self.time += dt
             return
@@ -884,44 +1181,80 @@ class Crowd:
                     np.repeat(robot[None], int(flip_on.sum()), axis=0),
                 )
                 flip_on[np.flatnonzero(flip_on)[~sees]] = False
+            # Leaders left behind by the driving robot give up following it.
+            spot = self._anchor_points(p.stand)
+            behind = (
+                self._robot_moving
+                & (p.mode == ROBOT)
+                & (p.block_until <= self.time)
+                & (np.hypot(spot[:, 0] - p.pos[:, 0], spot[:, 1] - p.pos[:, 1]) > cfg.give_up_distance)
+            )
             flip_off = (
                 leader
                 & p.interested
-                & ((u < 1.0 - math.exp(-off_rate * h)) | (dist > cfg.field_max_distance))
+                & ((u < 1.0 - math.exp(-off_rate * h)) | (dist > cfg.field_max_distance) | behind)
             )
             lead_state = p.interested.copy()
-            lead_state[flip_on] = True
             lead_state[flip_off] = False
             p.interested = lead_state[p.group]
             if flip_on.any():
-                # A new standing spot around the robot for each member of the groups that join.
-                joined = flip_on[p.group]
-                m = int(joined.sum())
-                p.stand[joined, 0] = rng.uniform(cfg.stand_distance[0], cfg.stand_distance[1], size=m)
-                p.stand[joined, 1] = rng.uniform(-cfg.stand_arc, cfg.stand_arc, size=m)
-        start = p.interested & (p.mode != ROBOT)
-        p.mode[start] = ROBOT
+                self._join_robot(np.flatnonzero(flip_on), rng)
         stop = ~p.interested & (p.mode == ROBOT)
         if stop.any():
             p.mode[stop] = DWELL
             p.timer[stop] = 0.0
+            p.block_until[stop] = -np.inf
+
+    def _exhibit_spots(
+        self, j: NDArray[np.int64], who: NDArray[np.int64], rng: np.random.Generator
+    ) -> FloatArray:
+        """Spots for visitors ``who`` in a loose ring around exhibits ``j``: the nearest of a few
+        random candidates (out to 2 m beyond ``exhibit_distance``) that keeps the visitor's
+        personal distance from every spot taken there and from the ring at the robot; NaN where
+        there is no room."""
+        cfg = self.config
+        p = self._people
+        out = np.full((len(j), 2), np.nan)
+        ring = self._anchor_points(p.stand[p.mode == ROBOT])
+        for k, (e, i) in enumerate(zip(j.tolist(), who.tolist(), strict=True)):
+            tries = 16
+            r = np.sort(rng.uniform(cfg.exhibit_distance[0], cfg.exhibit_distance[1] + 2.0, size=tries))
+            a = rng.uniform(-np.pi, np.pi, size=tries)
+            cand = self._poi[e] + r[:, None] * np.stack([np.cos(a), np.sin(a)], axis=-1)
+            ok = self._space.is_walkable(cand)
+            others = np.concatenate([p.goal[(p.goal_poi == e) & (p.mode != ROBOT)], ring])
+            if len(others):
+                gap = np.linalg.norm(cand[:, None, :] - others[None, :, :], axis=-1).min(axis=1)
+                ok &= gap >= p.spacing[i]
+            if ok.any():
+                out[k] = cand[int(np.argmax(ok))]
+        return out
 
     def _choose_goals(self, who: NDArray[np.int64], rng: np.random.Generator) -> None:
-        """New goals for people whose dwell ended: leaders pick an exhibit or a point in view,
-        the members of a group follow their leader's goal (or wait for the leader to pick one)."""
+        """New goals for leaders whose dwell ended: a spot at an exhibit or a point in view."""
         cfg = self.config
         p = self._people
         sp = self._space
         leaders = who[p.group[who] == who]
-        members = who[p.group[who] != who]
         # Leaders: an exhibit...
         to_poi = rng.random(len(leaders)) < (cfg.poi_probability if len(self._poi) else 0.0)
         poi = leaders[to_poi]
         if len(poi):
-            j = rng.integers(0, len(self._poi), size=len(poi))
-            p.goal[poi] = self._poi[j] + rng.normal(0.0, 0.7, size=(len(poi), 2))
-            p.goal_poi[poi] = j
-            p.mode[poi] = WALK
+            # The next exhibit: a near one more likely (weights exp(-walking distance / 10 m)).
+            cells = np.floor(p.pos[poi] / sp.coarse_res).astype(np.int64)
+            rows = np.clip(cells[:, 1], 0, sp.walkable.shape[0] - 1)
+            cols = np.clip(cells[:, 0], 0, sp.walkable.shape[1] - 1)
+            metres = self._fields[1:, rows, cols].T * sp.coarse_res  # (len(poi), exhibits)
+            w = np.where(np.isfinite(metres), np.exp(-np.minimum(metres, 1e3) / cfg.exhibit_reach), 0.0)
+            w[w.sum(axis=1) == 0] = 1.0
+            cum = np.cumsum(w / w.sum(axis=1, keepdims=True), axis=1)
+            j = np.minimum((cum < rng.random(len(poi))[:, None]).sum(axis=1), len(self._poi) - 1)
+            spots = self._exhibit_spots(j, poi, rng)
+            room = np.isfinite(spots[:, 0])
+            p.goal_poi[poi[room]] = j[room]
+            p.goal[poi[room]] = spots[room]
+            p.mode[poi[room]] = WALK
+            to_poi[np.flatnonzero(to_poi)[~room]] = False  # no room there: wander instead
         # ... or the first of a few random points in view.
         wander = leaders[~to_poi]
         if len(wander):
@@ -942,37 +1275,57 @@ class Crowd:
             p.mode[go] = WALK
             stay = wander[~found]
             p.timer[stay] = rng.uniform(0.5, 2.0, size=len(stay))
-        # Members.
-        lead = p.group[members]
-        follow = members[p.mode[lead] == WALK]
-        p.goal[follow] = p.goal[p.group[follow]] + rng.normal(0.0, 0.4, size=(len(follow), 2))
-        p.goal_poi[follow] = p.goal_poi[p.group[follow]]
-        p.mode[follow] = WALK
-        wait = members[p.mode[lead] != WALK]
-        p.timer[wait] = rng.uniform(1.0, 3.0, size=len(wait))
 
     def _decide(self, elapsed: float, rng: np.random.Generator) -> None:
         """The visitors' decisions, taken every ``decision_period`` seconds: interest in the robot,
-        new goals when a dwell ends, arrivals, and whether each one sees where they go."""
+        stepping out of its way, new goals when a dwell ends, arrivals, the group members' state
+        after their leader's, and whether each one sees where they go."""
         cfg = self.config
         p = self._people
         sp = self._space
         self._update_interest(elapsed, rng)
-        # Dwelling people whose time is up pick a new goal.
+        if self._robot_moving:
+            self._step_aside(rng)
+            self._relocate(rng)
+        leader = p.group == np.arange(self.num_people)
+        # Dwelling leaders whose time is up pick a new goal.
         p.timer = np.where(p.mode == DWELL, p.timer - elapsed, p.timer)
-        done = np.flatnonzero((p.mode == DWELL) & (p.timer <= 0.0))
+        done = np.flatnonzero(leader & (p.mode == DWELL) & (p.timer <= 0.0))
         if len(done):
             self._choose_goals(done, rng)
         target = self._targets()
         dist = np.hypot(target[:, 0] - p.pos[:, 0], target[:, 1] - p.pos[:, 1])
-        # Arrivals: walkers start dwelling.
-        arrived = (p.mode == WALK) & (dist < 0.5)
-        if arrived.any():
+        # Arrivals: walking leaders start dwelling (at an exhibit for a log-normal time, a short
+        # pause elsewhere).
+        # (or held up by others within 1.5 m of it, or near the exhibit it stands at).
+        slow = np.hypot(p.vel[:, 0], p.vel[:, 1]) < 0.2
+        near = (dist < 0.5) | ((dist < 1.5) & slow)
+        if len(self._poi):
+            j = np.maximum(p.goal_poi, 0)
+            to_poi = np.hypot(self._poi[j, 0] - p.pos[:, 0], self._poi[j, 1] - p.pos[:, 1])
+            near |= (p.goal_poi >= 0) & slow & (to_poi < cfg.exhibit_distance[1] + 1.0)
+        # A leader held up for ``give_up_after`` seconds on the way (a jam in a doorway) gives up
+        # that goal and picks another after a pause.
+        p.stuck = np.where((p.mode == WALK) & slow & ~near, p.stuck + elapsed, 0.0)
+        near |= p.stuck > cfg.give_up_after
+        p.stuck[near] = 0.0
+        arrived = np.flatnonzero(leader & (p.mode == WALK) & near)
+        if len(arrived):
             p.mode[arrived] = DWELL
-            p.timer[arrived] = rng.uniform(cfg.dwell_time[0], cfg.dwell_time[1], size=int(arrived.sum()))
+            at_poi = p.goal_poi[arrived] >= 0
+            p.timer[arrived] = np.where(
+                at_poi, self._dwell(rng, len(arrived)), rng.exponential(cfg.pause_mean, size=len(arrived))
+            )
+        # Members walk when their leader walks and stand when it stands.
+        member = ~leader & (p.mode != ROBOT)
+        lead_mode = p.mode[p.group]
+        p.mode[member & (lead_mode == WALK)] = WALK
+        p.mode[member & (lead_mode != WALK)] = DWELL
+        p.goal_poi[member] = p.goal_poi[p.group[member]]
+        target = self._targets()
         self._in_view = line_of_sight(sp.walkable, sp.coarse_res, p.pos, target)
         # A wanderer pushed out of view of its goal picks another one at the next decision.
-        lost = (p.mode == WALK) & ~self._in_view & (p.goal_poi < 0)
+        lost = leader & (p.mode == WALK) & ~self._in_view & (p.goal_poi < 0)
         p.mode[lost] = DWELL
         p.timer[lost] = 0.0
 
@@ -984,15 +1337,31 @@ class Crowd:
             self._field_robot_at = robot.copy()
 
     def _targets(self) -> FloatArray:
-        """Where everyone heads: the goal, or the standing spot in front of the robot."""
+        """Where everyone heads: the goal; a spot in the ring at the robot (laid out from the
+        anchor pose; blockers' from the robot itself, so they keep in front of it); the place
+        beside the leader for group members walking with it (behind it where that is a wall)."""
         p = self._people
-        rx, ry, rth = self._robot
-        spot_x = rx + p.stand[:, 0] * np.cos(rth + p.stand[:, 1])
-        spot_y = ry + p.stand[:, 0] * np.sin(rth + p.stand[:, 1])
+        out = p.goal.copy()
         at_robot = p.mode == ROBOT
-        return np.stack(
-            [np.where(at_robot, spot_x, p.goal[:, 0]), np.where(at_robot, spot_y, p.goal[:, 1])], axis=-1
-        )
+        if at_robot.any():
+            out[at_robot] = self._anchor_points(p.stand[at_robot])
+            block = np.flatnonzero(at_robot & (p.block_until > self.time))
+            if len(block):
+                rx, ry, rth = self._robot
+                st = p.stand[block]
+                out[block] = np.stack(
+                    [rx + st[:, 0] * np.cos(rth + st[:, 1]), ry + st[:, 0] * np.sin(rth + st[:, 1])], axis=-1
+                )
+        walking = np.flatnonzero((p.mode == WALK) & (p.group != np.arange(self.num_people)))
+        if len(walking):
+            lead = p.group[walking]
+            th = p.heading[lead]
+            side = np.stack([-np.sin(th), np.cos(th)], axis=-1)
+            beside = p.pos[lead] + p.slot[walking][:, None] * side
+            behind = p.pos[lead] - 0.8 * np.stack([np.cos(th), np.sin(th)], axis=-1)
+            ok = self._space.is_walkable(beside)
+            out[walking] = np.where(ok[:, None], beside, behind)
+        return out
 
     def _substep(self, h: float, rng: np.random.Generator) -> None:
         cfg = self.config
@@ -1016,14 +1385,28 @@ class Crowd:
         desired = steer(
             p.pos, target, moving, self._in_view, field_index, self._fields, sp.coarse_res, p.speed, cfg.tau
         )
+        # Group members walking beside their leader match its velocity, plus what closes the gap;
+        # those keeping a spot at the driving robot match the robot's.
+        lead = p.group
+        beside = (p.mode == WALK) & (lead != np.arange(self.num_people)) & self._in_view & (dist < 2.0)
+        desired[beside] += p.vel[lead[beside]]
+        if self._robot_moving:
+            along = at_robot & self._in_view & (dist < 2.0)
+            desired[along] += self._robot_vel[None, :]
 
         # Social forces, integration, hard constraints and gait (Helbing & Molnár 1995, Eq. 1-5).
         cap = np.minimum(cfg.speed_max, 1.3 * p.speed)
+        if self._robot_moving:
+            # Those left behind by the driving robot hurry to catch up.
+            hurry = at_robot & (dist > 1.5)
+            cap[hurry] = cfg.speed_max
+            desired[hurry] *= (cfg.speed_max / np.maximum(p.speed[hurry], 1e-9))[:, None]
         p.pos, p.vel, p.phase, p.heading = move_people(
             p.pos,
             p.vel,
             desired,
             cap,
+            p.radius,
             p.group,
             at_robot,
             p.phase,
