@@ -53,6 +53,8 @@ class SimulationSettings:
     sim: SimConfig = field(default_factory=SimConfig)
     navigation: NavigationConfig = field(default_factory=NavigationConfig)
     speedup: float | None = None
+    # the forward camera and its obstacle detector (tourbot.runtime.vision) feeding the navigator
+    vision: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
@@ -80,7 +82,16 @@ def simulated_runtime(
 
     s = settings or SimulationSettings()
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
-    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start)
+    cameras = []
+    estimators = []
+    if s.vision:
+        from tourbot.runtime.vision import VisionObstacleEstimator
+        from tourbot.sim.camera import ForwardCameraSim
+
+        forward = ForwardCameraSim(site, seed=s.seed)
+        cameras.append(forward)
+        estimators.append(VisionObstacleEstimator(site.grid, forward.camera))
+    simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras)
     mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
     mcl.reset_tracking(simulator.robot.pose)
@@ -93,6 +104,7 @@ def simulated_runtime(
     runtime = Runtime(
         simulator,
         MCLLocalizer(mcl, s.localization, seed=s.seed),
+        estimators=estimators,
         navigator=navigator,
         sinks=all_sinks,
         site=site.name,

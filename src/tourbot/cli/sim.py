@@ -32,9 +32,13 @@ def register(app: typer.Typer) -> None:
                 "values).",
             ),
         ] = None,
-        camera: bool = typer.Option(
-            False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
-        ),
+        camera: Annotated[
+            list[str] | None,
+            typer.Option(
+                help="Cameras to render beside the log (repeat or comma list): 'ceiling' (upward, 1 Hz, "
+                "to LOG.ceiling.npz), 'forward' (obstacle camera, 5 Hz, to LOG.forward.npz).",
+            ),
+        ] = None,
         mcap: McapOpt = None,
         force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
@@ -73,13 +77,20 @@ def register(app: typer.Typer) -> None:
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime
         rt.start_tour(tour)
+        cameras = _cameras(camera)
         ceiling_sim = None
-        frames: tuple[list[float], list[np.ndarray]] = ([], [])
-        if camera:
+        forward_sim = None
+        frames: dict[str, tuple[list[float], list[np.ndarray]]] = {"ceiling": ([], []), "forward": ([], [])}
+        if "ceiling" in cameras:
             from tourbot.ceiling.rig import CeilingCamera
             from tourbot.sim.camera import CeilingCameraSim
 
             ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
+        if "forward" in cameras:
+            from tourbot.sim.camera import ForwardCameraSim
+
+            forward_sim = ForwardCameraSim(the_site, seed=seed)
+            forward_sim.set_world(robot.simulator.world)
         with Progress(console=console) as progress, ExitStack() as stack:
             if mcap is not None:
                 from tourbot.app.mcap_recording import McapRecorder
@@ -91,11 +102,14 @@ def register(app: typer.Typer) -> None:
                 if snap is None:
                     break
                 progress.update(task, completed=min(snap.time, duration))
-                if ceiling_sim is not None and ceiling_sim.due(snap.time):
-                    s = robot.simulator
-                    frame = ceiling_sim.frame(snap.time, s.robot.pose, s.people_positions())
-                    frames[0].append(frame.time)
-                    frames[1].append(frame.image)
+                s = robot.simulator
+                for name, cam in (("ceiling", ceiling_sim), ("forward", forward_sim)):
+                    if cam is not None and cam.due(snap.time):
+                        if name == "forward":
+                            forward_sim.set_world(s.world)  # type: ignore[union-attr]
+                        frame = cam.frame(snap.time, s.robot.pose, s.people_positions())
+                        frames[name][0].append(frame.time)
+                        frames[name][1].append(frame.image)
         sim = robot.simulator
         log_path = Path(write_log)
         log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -109,13 +123,30 @@ def register(app: typer.Typer) -> None:
             "furniture": [[(f.x, f.y, f.theta) for f in items] for _, items in sim.objects_history],
         }
         write_text_whole(stem + ".people.json", json.dumps(people))
-        if ceiling_sim is not None:
+        for name in cameras:
             from tourbot.io.images import write_image_stream
 
-            write_image_stream(stem + ".ceiling.npz", *frames)
-            console.print(f"wrote {stem}.ceiling.npz ({len(frames[0])} ceiling images with their times)")
+            write_image_stream(f"{stem}.{name}.npz", *frames[name])
+            console.print(f"wrote {stem}.{name}.npz ({len(frames[name][0])} {name} images with their times)")
         console.print(
             f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
         )
         if mcap is not None:
             console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)")
+
+
+CAMERAS = ("ceiling", "forward")
+
+
+def _cameras(values: list[str] | None) -> list[str]:
+    """The camera names of ``--camera`` (repeated or comma lists), checked."""
+    from tourbot.errors import InputError
+
+    out: list[str] = []
+    for value in values or []:
+        for name in (v.strip() for v in value.split(",")):
+            if name not in CAMERAS:
+                raise InputError(f"unknown camera {name!r}; choose {' or '.join(CAMERAS)}", field="--camera")
+            if name not in out:
+                out.append(name)
+    return out
