@@ -3,7 +3,7 @@
 Each scan is kept with the pose estimate it came with; each image of the forward camera is placed
 at that estimate moved on by the odometry between the scan and the image (the robot's motion
 ``u_{t-1}`` of Burgard et al., Sec. 3), paired with the previous image once the robot has moved
-``min_baseline`` (or turned ``min_turn``), and given to :class:`tourbot.vision.detector.VisionDetector`.
+``min_baseline`` (not across a turn of more than ``max_turn``), and given to :class:`tourbot.vision.detector.VisionDetector`.
 The detections go into :class:`tourbot.vision.occupancy.VisionMap`; the map's obstacle cells are
 published in the snapshot under ``estimators["vision"]["obstacles"]`` (world points), where the
 navigator takes them as obstacles beside the laser's.
@@ -36,12 +36,17 @@ __all__ = ["VisionEstimatorConfig", "VisionObstacleEstimator"]
 
 @dataclass(frozen=True)
 class VisionEstimatorConfig:
-    """``detector``: the detector's parameters; ``min_baseline`` (m) / ``min_turn`` (rad): motion
-    needed between paired images; ``camera``: the name of the images it takes."""
+    """``detector``: the detector's parameters; ``min_baseline`` (m): travel needed between paired
+    images; ``max_turn`` (rad): images farther apart in heading are not paired (the robot turns on
+    the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the robot where no obstacle can be (it
+    stands there); ``map_margin``: detections this close to the static map's obstacles are the
+    map's (m); ``camera``: the images it takes."""
 
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
-    min_turn: float = math.radians(3.0)
+    max_turn: float = math.radians(4.0)
+    footprint: float = 0.3
+    map_margin: float = 0.2
     camera: str = "forward"
 
 
@@ -57,10 +62,15 @@ class VisionObstacleEstimator:
         self.config = cfg = config or VisionEstimatorConfig()
         self.detector = VisionDetector(camera, cfg.detector)
         self.map = VisionMap(frame)
+        self._static = frame
+        from scipy import ndimage
+
+        self._static_clearance = ndimage.distance_transform_edt(~frame.occupied()) * frame.resolution
         self.images = 0
         self.pairs = 0
         self.seconds = 0.0
         self.last: tuple[View, View, Detection] | None = None
+        self.best: tuple[View, View, Detection] | None = None  # the pair with the most detections
         self._scan: tuple[Scan, NDArray[np.float64]] | None = None
         self._prev: View | None = None
         self._prev_odom: NDArray[np.float64] | None = None
@@ -91,18 +101,36 @@ class VisionObstacleEstimator:
             self._prev, self._prev_odom = view, odom
             return None
         motion = relative(self._prev_odom, odom)
-        if math.hypot(motion[0], motion[1]) < cfg.min_baseline and abs(motion[2]) < cfg.min_turn:
+        if abs(motion[2]) > cfg.max_turn:
+            # turning: the odometry's turn is least exact and the baseline short; start afresh
+            self._prev, self._prev_odom = view, odom
+            return None
+        if math.hypot(motion[0], motion[1]) < cfg.min_baseline:
             return None
         # the two images placed by one estimate and the odometry between them (short-term exact)
         view = View(image.pixels, compose(prev.pose, motion), endpoints, returned)
         t0 = time.perf_counter()
         det = self.detector.detect(prev, view)
-        self.map.update(det.obstacles, det.floor)
+        self.map.update(self._off_map(det.obstacles), det.floor)
+        self.map.clear(view.pose[:2], cfg.footprint)
         self.seconds += time.perf_counter() - t0
         self.pairs += 1
         self.last = (prev, view, det)
+        if self.best is None or len(det.obstacles) > len(self.best[2].obstacles):
+            self.best = self.last
         self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned), odom
         return det
+
+    def _off_map(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The points farther than ``map_margin`` from the static map's obstacles: what is on the map
+        (walls, seen through the gaps of a map drawn from laser returns) is already in the costmap."""
+        if not len(points):
+            return points
+        cells = self._static.world_to_cell(points)
+        ok = self._static.inside(cells)
+        keep = np.ones(len(points), dtype=bool)
+        keep[ok] = self._static_clearance[cells[ok, 0], cells[ok, 1]] > self.config.map_margin
+        return points[keep]
 
     def obstacle_points(self) -> tuple[tuple[float, float], ...]:
         """World centres of the vision obstacle cells (cached until the map changes)."""

@@ -42,14 +42,20 @@ class VisionConfig:
     ``window``: NCC window (px); ``inconsistent``: NCC below this is a disagreement, ``agree``: NCC
     above this is agreement; ``min_std``: texture both images need (counts); ``stride``: the
     epipolar search runs on every ``stride``-th pixel in each direction; ``depths``: depths tried
-    along each ray; ``patch``: the search's patch (px); ``match``: NCC the best depth needs, ``margin``: by how much it beats the model's depth;
-    ``max_pixels``: at most this many searches per image; ``max_gap``: endpoints farther apart
+    along each ray; ``patch``: the search's patch (px); ``match``: NCC the best depth needs, ``margin``: by how much it beats the model's depth, ``unique``: and every depth three
+    steps or more from it;
+    ``max_pixels``: at most this many searches per image; ``max_inconsistent``: a pair where more
+    of the textured pixels disagree is dropped (the motion is wrong, not the model); ``max_shift``:
+    the largest residual shift (px) taken out between the images; ``max_gap``: endpoints farther apart
     are not joined by a wall; ``min_distance``/``max_distance``: horizontal range of detections
     (m); ``in_front``: how far in front of the model's surface a detection must lie (m);
     ``laser_explains``: a detection this close to a laser endpoint is the laser's (m);
-    ``min_height``/``max_height``: the heights that matter to the robot (m); ``moving``: a laser
+    ``min_height``/``max_height``: the heights that matter to the robot (m); ``min_parallax``: the
+    smallest angle between the two cameras' rays to a detection (rad: near the epipole of a forward
+    motion depth is not determined); ``moving``: a laser
     endpoint this far from every endpoint of the other scan moved (m); ``body``: half width of a
-    visitor's body around a moving endpoint (m); ``azimuth_step``: resolution of the model's
+    visitor's body around a moving endpoint (m); ``min_leg``: a run of endpoints narrower than
+    this is no visitor's leg (a table leg) and masks nothing (m); ``azimuth_step``: resolution of the model's
     range profile (rad)."""
 
     window: int = 9
@@ -61,16 +67,21 @@ class VisionConfig:
     patch: int = 5
     match: float = 0.85
     margin: float = 0.1
+    unique: float = 0.05
     max_pixels: int = 1000
+    max_inconsistent: float = 0.3
+    max_shift: float = 10.0
     max_gap: float = 0.5
-    min_distance: float = 0.35
+    min_distance: float = 0.6
     max_distance: float = 3.0
     in_front: float = 0.2
     laser_explains: float = 0.15
     min_height: float = 0.04
     max_height: float = 1.3
+    min_parallax: float = math.radians(1.5)
     moving: float = 0.15
     body: float = 0.35
+    min_leg: float = 0.07
     azimuth_step: float = math.radians(0.1)
 
 
@@ -117,6 +128,7 @@ class VisionDetector:
         self._dz = robot[..., 2]
         lo, hi = float(self._az.min()), float(self._az.max())
         self._fov = (lo - 0.05, hi + 0.05)
+        self._hann: Float32Array | None = None
         half = cfg.patch // 2
         oy, ox = np.mgrid[-half : half + 1, -half : half + 1]
         self._offsets = np.stack([ox.ravel(), oy.ravel()], axis=-1).astype(np.float32)
@@ -143,15 +155,31 @@ class VisionDetector:
         points[~finite] = 0.0
         warped, valid = back_project(prev.image, points, rot_p, pos_p, m.fx, m.fy, m.cx, m.cy)
         valid &= finite
-        # 2. local correlation: disagreement where both are textured
+        # the estimated motion is a little off (the odometry's turn above all): the residual shift of
+        # the floor between the two images, by phase correlation, is taken out
         current = cur.image.astype(np.float32)
+        shift = self._residual_shift(warped, current, valid)
+        if shift != (0.0, 0.0):
+            import cv2
+
+            move = np.array([[1.0, 0.0, shift[0]], [0.0, 1.0, shift[1]]])
+            flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+            warped = cv2.warpAffine(warped, move, warped.shape[::-1], flags=flags, borderMode=cv2.BORDER_REPLICATE)
+            valid = cv2.warpAffine(valid.astype(np.uint8), move, valid.shape[::-1], flags=flags) > 0
+        # 2. local correlation: disagreement where both are textured
         ncc, s_warp, s_cur = local_ncc(warped, current, cfg.window)
         textured = (s_warp >= cfg.min_std) & (s_cur >= cfg.min_std) & valid
         masked = self._moving_mask(prev, cur, az, pos_c)
         inconsistent = textured & (ncc < cfg.inconsistent) & ~masked
         agree = textured & (ncc > cfg.agree) & ~masked & on_floor
+        if inconsistent.sum() > cfg.max_inconsistent * max(int(textured.sum()), 1):
+            # most of the image disagrees: the motion is wrong (a slip, a bump), not the model
+            none = np.zeros((0, 2))
+            return Detection(none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked)
         # 3. along the epipolar lines
-        obstacles, heights, pixels = self._search(prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p)
+        obstacles, heights, pixels = self._search(
+            prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift
+        )
         s = cfg.stride
         sub = np.zeros_like(agree)
         sub[::s, ::s] = True
@@ -159,13 +187,32 @@ class VisionDetector:
         near = np.hypot(fl[:, 0] - pos_c[0], fl[:, 1] - pos_c[1]) <= cfg.max_distance
         return Detection(obstacles, heights, pixels, fl[near], inconsistent, masked)
 
+    def _residual_shift(
+        self, warped: Float32Array, current: Float32Array, valid: NDArray[np.bool_]
+    ) -> tuple[float, float]:
+        """The shift ``(du, dv)`` (px) of image t against ``î_t`` over the lower half (mostly floor),
+        by phase correlation; none when the peak is weak or the shift too large to be a small error."""
+        import cv2
+
+        cfg = self.config
+        h = warped.shape[0]
+        lo = slice(h // 2, h)
+        if valid[lo].mean() < 0.5:
+            return (0.0, 0.0)
+        if self._hann is None or self._hann.shape != warped[lo].shape:
+            self._hann = cv2.createHanningWindow(warped[lo].shape[::-1], cv2.CV_32F)
+        (du, dv), response = cv2.phaseCorrelate(current[lo], warped[lo], self._hann)
+        if response < 0.05 or not 0.5 <= math.hypot(du, dv) <= cfg.max_shift:
+            return (0.0, 0.0)  # weak, below half a pixel, or too large to be a small error
+        return (float(du), float(dv))
+
     def _moving_mask(self, prev: View, cur: View, azimuth: FloatArray, position: FloatArray) -> NDArray[np.bool_]:
         """Pixels whose azimuth passes within ``body`` of a laser endpoint that moved."""
         cfg = self.config
         reach = cfg.max_distance + 5.0
         moved = []
         for a, b in ((cur, prev), (prev, cur)):
-            pa = a.endpoints[a.returned]
+            pa = a.endpoints[a.returned & _wide_clusters(a.endpoints, a.returned, cfg.min_leg)]
             pb = b.endpoints[b.returned]
             pa = pa[np.hypot(pa[:, 0] - position[0], pa[:, 1] - position[1]) < reach]
             if not len(pa):
@@ -198,6 +245,7 @@ class VisionDetector:
         t_model: Float32Array,
         rot_p: FloatArray,
         pos_p: FloatArray,
+        shift: tuple[float, float],
     ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
         """Depth along each inconsistent pixel's ray that best matches image t-1 (patch NCC)."""
         import cv2
@@ -229,6 +277,7 @@ class VisionDetector:
         dist = np.hstack([dist, np.minimum(s_model, cfg.max_distance + 50.0)[:, None]])
         pts = pos_c[None, None, :] + d[:, None, :] * (dist / h[:, None])[..., None]  # (M, K, 3)
         uv = self.camera.project(rot_p, pos_p, pts).astype(np.float32)  # (M, K, 2)
+        uv += np.array(shift, dtype=np.float32)
         hgt, wid = prev.image.shape
         inside = (uv[..., 0] >= 0) & (uv[..., 0] <= wid - 1) & (uv[..., 1] >= 0) & (uv[..., 1] <= hgt - 1)
         uv[~inside] = -1e4
@@ -251,13 +300,24 @@ class VisionDetector:
         score = np.where(inside, score, -1.0)
         best = np.argmax(score[:, :-1], axis=1)
         rows = np.arange(len(vv))
-        good = (score[rows, best] >= cfg.match) & (score[rows, best] >= score[:, -1] + cfg.margin)
+        top = score[rows, best]
+        good = (top >= cfg.match) & (top >= score[:, -1] + cfg.margin)
+        # unique: no depth three or more steps away matches nearly as well (stripes, blank walls)
+        k = np.arange(cfg.depths)[None, :]
+        far = np.abs(k - best[:, None]) >= 3
+        second = np.where(far, score[:, :-1], -1.0).max(axis=1)
+        good &= top >= second + cfg.unique
         # a best depth at the end of the range is no depth: the match is not bracketed
         good &= (best > 0) & (best < cfg.depths - 1)
         p3 = pts[rows, best][good]
         px = np.stack([uu, vv], axis=-1)[good]
         z = p3[:, 2]
-        keep = (z >= cfg.min_height) & (z <= cfg.max_height)
+        # triangulation angle: near the epipole the depth is not determined by the images
+        ra = p3 - pos_c
+        rb = p3 - pos_p
+        cosang = np.einsum("ij,ij->i", ra, rb) / (np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1) + 1e-12)
+        parallax = np.arccos(np.clip(cosang, -1.0, 1.0))
+        keep = (z >= cfg.min_height) & (z <= cfg.max_height) & (parallax >= cfg.min_parallax)
         p3, px = p3[keep], px[keep]
         if len(p3):
             laser = cur.endpoints[cur.returned]
@@ -271,3 +331,19 @@ class VisionDetector:
 def _in_arc(azimuths: FloatArray, lo: float, hi: float) -> NDArray[np.bool_]:
     """Which ``azimuths`` lie on the arc from ``lo`` to ``hi`` (counter-clockwise, radians)."""
     return np.asarray(np.mod(azimuths - lo, 2 * math.pi) <= (hi - lo))
+
+
+def _wide_clusters(endpoints: FloatArray, returned: NDArray[np.bool_], width: float) -> NDArray[np.bool_]:
+    """Which endpoints belong to a run of consecutive returns (each within 0.1 m of the next) at
+    least ``width`` from end to end: legs, bodies, walls, but not a thin post."""
+    n = len(endpoints)
+    step = np.hypot(*np.diff(endpoints, axis=0).T)
+    joined = returned[:-1] & returned[1:] & (step < 0.1)
+    start = np.r_[0, np.flatnonzero(~joined) + 1]
+    end = np.r_[np.flatnonzero(~joined), n - 1]
+    extent = np.hypot(*(endpoints[end] - endpoints[start]).T)
+    out = np.zeros(n, dtype=bool)
+    for s0, e0, ext in zip(start, end, extent, strict=True):
+        if ext >= width:
+            out[s0 : e0 + 1] = True
+    return out
