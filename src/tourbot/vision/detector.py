@@ -78,7 +78,7 @@ class VisionConfig:
     laser_explains: float = 0.15
     min_height: float = 0.04
     max_height: float = 1.3
-    min_parallax: float = math.radians(1.5)
+    min_parallax: float = math.radians(0.3)
     moving: float = 0.15
     body: float = 0.35
     min_leg: float = 0.07
