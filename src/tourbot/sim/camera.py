@@ -469,13 +469,12 @@ class Scene:
         with np.errstate(divide="ignore", invalid="ignore"):
             t_floor = np.where(dz < -1e-6, -oz / dz, inf).astype(np.float32)
             t_ceil = np.where(dz > 1e-6, (self.wall_height - oz) / dz, inf).astype(np.float32)
-        depth = np.minimum(t_floor, t_ceil)
-        hx, hy = ox + t_floor * dx, oy + t_floor * dy
-        img = np.where(
-            t_floor <= t_ceil,
-            self.sample(self.floor, hx, hy),
-            self.sample(self.ceiling, ox + t_ceil * dx, oy + t_ceil * dy),
-        )
+            depth = np.minimum(t_floor, t_ceil)
+            img = np.where(
+                t_floor <= t_ceil,
+                self.sample(self.floor, ox + t_floor * dx, oy + t_floor * dy),
+                self.sample(self.ceiling, ox + t_ceil * dx, oy + t_ceil * dy),
+            )
         if self._caster is not None:
             self._draw_walls(rays, position, depth, img)
         for prism in self.prisms:

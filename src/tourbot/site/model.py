@@ -176,14 +176,17 @@ class InvisibleObstacle(_Model):
         return self.leg_centres()
 
     def leg_centres(self) -> list[Point]:
-        """A table's legs: :data:`TABLE_LEG_INSET` inside each corner, towards the centroid."""
+        """A table's legs: one in each corner, :data:`TABLE_LEG_INSET` from both edges."""
         pts = np.asarray(self.outline, dtype=np.float64)
-        c = pts.mean(axis=0)
         out = []
-        for p in pts:
-            d = c - p
-            n = float(np.hypot(*d))
-            q = p + d / max(n, 1e-9) * min(TABLE_LEG_INSET * math.sqrt(2), n)
+        for k, p in enumerate(pts):
+            a = pts[k - 1] - p
+            b = pts[(k + 1) % len(pts)] - p
+            a /= max(float(np.hypot(*a)), 1e-12)
+            b /= max(float(np.hypot(*b)), 1e-12)
+            bis = a + b
+            half = 0.5 * math.acos(float(np.clip(a @ b, -1.0, 1.0)))
+            q = p + bis / max(float(np.hypot(*bis)), 1e-12) * TABLE_LEG_INSET / max(math.sin(half), 1e-6)
             out.append((float(q[0]), float(q[1])))
         return out
 
