@@ -42,7 +42,9 @@ def test_simulate_forward_and_ceiling_then_vision(tmp_path: Path, capsys: pytest
 
 
 def test_unknown_camera_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code = _run(["simulate", "--duration", "1", "--camera", "sideways", "--write-log", str(tmp_path / "a.log.gz")])
+    code = _run(
+        ["simulate", "--duration", "1", "--camera", "sideways", "--write-log", str(tmp_path / "a.log.gz")]
+    )
     assert code == 2
     assert "--camera" in _error_line(capsys)
 

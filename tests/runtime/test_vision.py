@@ -19,7 +19,12 @@ ROOM = {
     "name": "room",
     "map": {"walls": [[[0, 0], [10, 0], [10, 6], [0, 6]]], "resolution": 0.05},
     "invisible_obstacles": [
-        {"name": "table", "outline": [[5, 2.2], [6, 2.2], [6, 2.8], [5, 2.8]], "height": [0, 0.75], "kind": "table"}
+        {
+            "name": "table",
+            "outline": [[5, 2.2], [6, 2.2], [6, 2.8], [5, 2.8]],
+            "height": [0, 0.75],
+            "kind": "table",
+        }
     ],
 }
 

@@ -127,7 +127,12 @@ def _forward_site(kind: str, height: tuple[float, float]):  # type: ignore[no-un
         "name": "room",
         "map": {"walls": [[[0, 0], [10, 0], [10, 6], [0, 6]]], "resolution": 0.05},
         "invisible_obstacles": [
-            {"name": "o", "outline": [[4, 2.5], [5, 2.5], [5, 3.5], [4, 3.5]], "height": list(height), "kind": kind}
+            {
+                "name": "o",
+                "outline": [[4, 2.5], [5, 2.5], [5, 3.5], [4, 3.5]],
+                "height": list(height),
+                "kind": kind,
+            }
         ],
     }
     return site_from_dict(room, base_dir=Path("."))
@@ -137,12 +142,15 @@ def test_forward_camera_is_deterministic_per_seed_and_draws_the_obstacle() -> No
     from tourbot.sim.camera import ForwardCameraSim
 
     site = _forward_site("box", (0.0, 0.3))
-    empty = site_from_dict({**site.model_dump(exclude={"base_dir"}), "invisible_obstacles": []}, base_dir=site.base_dir)
+    empty = site_from_dict(
+        {**site.model_dump(exclude={"base_dir"}), "invisible_obstacles": []}, base_dir=site.base_dir
+    )
     pose = (2.0, 3.0, 0.0)
     a = ForwardCameraSim(site, seed=3).frame(0.0, pose).image
     b = ForwardCameraSim(site, seed=3).frame(0.0, pose).image
     c = ForwardCameraSim(site, seed=4).frame(0.0, pose).image
-    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
     assert a.shape == (480, 640)
     cam = ForwardCameraSim(site, seed=3).camera
     rot, pos = cam.in_world(pose)
@@ -154,7 +162,10 @@ def test_forward_camera_is_deterministic_per_seed_and_draws_the_obstacle() -> No
     # above the bench's top (a far point straight ahead on the back wall) the two images agree
     top = cam.project(rot, pos, np.array([[10.0, 3.0, 1.2]]))[0]
     u, v = int(top[0]), int(top[1])
-    assert abs(float(a[v - 5 : v + 5, u - 5 : u + 5].mean()) - float(other[v - 5 : v + 5, u - 5 : u + 5].mean())) < 4
+    assert (
+        abs(float(a[v - 5 : v + 5, u - 5 : u + 5].mean()) - float(other[v - 5 : v + 5, u - 5 : u + 5].mean()))
+        < 4
+    )
 
 
 def test_scene_depth_test_and_glass() -> None:
@@ -169,7 +180,10 @@ def test_scene_depth_test_and_glass() -> None:
     near = Prism(square - [1.0, 0.0], (0.0, 1.0), Surface(50.0, 0.0))
     scene.prisms.append(near)
     assert scene.draw(rays, pos)[0, 0] == pytest.approx(50.0 * (0.8 + 0.2 * -0.6))  # nearer wins
-    scene.prisms = [Prism(square, (0.0, 1.0), Surface(100.0, 0.0)), Prism(square - [1.0, 0.0], (0.0, 1.0), Surface(200.0, 0.0), 0.35)]
+    scene.prisms = [
+        Prism(square, (0.0, 1.0), Surface(100.0, 0.0)),
+        Prism(square - [1.0, 0.0], (0.0, 1.0), Surface(200.0, 0.0), 0.35),
+    ]
     behind = 100.0 * (0.8 + 0.2 * -0.6)
     glass = 200.0 * (0.8 + 0.2 * -0.6)
     assert scene.draw(rays, pos)[0, 0] == pytest.approx(0.35 * glass + 0.65 * behind, rel=1e-5)

@@ -214,7 +214,7 @@ def test_cameras_on_the_robot_give_image_records_at_their_rate() -> None:
     assert len(log.odometry) == 25
 
 
-def test_the_laser_sees_what_spans_its_plane_of_the_obstacles(hall: Site) -> None:
+def test_the_laser_sees_what_spans_its_plane_of_the_obstacles() -> None:
     from pathlib import Path
 
     from tourbot.site import site_from_dict
@@ -223,7 +223,9 @@ def test_the_laser_sees_what_spans_its_plane_of_the_obstacles(hall: Site) -> Non
 
     def beam_ahead(obstacle: dict) -> float:
         site = site_from_dict({**HALL, "invisible_obstacles": [obstacle]}, base_dir=Path("."))
-        sim = Simulator(site, SimConfig(dynamic_objects=False, laser_rate=10.0), seed=0, start=(2.0, 2.5, 0.0))
+        sim = Simulator(
+            site, SimConfig(dynamic_objects=False, laser_rate=10.0), seed=0, start=(2.0, 2.5, 0.0)
+        )
         for _ in range(2):
             for r in sim.poll() or []:
                 if isinstance(r, Scan):

@@ -136,7 +136,10 @@ def test_what_the_laser_sees_of_an_obstacle_comes_from_its_heights() -> None:
 
 
 def test_unknown_obstacle_kind_names_the_field(tmp_path: Path) -> None:
-    data = {**ROOM, "invisible_obstacles": [{"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "kind": "jelly"}]}
+    data = {
+        **ROOM,
+        "invisible_obstacles": [{"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "kind": "jelly"}],
+    }
     with pytest.raises(SiteError) as err:
         load_site(_write(tmp_path, data))
     assert "invisible_obstacles.0.kind" in str(err.value)

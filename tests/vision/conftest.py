@@ -14,8 +14,18 @@ ROOM: dict[str, Any] = {
     "exhibits": [{"name": "a", "position": [9, 3], "viewing_pose": [8, 3, 0.0]}],
     "tours": [{"name": "t", "exhibits": ["a"]}],
     "invisible_obstacles": [
-        {"name": "table", "outline": [[5, 2.2], [6, 2.2], [6, 2.8], [5, 2.8]], "height": [0, 0.75], "kind": "table"},
-        {"name": "glass", "outline": [[5, 4], [5.6, 4], [5.6, 4.6], [5, 4.6]], "height": [0, 1.0], "kind": "glass"},
+        {
+            "name": "table",
+            "outline": [[5, 2.2], [6, 2.2], [6, 2.8], [5, 2.8]],
+            "height": [0, 0.75],
+            "kind": "table",
+        },
+        {
+            "name": "glass",
+            "outline": [[5, 4], [5.6, 4], [5.6, 4.6], [5, 4.6]],
+            "height": [0, 1.0],
+            "kind": "glass",
+        },
     ],
 }
 

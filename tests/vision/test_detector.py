@@ -13,7 +13,7 @@ from tourbot.records import Image, Scan
 from tourbot.sim.camera import ForwardCameraSim
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site import Site, site_from_dict
-from tourbot.vision.detector import VisionDetector, View
+from tourbot.vision.detector import View, VisionDetector
 from tourbot.vision.model import scan_endpoints
 
 from .conftest import ROOM

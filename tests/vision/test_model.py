@@ -31,7 +31,8 @@ def test_gaps_and_missing_returns_leave_no_wall() -> None:
     ep, ok = _wall_at(3.0)
     ok[80:100] = False  # no return in the middle
     r = model_profile(ep, ok, np.zeros(2), np.array([0.0, 1.0]), max_gap=0.5)
-    assert np.isinf(r[0]) and np.isfinite(r[1])
+    assert np.isinf(r[0])
+    assert np.isfinite(r[1])
     far = model_profile(ep * 40.0, np.ones(len(ep), bool), np.zeros(2), np.array([0.0]), max_gap=0.5)
     assert np.isinf(far[0])  # endpoints 40 x farther apart than max_gap: not joined
 
@@ -44,12 +45,14 @@ def test_rays_meet_the_floor_before_a_far_wall_and_a_near_wall_before_the_floor(
     t, floor = model_points(
         np.array([0.0]), np.array([math.cos(down)]), np.array([-math.sin(down)]), 1.2, profile, step
     )
-    assert floor[0] and math.isclose(float(t[0]) * math.sin(down), 1.2, rel_tol=1e-5)
+    assert floor[0]
+    assert math.isclose(float(t[0]) * math.sin(down), 1.2, rel_tol=1e-5)
     profile[:] = 1.0
     t, floor = model_points(
         np.array([0.0]), np.array([math.cos(down)]), np.array([-math.sin(down)]), 1.2, profile, step
     )
-    assert not floor[0] and math.isclose(float(t[0]) * math.cos(down), 1.0, rel_tol=1e-5)
+    assert not floor[0]
+    assert math.isclose(float(t[0]) * math.cos(down), 1.0, rel_tol=1e-5)
 
 
 def test_scan_endpoints_in_the_world() -> None:
@@ -66,7 +69,9 @@ def test_back_projection_through_the_same_camera_is_the_identity() -> None:
     fx = fy = 50.0
     cx, cy = 29.5, 19.5
     vv, uu = np.mgrid[0:40, 0:60]
-    pts = np.stack([(uu - cx) / fx, (vv - cy) / fy, np.ones_like(uu, float)], axis=-1).astype(np.float32) * 2.0
+    pts = (
+        np.stack([(uu - cx) / fx, (vv - cy) / fy, np.ones_like(uu, float)], axis=-1).astype(np.float32) * 2.0
+    )
     warped, ok = back_project(img, pts, np.eye(3), np.zeros(3), fx, fy, cx, cy)
     assert ok.all()
     assert np.allclose(warped, img, atol=1e-3)

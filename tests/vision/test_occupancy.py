@@ -46,4 +46,5 @@ def test_clear_forgets_under_the_robot() -> None:
         m.update(np.array([[2.0, 2.0], [4.0, 4.0]]), np.zeros((0, 2)))
     m.clear(np.array([2.0, 2.0]), 0.3)
     pts = m.obstacle_points()
-    assert len(pts) == 1 and np.allclose(pts[0], [4.05, 4.05])
+    assert len(pts) == 1
+    assert np.allclose(pts[0], [4.05, 4.05])

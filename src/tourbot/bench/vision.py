@@ -169,6 +169,22 @@ def run_tour(site: Any, seed: int, crowd: str, mode: str, max_time: float) -> tu
     return run, (est, np.asarray(path))
 
 
+def _task(seed: int, crowd: str, mode: str, max_time: float) -> tuple[Run, Any]:
+    """One tour in a worker: its :class:`Run`, and for a vision run the picture's material (the
+    best pair, the obstacle cells, the true path)."""
+    import cv2
+
+    from tourbot.site.default import site_path
+    from tourbot.site.model import load_site
+
+    cv2.setNumThreads(1)  # the speed target is on one core
+    site = load_site(site_path("fhw"))
+    run, (est, path) = run_tour(site, seed, crowd, mode, max_time)
+    if est is None:
+        return run, None
+    return run, (est.best, est.map.obstacle_points(), path)
+
+
 def _figures(site: Any, runs: list[tuple[Run, Any]], folder: Path) -> list[Path]:
     """The paper's Fig. 3 from the first vision run, and the vision map around the tour."""
     import matplotlib
@@ -180,16 +196,18 @@ def _figures(site: Any, runs: list[tuple[Run, Any]], folder: Path) -> list[Path]
     from tourbot.vision.picture import inconsistency_figure
 
     out: list[Path] = []
-    vision = [(r, extra) for r, extra in runs if r.mode == "vision" and extra[0] is not None]
+    vision = sorted(
+        ((r, extra) for r, extra in runs if r.mode == "vision" and extra is not None),
+        key=lambda item: (item[0].crowd != "peak", item[0].seed),
+    )
     if not vision:
         return out
-    run, (est, path) = vision[0]
-    if est.best is not None:
+    run, (best, pts, path) = vision[0]
+    if best is not None:
         fig3 = folder / "vision-fig3.png"
-        inconsistency_figure(fig3, *est.best)
+        inconsistency_figure(fig3, *best)
         out.append(fig3)
     g = site.grid
-    pts = est.map.obstacle_points()
     lo = path.min(axis=0) - 2.0
     hi = path.max(axis=0) + 2.0
     fig, ax = plt.subplots(figsize=(6, 8))
@@ -198,7 +216,9 @@ def _figures(site: Any, runs: list[tuple[Run, Any]], folder: Path) -> list[Path]
     ax.scatter(occ[keep, 0], occ[keep, 1], s=1, c="0.3", label="static map")
     for k, obs in enumerate(site.invisible_obstacles):
         poly = np.asarray([*obs.outline, obs.outline[0]])
-        ax.plot(poly[:, 0], poly[:, 1], "g-", lw=1.5, label="laser-invisible obstacle (truth)" if k == 0 else None)
+        ax.plot(
+            poly[:, 0], poly[:, 1], "g-", lw=1.5, label="laser-invisible obstacle (truth)" if k == 0 else None
+        )
     ax.plot(path[:, 0], path[:, 1], "b-", lw=0.8, label="robot (true path)")
     if len(pts):
         ax.scatter(pts[:, 0], pts[:, 1], s=6, c="r", marker="s", label="vision obstacle cells")
@@ -219,15 +239,20 @@ def register(bench: typer.Typer) -> None:
     @bench.command("vision")
     def vision(
         seeds: Annotated[int, typer.Option(help="Seeds (>= 5 for the intervals).")] = 5,
-        max_time: Annotated[float, typer.Option(help="Simulated seconds before a tour counts as failed.")] = 240.0,
+        max_time: Annotated[
+            float, typer.Option(help="Simulated seconds before a tour counts as failed.")
+        ] = 240.0,
         output: Annotated[
             Path | None, typer.Option("-o", "--output", help="JSON file (default bench-results/vision.json).")
         ] = None,
         figures: Annotated[Path, typer.Option(help="Folder of the pictures.")] = Path("docs/results"),
+        jobs: Annotated[int, typer.Option(help="Tours run at once (worker processes).")] = 1,
     ) -> None:
         """Laser-vision fusion: detection, false cells in the peak crowd, speed, tours with and
         without vision and with the hand-drawn map."""
-        import cv2
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
         from rich.console import Console
         from rich.progress import Progress
 
@@ -238,28 +263,42 @@ def register(bench: typer.Typer) -> None:
 
         if seeds < 1:
             raise InputError(f"must be at least 1, got {seeds}", field="--seeds")
-        cv2.setNumThreads(1)  # the speed target is on one core
+        if jobs < 1:
+            raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
         console = Console()
         site = load_site(site_path("fhw"))
         plan = [(c, m) for c in ("empty", "peak") for m in ("vision", "none", "hand-drawn")]
         runs: list[tuple[Run, Any]] = []
-        with Progress(console=console) as progress:
-            task = progress.add_task("tours", total=seeds * len(plan))
-            for seed in range(seeds):
-                for crowd, mode in plan:
-                    run, extra = run_tour(site, seed, crowd, mode, max_time)
-                    runs.append((run, extra if seed == 0 else (None, extra[1])))
-                    progress.advance(task)
+        tasks = [(seed, crowd, mode, max_time) for seed in range(seeds) for crowd, mode in plan]
+        with (
+            Progress(console=console) as progress,
+            ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool,
+        ):
+            task = progress.add_task("tours", total=len(tasks))
+            for future in as_completed([pool.submit(_task, *t) for t in tasks]):
+                run, extra = future.result()
+                runs.append((run, extra if run.seed == 0 else None))
+                progress.advance(task)
+        runs.sort(key=lambda item: (item[0].seed, item[0].crowd, item[0].mode))
         report = BenchReport(
             "vision",
             ["figure", "crowd", "method", "mean", "±", "target", "met"],
         )
-        report.meta.update({"site": "fhw", "tour": TOUR, "dwell_scale": DWELL_SCALE, "seeds": seeds})
+        report.meta.update(
+            {"site": "fhw", "tour": TOUR, "dwell_scale": DWELL_SCALE, "seeds": seeds, "max_time": max_time}
+        )
 
-        def add(figure: str, crowd: str, method: str, values: list[float], target: str, met: bool | None) -> None:
+        def add(
+            figure: str, crowd: str, method: str, values: list[float], target: str, met: bool | None
+        ) -> None:
             m, ci = mean_ci(values)
             report.add(
-                figure=figure, crowd=crowd, method=method, mean=m, **{"±": ci}, target=target,
+                figure=figure,
+                crowd=crowd,
+                method=method,
+                mean=m,
+                **{"±": ci},
+                target=target,
                 met="" if met is None else ("yes" if met else "no"),
             )
 
@@ -268,13 +307,34 @@ def register(bench: typer.Typer) -> None:
         vis_peak = [r for r in only if r.mode == "vision" and r.crowd == "peak"]
         # detection: the worst obstacle of each seed, and each obstacle over the seeds
         worst = [min(r.outline.values()) if r.outline else 0.0 for r in vis_empty]
-        add("outline found (worst obstacle)", "empty", "vision", worst, ">= 0.90", min(worst) >= TARGET_OUTLINE)
+        add(
+            "outline found (worst obstacle)",
+            "empty",
+            "vision",
+            worst,
+            ">= 0.90",
+            min(worst) >= TARGET_OUTLINE,
+        )
         names = sorted({n for r in vis_empty for n in r.outline})
         for name in names:
             vals = [r.outline[name] for r in vis_empty if name in r.outline]
-            add(f"outline found: {name}", "empty", "vision", vals, ">= 0.90", float(np.mean(vals)) >= TARGET_OUTLINE)
+            add(
+                f"outline found: {name}",
+                "empty",
+                "vision",
+                vals,
+                ">= 0.90",
+                float(np.mean(vals)) >= TARGET_OUTLINE,
+            )
         share = [r.false_cells / max(r.free_seen, 1) for r in vis_peak]
-        add("false cells / free seen", "peak", "vision", share, "<= 0.01", float(np.mean(share)) <= TARGET_FALSE)
+        add(
+            "false cells / free seen",
+            "peak",
+            "vision",
+            share,
+            "<= 0.01",
+            float(np.mean(share)) <= TARGET_FALSE,
+        )
         add("false cells", "peak", "vision", [float(r.false_cells) for r in vis_peak], "", None)
         fps = [r.fps for r in vis_empty + vis_peak]
         add("detector frames/s (640x480)", "both", "vision", fps, ">= 10", float(np.mean(fps)) >= TARGET_FPS)
@@ -282,20 +342,43 @@ def register(bench: typer.Typer) -> None:
             for mode in ("vision", "none", "hand-drawn"):
                 sel = [r for r in only if r.crowd == crowd and r.mode == mode]
                 col = [float(r.collisions) for r in sel]
-                add("collisions per tour", crowd, mode, col, "0 with vision" if mode == "vision" else "",
-                    (sum(col) == 0) if mode == "vision" else None)
+                add(
+                    "collisions per tour",
+                    crowd,
+                    mode,
+                    col,
+                    "0 with vision" if mode == "vision" else "",
+                    (sum(col) == 0) if mode == "vision" else None,
+                )
                 done = [float(r.completed) for r in sel]
                 target = ">= 0.95" if crowd == "peak" and mode == "vision" else ""
-                add("tours completed", crowd, mode, done,
-                    target, (float(np.mean(done)) >= TARGET_COMPLETED) if target else None)
+                add(
+                    "tours completed",
+                    crowd,
+                    mode,
+                    done,
+                    target,
+                    (float(np.mean(done)) >= TARGET_COMPLETED) if target else None,
+                )
                 add("tour duration s", crowd, mode, [r.duration for r in sel], "", None)
         for crowd, sel in (("empty", vis_empty), ("peak", vis_peak)):
-            add("hand-drawn cells vision lacks", crowd, "vision vs hand-drawn", [float(r.hand_only) for r in sel], "", None)
-            add("vision cells outside hand-drawn", crowd, "vision vs hand-drawn",
-                [float(r.vision_only) for r in sel], "", None)
-        report.meta["runs"] = [
-            {k: v for k, v in r.__dict__.items()} for r in only
-        ]
+            add(
+                "hand-drawn cells vision lacks",
+                crowd,
+                "vision vs hand-drawn",
+                [float(r.hand_only) for r in sel],
+                "",
+                None,
+            )
+            add(
+                "vision cells outside hand-drawn",
+                crowd,
+                "vision vs hand-drawn",
+                [float(r.vision_only) for r in sel],
+                "",
+                None,
+            )
+        report.meta["runs"] = [dict(r.__dict__) for r in only]
         report.notes.append(
             "In the simulator the hand-drawn map is the obstacles' true outlines: against the truth it "
             "over- and under-states 0 cells by construction; the rows 'vision vs hand-drawn' compare "

@@ -13,12 +13,18 @@ __all__ = ["register"]
 def register(app: typer.Typer) -> None:
     @app.command("vision")
     def vision(
-        log: Annotated[Path, typer.Argument(help="CARMEN log with LOG.forward.npz beside it (tourbot simulate "
-                                            "--camera forward).")],
-        output: Annotated[Path, typer.Option("-o", "--output", help="Vision map (map_server YAML + PGM).")] = Path(
-            "vision-map.yaml"
-        ),
-        site: Annotated[str, typer.Option(help="Shipped site name or site file (its map localizes).")] = "fhw",
+        log: Annotated[
+            Path,
+            typer.Argument(
+                help="CARMEN log with LOG.forward.npz beside it (tourbot simulate --camera forward)."
+            ),
+        ],
+        output: Annotated[
+            Path, typer.Option("-o", "--output", help="Vision map (map_server YAML + PGM).")
+        ] = Path("vision-map.yaml"),
+        site: Annotated[
+            str, typer.Option(help="Shipped site name or site file (its map localizes).")
+        ] = "fhw",
         picture: Annotated[
             Path | None, typer.Option(help="Picture of the inconsistencies (default: beside the map, .png).")
         ] = None,
@@ -50,15 +56,17 @@ def register(app: typer.Typer) -> None:
         stem = str(log).removesuffix(".gz").removesuffix(".log")
         images_path = Path(stem + ".forward.npz")
         if not images_path.is_file():
-            raise InputError("no forward images beside the log (tourbot simulate --camera forward)",
-                             path=images_path)
+            raise InputError(
+                "no forward images beside the log (tourbot simulate --camera forward)", path=images_path
+            )
         times, images = read_image_stream(images_path)
         source = LogSource.from_path(log)
         the_site = load_site(site_path(site))
         rig = ForwardCamera()
         if images.shape[1:] != (rig.height, rig.width):
             raise InputError(
-                f"images are {images.shape[2]}x{images.shape[1]}, the forward camera's {rig.width}x{rig.height}",
+                f"images are {images.shape[2]}x{images.shape[1]}, "
+                f"the forward camera's {rig.width}x{rig.height}",
                 path=images_path,
             )
         scans = source._log.scans
@@ -75,12 +83,14 @@ def register(app: typer.Typer) -> None:
         best: tuple[int, object] | None = None
         with console.status("replaying"):
             while runtime.step() is not None:
-                if estimator.last is not None and (best is None or len(estimator.last[2].obstacles) > best[0]):
+                if estimator.last is not None and (
+                    best is None or len(estimator.last[2].obstacles) > best[0]
+                ):
                     best = (len(estimator.last[2].obstacles), estimator.last)
         write_map(estimator.map.grid(), output)
         pic = picture or output.with_suffix(".png")
         if best is not None:
-            _figure(pic, best[1])  # type: ignore[arg-type]
+            _figure(pic, best[1])
         cells = int(estimator.map.occupied().sum())
         rate = estimator.pairs / estimator.seconds if estimator.seconds > 0 else float("nan")
         console.print(
@@ -99,7 +109,7 @@ class _WithImages:
         self._times = times
         self._images = images
         self._k = 0
-        self._odom = None
+        self._odom: tuple[float, float, float] | None = None
 
     @property
     def time(self) -> float:
@@ -117,7 +127,9 @@ class _WithImages:
                 self._odom = r.pose
             out.append(r)
         while self._k < len(self._times) and self._times[self._k] <= self.source.time + 1e-9:
-            out.append(Image(float(self._times[self._k]), self._images[self._k], camera="forward", odom=self._odom))
+            out.append(
+                Image(float(self._times[self._k]), self._images[self._k], camera="forward", odom=self._odom)
+            )
             self._k += 1
         return out
 

@@ -182,9 +182,9 @@ class SiteNavigator:
             len(self._published) != self._published_planned
             and self._since_plan >= self.config.replan_on_obstacles
         )
-        if (
-            self.path is None or self._since_plan >= self.config.replan_period or fresh
-        ) and not self._plan(pose):
+        if (self.path is None or self._since_plan >= self.config.replan_period or fresh) and not self._plan(
+            pose
+        ):
             return 0.0, 0.0
         carrot = self._carrot(pose)
         bearing = math.atan2(carrot[1], carrot[0])
@@ -282,7 +282,9 @@ class SiteNavigator:
         self._since_plan = 0.0
         self._published_planned = len(self._published)
         if len(self._published):
-            extra = self._published if extra is None or not len(extra) else np.vstack([extra, self._published])
+            extra = (
+                self._published if extra is None or not len(extra) else np.vstack([extra, self._published])
+            )
         costmap = self.costmap if extra is None or not len(extra) else self.costmap.with_obstacles(extra)
         try:
             self.path = costmap.plan(pose[:2], self.goal[:2])

@@ -3,7 +3,8 @@
 Each scan is kept with the pose estimate it came with; each image of the forward camera is placed
 at that estimate moved on by the odometry between the scan and the image (the robot's motion
 ``u_{t-1}`` of Burgard et al., Sec. 3), paired with the previous image once the robot has moved
-``min_baseline`` (not across a turn of more than ``max_turn``), and given to :class:`tourbot.vision.detector.VisionDetector`.
+``min_baseline`` (not across a turn of more than ``max_turn``), and given to
+:class:`tourbot.vision.detector.VisionDetector`.
 The detections go into :class:`tourbot.vision.occupancy.VisionMap`; the map's obstacle cells are
 published in the snapshot under ``estimators["vision"]["obstacles"]`` (world points), where the
 navigator takes them as obstacles beside the laser's.
@@ -27,7 +28,7 @@ from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Image, Odometry, Scan
 from tourbot.vision.camera import ForwardCamera
-from tourbot.vision.detector import Detection, VisionConfig, VisionDetector, View
+from tourbot.vision.detector import Detection, View, VisionConfig, VisionDetector
 from tourbot.vision.model import scan_endpoints
 from tourbot.vision.occupancy import VisionMap
 
@@ -38,9 +39,9 @@ __all__ = ["VisionEstimatorConfig", "VisionObstacleEstimator"]
 class VisionEstimatorConfig:
     """``detector``: the detector's parameters; ``min_baseline`` (m): travel needed between paired
     images; ``max_turn`` (rad): images farther apart in heading are not paired (the robot turns on
-    the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the robot where no obstacle can be (it
-    stands there); ``map_margin``: detections this close to the static map's obstacles are the
-    map's (m); ``camera``: the images it takes."""
+    the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the
+    robot where no obstacle can be (it stands there); ``map_margin``: detections this close to the
+    static map's obstacles are the map's (m); ``camera``: the images it takes."""
 
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08

@@ -44,10 +44,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FIXTURES",
+    "Body",
     "CameraFrame",
     "CameraSimConfig",
     "CeilingCameraSim",
-    "Body",
     "FixtureType",
     "ForwardCameraConfig",
     "ForwardCameraSim",
@@ -126,7 +126,8 @@ def render(
     if scene is None:
         canvas = np.full((height, width), cfg.ambient, dtype=np.float32)
     else:
-        canvas = scene.draw(_pixel_rays(model, width, height) @ rotation.T, position) + cfg.ambient
+        rays = _pixel_rays(model, width, height)  # type: ignore[arg-type]
+        canvas = scene.draw((rays @ rotation.T).astype(np.float32), position) + cfg.ambient
     order = sorted(
         range(len(patches)),
         key=lambda k: -float(np.linalg.norm(patches[k].points.mean(axis=0) - position)),
@@ -488,7 +489,11 @@ class Scene:
         return img
 
     def _draw_walls(
-        self, rays: NDArray[np.float32], position: FloatArray, depth: NDArray[np.float32], img: NDArray[np.float32]
+        self,
+        rays: NDArray[np.float32],
+        position: FloatArray,
+        depth: NDArray[np.float32],
+        img: NDArray[np.float32],
     ) -> None:
         from tourbot.maps.raycast import RayCaster
 
@@ -625,7 +630,11 @@ class Scene:
         look = np.where(
             zh < 0.85,
             self.sample(body.legs, around, zh),
-            np.where(zh < body.height - 0.25, self.sample(body.shirt, around, zh), self.sample(body.skin, around, zh)),
+            np.where(
+                zh < body.height - 0.25,
+                self.sample(body.shirt, around, zh),
+                self.sample(body.skin, around, zh),
+            ),
         )
         img[win][hit] = look
         sub_depth[hit] = th

@@ -11,7 +11,9 @@ __all__ = ["local_ncc", "patch_ncc"]
 Float32Array = NDArray[np.float32]
 
 
-def local_ncc(a: Float32Array, b: Float32Array, window: int) -> tuple[Float32Array, Float32Array, Float32Array]:
+def local_ncc(
+    a: Float32Array, b: Float32Array, window: int
+) -> tuple[Float32Array, Float32Array, Float32Array]:
     """Per pixel: the NCC of ``a`` and ``b`` over the ``window`` x ``window`` neighbourhood, and
     both images' local standard deviations (texture: NCC means nothing on a blank wall)."""
     import cv2

@@ -29,7 +29,7 @@ from tourbot.vision.camera import ForwardCamera
 from tourbot.vision.correlation import local_ncc, patch_ncc
 from tourbot.vision.model import back_project, model_points, model_profile
 
-__all__ = ["Detection", "VisionConfig", "VisionDetector", "View"]
+__all__ = ["Detection", "View", "VisionConfig", "VisionDetector"]
 
 FloatArray = NDArray[np.float64]
 Float32Array = NDArray[np.float32]
@@ -42,8 +42,9 @@ class VisionConfig:
     ``window``: NCC window (px); ``inconsistent``: NCC below this is a disagreement, ``agree``: NCC
     above this is agreement; ``min_std``: texture both images need (counts); ``stride``: the
     epipolar search runs on every ``stride``-th pixel in each direction; ``depths``: depths tried
-    along each ray; ``patch``: the search's patch (px); ``match``: NCC the best depth needs, ``margin``: by how much it beats the model's depth, ``unique``: and every depth three
-    steps or more from it;
+    along each ray; ``patch``: the search's patch (px); ``match``: NCC the best depth needs,
+    ``margin``: by how much it beats the model's depth, ``unique``: and every depth three steps or
+    more from it;
     ``max_pixels``: at most this many searches per image; ``max_inconsistent``: a pair where more
     of the textured pixels disagree is dropped (the motion is wrong, not the model); ``max_shift``:
     the largest residual shift (px) taken out between the images; ``max_gap``: endpoints farther apart
@@ -118,12 +119,12 @@ class VisionDetector:
         self.camera = camera
         self.config = cfg = config or VisionConfig()
         self._n_az = round(2 * math.pi / cfg.azimuth_step)
-        self._azimuths = -math.pi + cfg.azimuth_step * np.arange(self._n_az)
+        self._azimuths: FloatArray = -math.pi + cfg.azimuth_step * np.arange(self._n_az, dtype=np.float64)
         self._rays = camera.rays.astype(np.float32)
         # a ray's horizontal length and vertical part do not change as the robot turns, its
         # azimuth turns with the robot: all three once, in the robot frame
         robot = camera.rays @ camera.mount_rotation.T
-        self._az = np.arctan2(robot[..., 1], robot[..., 0])
+        self._az = np.asarray(np.arctan2(robot[..., 1], robot[..., 0]), dtype=np.float64)
         self._h = np.hypot(robot[..., 0], robot[..., 1])
         self._dz = robot[..., 2]
         lo, hi = float(self._az.min()), float(self._az.max())
@@ -143,7 +144,7 @@ class VisionDetector:
         rays = self._rays @ rot_c.T.astype(np.float32)
         # 1. the 2.5D model of s_{t-1} seen from camera t, and i_{t-1} back-projected through it
         th = float(cur.pose[2])
-        az = np.mod(self._az + th + math.pi, 2 * math.pi) - math.pi
+        az = np.asarray(np.mod(self._az + th + math.pi, 2 * math.pi) - math.pi, dtype=np.float64)
         seen = _in_arc(self._azimuths, th + self._fov[0], th + self._fov[1])
         profile = np.full(self._n_az, np.inf)
         profile[seen] = model_profile(
@@ -164,7 +165,12 @@ class VisionDetector:
 
             move = np.array([[1.0, 0.0, shift[0]], [0.0, 1.0, shift[1]]])
             flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
-            warped = cv2.warpAffine(warped, move, warped.shape[::-1], flags=flags, borderMode=cv2.BORDER_REPLICATE)
+            warped = np.asarray(
+                cv2.warpAffine(
+                    warped, move, warped.shape[::-1], flags=flags, borderMode=cv2.BORDER_REPLICATE
+                ),
+                dtype=np.float32,
+            )
             valid = cv2.warpAffine(valid.astype(np.uint8), move, valid.shape[::-1], flags=flags) > 0
         # 2. local correlation: disagreement where both are textured
         ncc, s_warp, s_cur = local_ncc(warped, current, cfg.window)
@@ -200,13 +206,17 @@ class VisionDetector:
         if valid[lo].mean() < 0.5:
             return (0.0, 0.0)
         if self._hann is None or self._hann.shape != warped[lo].shape:
-            self._hann = cv2.createHanningWindow(warped[lo].shape[::-1], cv2.CV_32F)
+            self._hann = np.asarray(
+                cv2.createHanningWindow(warped[lo].shape[::-1], cv2.CV_32F), dtype=np.float32
+            )
         (du, dv), response = cv2.phaseCorrelate(current[lo], warped[lo], self._hann)
         if response < 0.05 or not 0.5 <= math.hypot(du, dv) <= cfg.max_shift:
             return (0.0, 0.0)  # weak, below half a pixel, or too large to be a small error
         return (float(du), float(dv))
 
-    def _moving_mask(self, prev: View, cur: View, azimuth: FloatArray, position: FloatArray) -> NDArray[np.bool_]:
+    def _moving_mask(
+        self, prev: View, cur: View, azimuth: FloatArray, position: FloatArray
+    ) -> NDArray[np.bool_]:
         """Pixels whose azimuth passes within ``body`` of a laser endpoint that moved."""
         cfg = self.config
         reach = cfg.max_distance + 5.0
@@ -296,7 +306,7 @@ class VisionDetector:
             borderMode=cv2.BORDER_CONSTANT,
             borderValue=0.0,
         ).reshape(n, cfg.depths + 1, -1)
-        score = patch_ncc(a, b)
+        score = patch_ncc(a, np.asarray(b, dtype=np.float32))
         score = np.where(inside, score, -1.0)
         best = np.argmax(score[:, :-1], axis=1)
         rows = np.arange(len(vv))
@@ -315,7 +325,9 @@ class VisionDetector:
         # triangulation angle: near the epipole the depth is not determined by the images
         ra = p3 - pos_c
         rb = p3 - pos_p
-        cosang = np.einsum("ij,ij->i", ra, rb) / (np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1) + 1e-12)
+        cosang = np.einsum("ij,ij->i", ra, rb) / (
+            np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1) + 1e-12
+        )
         parallax = np.arccos(np.clip(cosang, -1.0, 1.0))
         keep = (z >= cfg.min_height) & (z <= cfg.max_height) & (parallax >= cfg.min_parallax)
         p3, px = p3[keep], px[keep]

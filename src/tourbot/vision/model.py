@@ -35,7 +35,11 @@ def scan_endpoints(scan: Scan, pose: FloatArray) -> tuple[FloatArray, NDArray[np
 
 
 def model_profile(
-    endpoints: FloatArray, returned: NDArray[np.bool_], origin: FloatArray, azimuths: FloatArray, max_gap: float
+    endpoints: FloatArray,
+    returned: NDArray[np.bool_],
+    origin: FloatArray,
+    azimuths: FloatArray,
+    max_gap: float,
 ) -> FloatArray:
     """Horizontal range ``(A,)`` from ``origin`` (x, y) along each world azimuth to the nearest wall
     of the model (``inf`` where there is none): the walls are the segments between consecutive
@@ -45,7 +49,12 @@ def model_profile(
     p = endpoints[:-1]
     q = endpoints[1:]
     keep = returned[:-1] & returned[1:] & (np.hypot(*(q - p).T) < max_gap)
-    if len(endpoints) > 2 and returned[0] and returned[-1] and np.hypot(*(endpoints[0] - endpoints[-1])) < max_gap:
+    if (
+        len(endpoints) > 2
+        and returned[0]
+        and returned[-1]
+        and np.hypot(*(endpoints[0] - endpoints[-1])) < max_gap
+    ):
         p = np.vstack([p, endpoints[-1:]])
         q = np.vstack([q, endpoints[:1]])
         keep = np.r_[keep, True]
@@ -111,4 +120,4 @@ def back_project(
     mx = np.where(ok, mx, -1.0).astype(np.float32)
     my = np.where(ok, my, -1.0).astype(np.float32)
     warped = cv2.remap(previous.astype(np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-    return warped, ok
+    return np.asarray(warped, dtype=np.float32), ok

@@ -18,9 +18,9 @@ class VisionMap:
     the site's grid (coarser than the laser's map: triangulated points scatter by centimetres).
 
     A view's triangulated inconsistencies add ``hit`` to each of their cells (once per view: two
-    views make an obstacle), the floor points the images agree on add ``miss`` (negative) to theirs; values stay within ``[low, high]`` so that a visitor who
-    stood still for a while is forgotten after a few views; cells above ``threshold`` are
-    obstacles.
+    views make an obstacle), the floor points the images agree on add ``miss`` (negative) to
+    theirs; values stay within ``[low, high]`` so that a visitor who stood still for a while is
+    forgotten after a few views; cells above ``threshold`` are obstacles.
     """
 
     def __init__(
