@@ -40,13 +40,14 @@ class VisionEstimatorConfig:
     """``detector``: the detector's parameters; ``min_baseline`` (m): travel needed between paired
     images; ``max_turn`` (rad): images farther apart in heading are not paired (the robot turns on
     the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the
-    robot where no obstacle can be (it stands there); ``map_margin``: detections this close to the
+    robot's centre where vision cells are forgotten: it stands there, and the camera, blind nearer
+    than ``detector.min_distance``, could never clear a phantom that close; ``map_margin``: detections this close to the
     static map's obstacles are the map's (m); ``camera``: the images it takes."""
 
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
     max_turn: float = math.radians(4.0)
-    footprint: float = 0.3
+    footprint: float = 0.4
     map_margin: float = 0.2
     camera: str = "forward"
 
