@@ -47,7 +47,7 @@ class VisionEstimatorConfig:
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
     max_turn: float = math.radians(4.0)
-    footprint: float = 0.4
+    footprint: float = 0.45
     map_margin: float = 0.2
     camera: str = "forward"
 
@@ -98,6 +98,7 @@ class VisionObstacleEstimator:
         pose = compose(est, relative(np.asarray(scan.odom), odom))
         endpoints, returned = scan_endpoints(scan, est)
         view = View(image.pixels, pose, endpoints, returned)
+        self.map.clear(pose[:2], cfg.footprint)  # at every image: the robot may stand still
         prev = self._prev
         if prev is None or self._prev_odom is None:
             self._prev, self._prev_odom = view, odom
