@@ -41,8 +41,9 @@ class VisionEstimatorConfig:
     images; ``max_turn`` (rad): images farther apart in heading are not paired (the robot turns on
     the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the
     robot's centre where vision cells are forgotten: it stands there, and the camera, blind nearer
-    than ``detector.min_distance``, could never clear a phantom that close; ``map_margin``: detections this close to the
-    static map's obstacles are the map's (m); ``camera``: the images it takes."""
+    than ``detector.min_distance``, could never clear a phantom that close; ``map_margin``:
+    detections this close to the static map's obstacles are the map's (m); ``camera``: the images
+    it takes."""
 
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
