@@ -116,6 +116,7 @@ def test_simulate_writes_a_ceiling_image_stream(tmp_path: Path) -> None:
         "--duration",
         "3",
         "--camera",
+        "ceiling",
         "--write-log",
         str(log),
     ]

@@ -115,3 +115,77 @@ def test_the_same_renderer_draws_a_forward_pinhole_view() -> None:
     assert abs(xs.mean() - 160.0) < 1.0
     assert abs(ys.mean() - 120.0) < 1.0
     assert 70 <= xs.max() - xs.min() + 1 <= 80  # 1 m at 4 m: 75 px
+
+
+# -- the forward camera's 2.5D world -------------------------------------------------------------
+
+
+def _forward_site(kind: str, height: tuple[float, float]):  # type: ignore[no-untyped-def]
+    from pathlib import Path
+
+    room = {
+        "name": "room",
+        "map": {"walls": [[[0, 0], [10, 0], [10, 6], [0, 6]]], "resolution": 0.05},
+        "invisible_obstacles": [
+            {
+                "name": "o",
+                "outline": [[4, 2.5], [5, 2.5], [5, 3.5], [4, 3.5]],
+                "height": list(height),
+                "kind": kind,
+            }
+        ],
+    }
+    return site_from_dict(room, base_dir=Path("."))
+
+
+def test_forward_camera_is_deterministic_per_seed_and_draws_the_obstacle() -> None:
+    from tourbot.sim.camera import ForwardCameraSim
+
+    site = _forward_site("box", (0.0, 0.3))
+    empty = site_from_dict(
+        {**site.model_dump(exclude={"base_dir"}), "invisible_obstacles": []}, base_dir=site.base_dir
+    )
+    pose = (2.0, 3.0, 0.0)
+    a = ForwardCameraSim(site, seed=3).frame(0.0, pose).image
+    b = ForwardCameraSim(site, seed=3).frame(0.0, pose).image
+    c = ForwardCameraSim(site, seed=4).frame(0.0, pose).image
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
+    assert a.shape == (480, 640)
+    cam = ForwardCameraSim(site, seed=3).camera
+    rot, pos = cam.in_world(pose)
+    uv = cam.project(rot, pos, np.array([[4.0, 3.0, 0.3], [4.0, 3.0, 0.0]]))  # the bench's front edge
+    col = int(uv[0, 0])
+    rows = slice(int(uv[0, 1]) + 3, int(uv[1, 1]) - 3)
+    other = ForwardCameraSim(empty, seed=3).frame(0.0, pose).image
+    assert not np.array_equal(a[rows, col - 20 : col + 20], other[rows, col - 20 : col + 20])
+    # above the bench's top (a far point straight ahead on the back wall) the two images agree
+    top = cam.project(rot, pos, np.array([[10.0, 3.0, 1.2]]))[0]
+    u, v = int(top[0]), int(top[1])
+    assert (
+        abs(float(a[v - 5 : v + 5, u - 5 : u + 5].mean()) - float(other[v - 5 : v + 5, u - 5 : u + 5].mean()))
+        < 4
+    )
+
+
+def test_scene_depth_test_and_glass() -> None:
+    from tourbot.sim.camera import Prism, Scene, Surface, make_texture
+
+    rng = np.random.default_rng(0)
+    square = np.array([[2.0, -0.5], [3.0, -0.5], [3.0, 0.5], [2.0, 0.5]])
+    rays = np.array([[[1.0, 0.0, 0.0]]], dtype=np.float32)  # straight ahead from 0.5 m up
+    pos = np.array([0.0, 0.0, 0.5])
+    scene = Scene(make_texture(rng, 64), prisms=[Prism(square, (0.0, 1.0), Surface(200.0, 0.0))])
+    assert scene.draw(rays, pos)[0, 0] == pytest.approx(200.0 * (0.8 + 0.2 * -0.6))  # its -x face, shaded
+    near = Prism(square - [1.0, 0.0], (0.0, 1.0), Surface(50.0, 0.0))
+    scene.prisms.append(near)
+    assert scene.draw(rays, pos)[0, 0] == pytest.approx(50.0 * (0.8 + 0.2 * -0.6))  # nearer wins
+    scene.prisms = [
+        Prism(square, (0.0, 1.0), Surface(100.0, 0.0)),
+        Prism(square - [1.0, 0.0], (0.0, 1.0), Surface(200.0, 0.0), 0.35),
+    ]
+    behind = 100.0 * (0.8 + 0.2 * -0.6)
+    glass = 200.0 * (0.8 + 0.2 * -0.6)
+    assert scene.draw(rays, pos)[0, 0] == pytest.approx(0.35 * glass + 0.65 * behind, rel=1e-5)
+    scene.prisms = [Prism(square, (0.6, 1.0), Surface(100.0, 0.0))]  # above the ray: not hit
+    assert scene.draw(rays, pos)[0, 0] != pytest.approx(behind)

@@ -212,3 +212,30 @@ def test_cameras_on_the_robot_give_image_records_at_their_rate() -> None:
     log = sim.to_robot_log()
     assert len(log.scans) == 25
     assert len(log.odometry) == 25
+
+
+def test_the_laser_sees_what_spans_its_plane_of_the_obstacles() -> None:
+    from pathlib import Path
+
+    from tourbot.site import site_from_dict
+
+    from .conftest import HALL
+
+    def beam_ahead(obstacle: dict) -> float:
+        site = site_from_dict({**HALL, "invisible_obstacles": [obstacle]}, base_dir=Path("."))
+        sim = Simulator(
+            site, SimConfig(dynamic_objects=False, laser_rate=10.0), seed=0, start=(2.0, 2.5, 0.0)
+        )
+        for _ in range(2):
+            for r in sim.poll() or []:
+                if isinstance(r, Scan):
+                    return float(r.ranges[len(r.ranges) // 2])
+        raise AssertionError("no scan")
+
+    outline = [[4, 2], [5, 2], [5, 3], [4, 3]]
+    free = beam_ahead({"name": "low", "outline": outline, "height": [0.0, 0.3]})
+    assert free > 5.0  # a bench below the plane: the beam passes
+    assert abs(beam_ahead({"name": "box", "outline": outline, "height": [0.0, 0.9]}) - 2.0) < 0.05
+    assert beam_ahead({"name": "glass", "outline": outline, "height": [0.0, 1.0], "kind": "glass"}) > 5.0
+    # a table on legs: the beam straight ahead passes between the legs at y 2.05 and 2.95
+    assert beam_ahead({"name": "t", "outline": outline, "height": [0.0, 0.75], "kind": "table"}) > 5.0

@@ -123,3 +123,41 @@ def test_segment_walls_draw_as_the_segments() -> None:
     assert occ.sum() < 2 * (5.0 + 3.0) / 0.05  # one or two cells thick, not filled
     with pytest.raises(ValueError, match="no walls"):
         walls_grid([])
+
+
+def test_what_the_laser_sees_of_an_obstacle_comes_from_its_heights() -> None:
+    base = {"name": "o", "outline": [[0, 0], [1, 0], [1, 0.6], [0, 0.6]]}
+    site = site_from_dict(
+        {
+            **ROOM,
+            "invisible_obstacles": [
+                {**base, "name": "old"},  # an old file: a box from the floor to 0.3 m
+                {**base, "name": "plinth", "height": [0.0, 0.9]},
+                {**base, "name": "cabinet", "height": [0.7, 1.3]},
+                {**base, "name": "case", "height": [0.0, 1.0], "kind": "glass"},
+                {**base, "name": "table", "height": [0.0, 0.75], "kind": "table"},
+            ],
+        },
+        base_dir=Path("."),
+    )
+    seen = {o.name: (o.laser_outline(0.4), len(o.laser_legs(0.4))) for o in site.invisible_obstacles}
+    assert seen == {
+        "old": (False, 0),
+        "plinth": (True, 0),
+        "cabinet": (False, 0),
+        "case": (False, 0),
+        "table": (False, 4),
+    }
+    assert [o.name for o in site.laser_missed(0.4)] == ["old", "cabinet", "case", "table"]
+    legs = np.asarray(site.invisible_obstacles[4].leg_centres())
+    assert np.allclose(legs, [[0.05, 0.05], [0.95, 0.05], [0.95, 0.55], [0.05, 0.55]], atol=1e-9)
+
+
+def test_unknown_obstacle_kind_names_the_field(tmp_path: Path) -> None:
+    data = {
+        **ROOM,
+        "invisible_obstacles": [{"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "kind": "jelly"}],
+    }
+    with pytest.raises(SiteError) as err:
+        load_site(_write(tmp_path, data))
+    assert "invisible_obstacles.0.kind" in str(err.value)

@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 from tourbot.geometry import wrap_angle
-from tourbot.interfaces import Sink
+from tourbot.interfaces import Estimator, Sink
 from tourbot.localization.mcl.config import MCLConfig
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
@@ -24,6 +25,9 @@ from tourbot.sim.crowd import PRESETS, CrowdConfig, CrowdError
 from tourbot.sim.fleet import FleetPoses
 from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
+
+if TYPE_CHECKING:
+    from tourbot.sim.camera import SimCamera
 
 __all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime", "time_to_recover"]
 
@@ -59,6 +63,8 @@ class SimulationSettings:
     speedup: float | None = None
     # the upward ceiling camera, rendered and fused into MCL (the site needs ceiling lights)
     ceiling: bool = False
+    # the forward camera and its obstacle detector (tourbot.runtime.vision) feeding the navigator
+    vision: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
@@ -89,7 +95,8 @@ def simulated_runtime(
     s = settings or SimulationSettings()
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
     ceiling = None
-    cameras = []
+    cameras: list[SimCamera] = []
+    estimators: list[Estimator] = []
     if s.ceiling:
         import numpy as np
 
@@ -101,6 +108,13 @@ def simulated_runtime(
         cameras.append(CeilingCameraSim(site, rig, seed=s.seed))  # an error if the site has no lights
         lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
         ceiling = CeilingSensor(rig, lights, site.grid, seed=s.seed)
+    if s.vision:
+        from tourbot.runtime.vision import VisionObstacleEstimator
+        from tourbot.sim.camera import ForwardCameraSim
+
+        forward = ForwardCameraSim(site, seed=s.seed)
+        cameras.append(forward)
+        estimators.append(VisionObstacleEstimator(site.grid, forward.camera))
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras, fleet=fleet)
     mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
@@ -114,6 +128,7 @@ def simulated_runtime(
     runtime = Runtime(
         simulator,
         MCLLocalizer(mcl, s.localization, seed=s.seed, ceiling=ceiling),
+        estimators=estimators,
         navigator=navigator,
         sinks=all_sinks,
         site=site.name,

@@ -32,9 +32,14 @@ def register(app: typer.Typer) -> None:
                 "values).",
             ),
         ] = None,
-        camera: bool = typer.Option(
-            False, help="Also render the upward ceiling camera (1 Hz) to LOG.ceiling.npz."
-        ),
+        camera: Annotated[
+            list[str] | None,
+            typer.Option(
+                help="Cameras the robot carries and uses (repeat or comma list): 'ceiling' (upward, 1 Hz, "
+                "fused into MCL; to LOG.ceiling.npz), 'forward' (obstacle camera, 5 Hz, its vision obstacles "
+                "in the navigator's costmap; to LOG.forward.npz).",
+            ),
+        ] = None,
         mcap: McapOpt = None,
         force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
@@ -69,17 +74,20 @@ def register(app: typer.Typer) -> None:
         console = Console()
         the_site = load_site(site_path(site))
         mcl = LocalizationProfile.for_site(site_path(site), config)[0].mcl
-        settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, sim=SimConfig(record=True))
+        cameras = _cameras(camera)
+        # the robot carries the cameras asked for, and uses them: the ceiling camera inside MCL, the
+        # forward camera's obstacle detector beside the laser; the images it took are written
+        settings = SimulationSettings(
+            crowd=crowd,
+            seed=seed,
+            mcl=mcl,
+            sim=SimConfig(record=True),
+            ceiling="ceiling" in cameras,
+            vision="forward" in cameras,
+        )
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime
         rt.start_tour(tour)
-        ceiling_sim = None
-        frames: tuple[list[float], list[np.ndarray]] = ([], [])
-        if camera:
-            from tourbot.ceiling.rig import CeilingCamera
-            from tourbot.sim.camera import CeilingCameraSim
-
-            ceiling_sim = CeilingCameraSim(the_site, CeilingCamera(), seed=seed)
         with Progress(console=console) as progress, ExitStack() as stack:
             if mcap is not None:
                 from tourbot.app.ros2_publishing import McapRecorder
@@ -91,11 +99,6 @@ def register(app: typer.Typer) -> None:
                 if snap is None:
                     break
                 progress.update(task, completed=min(snap.time, duration))
-                if ceiling_sim is not None and ceiling_sim.due(snap.time):
-                    s = robot.simulator
-                    frame = ceiling_sim.frame(snap.time, s.robot.pose, s.people_positions())
-                    frames[0].append(frame.time)
-                    frames[1].append(frame.image)
         sim = robot.simulator
         log_path = Path(write_log)
         log_path.parent.mkdir(parents=True, exist_ok=True)
@@ -109,13 +112,33 @@ def register(app: typer.Typer) -> None:
             "furniture": [[(f.x, f.y, f.theta) for f in items] for _, items in sim.objects_history],
         }
         write_text_whole(stem + ".people.json", json.dumps(people))
-        if ceiling_sim is not None:
+        for name in cameras:
             from tourbot.io.images import write_image_stream
 
-            write_image_stream(stem + ".ceiling.npz", *frames)
-            console.print(f"wrote {stem}.ceiling.npz ({len(frames[0])} ceiling images with their times)")
+            images = sim.image_history.get(name, [])
+            write_image_stream(
+                f"{stem}.{name}.npz", [i.timestamp for i in images], [i.pixels for i in images]
+            )
+            console.print(f"wrote {stem}.{name}.npz ({len(images)} {name} images with their times)")
         console.print(
             f"wrote {write_log} ({len(sim.truth_times)} scans), {stem}.truth.tum, {stem}.people.json"
         )
         if mcap is not None:
             console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)")
+
+
+CAMERAS = ("ceiling", "forward")
+
+
+def _cameras(values: list[str] | None) -> list[str]:
+    """The camera names of ``--camera`` (repeated or comma lists), checked."""
+    from tourbot.errors import InputError
+
+    out: list[str] = []
+    for value in values or []:
+        for name in (v.strip() for v in value.split(",")):
+            if name not in CAMERAS:
+                raise InputError(f"unknown camera {name!r}; choose {' or '.join(CAMERAS)}", field="--camera")
+            if name not in out:
+                out.append(name)
+    return out

@@ -53,6 +53,10 @@ class NavigationConfig:
     crawl_speed: float = 0.1  # m/s: creeping slower than this among people counts as blocked
     map_tolerance: float = 0.15  # m: laser points this close to a mapped obstacle are the map's
     dwell_scale: float = 1.0  # scales the exhibits' dwell times (short demos)
+    # the site's hand-drawn map of the obstacles the laser cannot see (the paper's baseline); off
+    # when the forward camera finds them (an estimator publishing "obstacles", tourbot.runtime.vision)
+    hand_drawn: bool = True
+    replan_on_obstacles: float = 1.0  # s: at most this often, replan when new published obstacles appear
 
 
 class SiteNavigator:
@@ -66,8 +70,11 @@ class SiteNavigator:
             from dataclasses import replace
 
             planner_cfg = replace(planner_cfg, robot_radius=cfg.robot.radius)
-        self.costmap = CostMap(site.grid, planner_cfg, invisible=site.invisible_mask())
-        self._invisible_points = _outline_points(site, spacing=0.05)
+        hand = site.invisible_mask() if cfg.hand_drawn else None
+        self.costmap = CostMap(site.grid, planner_cfg, invisible=hand)
+        self._invisible_points = _outline_points(site, spacing=0.05) if cfg.hand_drawn else np.zeros((0, 2))
+        self._published: FloatArray = np.zeros((0, 2))
+        self._published_planned = 0
         r = cfg.robot
         self.window = DynamicWindow(
             cfg.dwa,
@@ -169,8 +176,15 @@ class SiteNavigator:
         if math.hypot(self.goal[0] - pose[0], self.goal[1] - pose[1]) < self.config.goal_tolerance:
             return self._at_goal(pose)
         self._since_plan += dt
+        self._published = _published_obstacles(snapshot)
         points = self._obstacle_points(pose, scan)
-        if (self.path is None or self._since_plan >= self.config.replan_period) and not self._plan(pose):
+        fresh = (
+            len(self._published) != self._published_planned
+            and self._since_plan >= self.config.replan_on_obstacles
+        )
+        if (self.path is None or self._since_plan >= self.config.replan_period or fresh) and not self._plan(
+            pose
+        ):
             return 0.0, 0.0
         carrot = self._carrot(pose)
         bearing = math.atan2(carrot[1], carrot[0])
@@ -266,6 +280,11 @@ class SiteNavigator:
     def _plan(self, pose: tuple[float, float, float], extra: FloatArray | None = None) -> bool:
         assert self.goal is not None
         self._since_plan = 0.0
+        self._published_planned = len(self._published)
+        if len(self._published):
+            extra = (
+                self._published if extra is None or not len(extra) else np.vstack([extra, self._published])
+            )
         costmap = self.costmap if extra is None or not len(extra) else self.costmap.with_obstacles(extra)
         try:
             self.path = costmap.plan(pose[:2], self.goal[:2])
@@ -320,6 +339,8 @@ class SiteNavigator:
             pts = np.stack([r[ok] * np.cos(a), r[ok] * np.sin(a)], axis=-1)
             parts.append(transform_points(np.asarray(g.offset), pts) if any(g.offset) else pts)
         inv = self._invisible_points
+        if len(self._published):
+            inv = np.vstack([inv, self._published])
         if len(inv):
             near = np.hypot(inv[:, 0] - pose[0], inv[:, 1] - pose[1]) < rng
             if near.any():
@@ -329,6 +350,16 @@ class SiteNavigator:
         if not parts:
             return np.zeros((0, 2))
         return np.ascontiguousarray(np.vstack(parts))
+
+
+def _published_obstacles(snapshot: StateSnapshot) -> FloatArray:
+    """The obstacle points (world) the estimators publish (``"obstacles"``: the forward camera's)."""
+    parts = [
+        np.asarray(extra["obstacles"], dtype=np.float64).reshape(-1, 2)
+        for extra in (snapshot.estimators or {}).values()
+        if isinstance(extra, dict) and len(extra.get("obstacles", ()))
+    ]
+    return np.vstack(parts) if parts else np.zeros((0, 2))
 
 
 def _outline_points(site: Site, spacing: float) -> FloatArray:

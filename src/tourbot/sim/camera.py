@@ -14,6 +14,13 @@ Sec. III) sees from a site's 3D ceiling lights at 1 Hz: fixture types with their
 (:data:`FIXTURES`: the Domus hall's A, B and E), camera swing from floor bumps, lights that are off,
 spotlights and windows that make spurious blobs, and tall visitors occluding lights near the horizon.
 Deterministic for a seed.
+
+:class:`ForwardCameraSim` renders what the robot's forward grey camera sees in the site's 2.5D world
+(:class:`Scene`, ray cast per pixel behind the patches): the map's walls as vertical textured
+planes, a textured floor and ceiling, the site's obstacles with their height ranges (low benches
+under the laser plane, cabinets and fire extinguishers over it, tables on thin legs, glass cases
+that show their reflections over what is behind them), and the visitors as textured bodies; the
+exposure varies a little from frame to frame and sensor noise is added (no motion blur).
 """
 
 from __future__ import annotations
@@ -21,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
-from typing import Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -29,18 +36,30 @@ from numpy.typing import ArrayLike, NDArray
 from tourbot.ceiling.camera import CameraModel
 from tourbot.ceiling.rig import CeilingCamera, rotation_rp
 from tourbot.errors import TourbotError
+from tourbot.maps.grid import OccupancyGrid
 from tourbot.site.model import Site
+
+if TYPE_CHECKING:
+    from tourbot.vision.camera import ForwardCamera
 
 __all__ = [
     "FIXTURES",
+    "Body",
     "CameraFrame",
     "CameraSimConfig",
     "CeilingCameraSim",
     "FixtureType",
+    "ForwardCameraConfig",
+    "ForwardCameraSim",
     "Patch",
+    "Prism",
     "RenderConfig",
+    "Scene",
     "SimCamera",
+    "Surface",
+    "WorldCamera",
     "camera_in_world",
+    "make_texture",
     "render",
 ]
 
@@ -96,13 +115,19 @@ def render(
     patches: list[Patch],
     rng: np.random.Generator,
     config: RenderConfig | None = None,
+    scene: Scene | None = None,
 ) -> NDArray[np.uint8]:
     """An 8-bit image of ``patches`` seen by a camera (``model``) at ``position`` whose axes in the
-    world are the columns of ``rotation``."""
+    world are the columns of ``rotation``; with a 2.5D ``scene`` (floor, walls, solids, visitors)
+    behind the patches, ray cast per pixel with a depth test."""
     import cv2
 
     cfg = config or RenderConfig()
-    canvas = np.full((height, width), cfg.ambient, dtype=np.float32)
+    if scene is None:
+        canvas = np.full((height, width), cfg.ambient, dtype=np.float32)
+    else:
+        rays = _pixel_rays(model, width, height)  # type: ignore[arg-type]
+        canvas = scene.draw((rays @ rotation.T).astype(np.float32), position) + cfg.ambient
     order = sorted(
         range(len(patches)),
         key=lambda k: -float(np.linalg.norm(patches[k].points.mean(axis=0) - position)),
@@ -129,6 +154,14 @@ def render(
     if cfg.noise_std > 0:
         canvas += rng.normal(0.0, cfg.noise_std, canvas.shape).astype(np.float32)
     return np.clip(np.round(canvas), 0, 255).astype(np.uint8)
+
+
+@lru_cache(maxsize=8)
+def _pixel_rays(model: CameraModel, width: int, height: int) -> NDArray[np.float32]:
+    """Unit ray directions ``(height, width, 3)`` of the pixel centres, camera frame."""
+    vv, uu = np.mgrid[0:height, 0:width]
+    d = model.unproject(np.stack([uu.ravel(), vv.ravel()], axis=-1).astype(np.float64))
+    return d.reshape(height, width, 3).astype(np.float32)
 
 
 @lru_cache(maxsize=8)
@@ -343,3 +376,387 @@ def _visitors(people: FloatArray, camera: FloatArray, heights: FloatArray) -> li
         )
         out.append(Patch(pts, 0.0))
     return out
+
+
+# -- the 2.5D world of the forward camera ---------------------------------------------------------
+
+
+def make_texture(rng: np.random.Generator, size: int = 512) -> NDArray[np.float32]:
+    """A tileable grey texture ``(size, size)`` of zero mean and unit spread: noise at three scales
+    (a few texels, tens, a hundred), like stone, wood grain, carpet and posters."""
+    from scipy import ndimage
+
+    out = np.zeros((size, size), dtype=np.float32)
+    for sigma, weight in ((0.8, 0.8), (2.5, 0.8), (8.0, 0.8), (24.0, 1.0)):
+        noise = rng.standard_normal((size, size)).astype(np.float32)
+        blurred = ndimage.gaussian_filter(noise, sigma, mode="wrap")
+        out += weight * blurred / max(float(blurred.std()), 1e-6)
+    return (out - out.mean()) / max(float(out.std()), 1e-6)
+
+
+@dataclass(frozen=True)
+class Surface:
+    """How a surface looks: mean ``albedo`` (counts), ``contrast`` (counts of texture spread), the
+    texture's ``texel`` (m) and ``shift`` (m, so that two objects do not share one pattern)."""
+
+    albedo: float
+    contrast: float
+    texel: float = 0.01
+    shift: float = 0.0
+
+
+@dataclass(frozen=True)
+class Prism:
+    """A vertical convex prism: ``footprint`` ``(K, 2)`` (world, counter-clockwise), from ``z[0]``
+    to ``z[1]``; ``alpha`` below 1 is glass (that much of its own look over what lies behind)."""
+
+    footprint: FloatArray
+    z: tuple[float, float]
+    surface: Surface
+    alpha: float = 1.0
+
+
+@dataclass(frozen=True)
+class Body:
+    """A visitor: a vertical cylinder at ``centre`` of ``radius`` up to ``height``; ``clothes``
+    (trousers, shirt) and skin looks from the bottom up."""
+
+    centre: tuple[float, float]
+    radius: float
+    height: float
+    legs: Surface
+    shirt: Surface
+    skin: Surface
+
+
+@dataclass
+class Scene:
+    """A 2.5D world: textured floor (z = 0) and ceiling (z = ``wall_height``), the map's occupied
+    cells as vertical textured walls up to ``wall_height`` (found with the project's ray caster,
+    one ray per ``azimuth_step`` of azimuth), solids with height ranges and visitors."""
+
+    texture: NDArray[np.float32]
+    floor: Surface = Surface(105.0, 40.0, 0.012)
+    wall: Surface = Surface(150.0, 45.0, 0.01, 3.0)
+    ceiling: Surface = Surface(185.0, 12.0, 0.04)
+    wall_height: float = 2.6
+    max_range: float = 25.0
+    azimuth_step: float = math.radians(0.1)
+    prisms: list[Prism] = field(default_factory=list)
+    bodies: list[Body] = field(default_factory=list)
+    _caster: object | None = None
+
+    def set_walls(self, grid: OccupancyGrid) -> None:
+        """The map whose occupied cells stand as walls (call again after a door moves)."""
+        from tourbot.maps.raycast import DDACaster
+
+        self._caster = DDACaster(grid, self.max_range)
+
+    def sample(self, surface: Surface, a: NDArray[np.float32], b: NDArray[np.float32]) -> NDArray[np.float32]:
+        """The surface's brightness at texture coordinates ``a``, ``b`` (metres)."""
+        n = self.texture.shape[0]
+        a = np.where(np.isfinite(a), a, 0.0)
+        b = np.where(np.isfinite(b), b, 0.0)
+        ia = ((a + surface.shift) / surface.texel).astype(np.int64) % n
+        ib = ((b + 0.37 * surface.shift) / surface.texel).astype(np.int64) % n
+        return np.asarray(surface.albedo + surface.contrast * self.texture[ib, ia], dtype=np.float32)
+
+    def draw(self, rays: NDArray[np.float32], position: FloatArray) -> NDArray[np.float32]:
+        """Brightness ``(H, W)`` seen along world ray directions ``rays`` ``(H, W, 3)`` from
+        ``position`` (nearest surface first: a depth test per pixel)."""
+        ox, oy, oz = (float(v) for v in position)
+        dx, dy, dz = rays[..., 0], rays[..., 1], rays[..., 2]
+        inf = np.float32(np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_floor = np.where(dz < -1e-6, -oz / dz, inf).astype(np.float32)
+            t_ceil = np.where(dz > 1e-6, (self.wall_height - oz) / dz, inf).astype(np.float32)
+            depth = np.minimum(t_floor, t_ceil)
+            img = np.where(
+                t_floor <= t_ceil,
+                self.sample(self.floor, ox + t_floor * dx, oy + t_floor * dy),
+                self.sample(self.ceiling, ox + t_ceil * dx, oy + t_ceil * dy),
+            )
+        if self._caster is not None:
+            self._draw_walls(rays, position, depth, img)
+        for prism in self.prisms:
+            if prism.alpha >= 1.0:
+                self._draw_prism(prism, rays, position, depth, img)
+        for body in self.bodies:
+            self._draw_body(body, rays, position, depth, img)
+        for prism in self.prisms:
+            if prism.alpha < 1.0:
+                self._draw_prism(prism, rays, position, depth, img)
+        return img
+
+    def _draw_walls(
+        self,
+        rays: NDArray[np.float32],
+        position: FloatArray,
+        depth: NDArray[np.float32],
+        img: NDArray[np.float32],
+    ) -> None:
+        from tourbot.maps.raycast import RayCaster
+
+        assert isinstance(self._caster, RayCaster)
+        n = round(2 * math.pi / self.azimuth_step)
+        angles = -math.pi + self.azimuth_step * np.arange(n)
+        ranges = self._caster.cast(np.array([[position[0], position[1], 0.0]]), angles)[0]
+        az = np.arctan2(rays[..., 1], rays[..., 0])
+        k = np.round((az + math.pi) / self.azimuth_step).astype(np.int64) % n
+        r = ranges[k]
+        h = np.hypot(rays[..., 0], rays[..., 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where((r < self.max_range) & (h > 1e-6), r / h, np.inf).astype(np.float32)
+        z = position[2] + t * rays[..., 2]
+        hit = (t < depth) & (z >= 0.0) & (z <= self.wall_height)
+        if not hit.any():
+            return
+        wx = position[0] + t[hit] * rays[..., 0][hit]
+        wy = position[1] + t[hit] * rays[..., 1][hit]
+        img[hit] = 0.5 * (self.sample(self.wall, wx, z[hit]) + self.sample(self.wall, wy + 7.0, z[hit]))
+        depth[hit] = t[hit]
+
+    def _window(
+        self, lo: FloatArray, hi: FloatArray, rays: NDArray[np.float32], position: FloatArray
+    ) -> tuple[slice, slice] | None:
+        """The image rows and columns a box ``lo``-``hi`` can cover: every pixel whose ray passes
+        within the box's bounding sphere (cheap, conservative)."""
+        centre = 0.5 * (lo + hi)
+        radius = 0.5 * float(np.linalg.norm(hi - lo))
+        to = centre - position
+        dist = float(np.linalg.norm(to))
+        if dist <= radius:
+            return slice(None), slice(None)
+        cosang = (rays @ (to / dist).astype(np.float32)) if rays.size else rays[..., 0]
+        near = cosang >= math.cos(math.asin(min(1.0, radius / dist)))
+        if not near.any():
+            return None
+        rows, cols = np.flatnonzero(near.any(axis=1)), np.flatnonzero(near.any(axis=0))
+        return slice(int(rows[0]), int(rows[-1]) + 1), slice(int(cols[0]), int(cols[-1]) + 1)
+
+    def _draw_prism(
+        self,
+        prism: Prism,
+        rays: NDArray[np.float32],
+        position: FloatArray,
+        depth: NDArray[np.float32],
+        img: NDArray[np.float32],
+    ) -> None:
+        """Cyrus-Beck clipping of each ray against the prism's planes (sides, bottom, top)."""
+        fp = prism.footprint
+        lo = np.array([fp[:, 0].min(), fp[:, 1].min(), prism.z[0]])
+        hi = np.array([fp[:, 0].max(), fp[:, 1].max(), prism.z[1]])
+        win = self._window(lo, hi, rays, position)
+        if win is None:
+            return
+        d = rays[win]
+        nxt = np.roll(fp, -1, axis=0)
+        edge = nxt - fp
+        normals = np.stack([edge[:, 1], -edge[:, 0], np.zeros(len(fp))], axis=1)  # outward for CCW
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        offsets = np.einsum("ij,ij->i", normals[:, :2], fp)
+        normals = np.vstack([normals, [[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]])
+        offsets = np.r_[offsets, -prism.z[0], prism.z[1]]
+        t_in = np.zeros(d.shape[:2], dtype=np.float32)
+        t_out = np.full(d.shape[:2], np.inf, dtype=np.float32)
+        face = np.full(d.shape[:2], -1, dtype=np.int64)
+        inside = np.ones(d.shape[:2], dtype=bool)
+        for k, (nrm, off) in enumerate(zip(normals, offsets, strict=True)):
+            num = np.float32(off - float(nrm @ position))
+            den = d @ nrm.astype(np.float32)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tk = num / den
+            entering = den < -1e-9
+            exiting = den > 1e-9
+            better = entering & (tk > t_in)
+            t_in = np.where(better, tk, t_in)
+            face = np.where(better, k, face)
+            t_out = np.where(exiting & (tk < t_out), tk, t_out)
+            inside &= ~((np.abs(den) <= 1e-9) & (num < 0))
+        sub_depth = depth[win]
+        hit = inside & (face >= 0) & (t_in <= t_out) & (t_in > 0) & (t_in < sub_depth)
+        if not hit.any():
+            return
+        t = t_in[hit]
+        p = position[None, :] + t[:, None] * d[hit]
+        f = face[hit]
+        side = f < len(fp)
+        # texture: sides by (x + y, z), top and bottom by (x, y); sides lit from one direction
+        a = np.where(side, p[:, 0] + p[:, 1], p[:, 0]).astype(np.float32)
+        b = np.where(side, p[:, 2], p[:, 1]).astype(np.float32)
+        light = np.array([0.6, 0.8, 0.0])
+        shade = np.where(side, 0.8 + 0.2 * (normals[np.minimum(f, len(normals) - 1)] @ light), 1.0)
+        shade = np.where(f == len(fp), 0.6, shade)
+        look = (self.sample(prism.surface, a, b) * shade).astype(np.float32)
+        sub_img = img[win]
+        if prism.alpha < 1.0:
+            sub_img[hit] = prism.alpha * look + (1.0 - prism.alpha) * sub_img[hit]
+        else:
+            sub_img[hit] = look
+            sub_depth[hit] = t
+
+    def _draw_body(
+        self,
+        body: Body,
+        rays: NDArray[np.float32],
+        position: FloatArray,
+        depth: NDArray[np.float32],
+        img: NDArray[np.float32],
+    ) -> None:
+        cx, cy = body.centre
+        lo = np.array([cx - body.radius, cy - body.radius, 0.0])
+        hi = np.array([cx + body.radius, cy + body.radius, body.height])
+        win = self._window(lo, hi, rays, position)
+        if win is None:
+            return
+        d = rays[win]
+        ox, oy = position[0] - cx, position[1] - cy
+        a = d[..., 0] ** 2 + d[..., 1] ** 2
+        b = 2.0 * (d[..., 0] * ox + d[..., 1] * oy)
+        c = ox * ox + oy * oy - body.radius**2
+        disc = b * b - 4.0 * a * c
+        ok = (disc >= 0) & (a > 1e-9)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = np.where(ok, (-b - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * a), np.inf).astype(np.float32)
+        z = position[2] + t * d[..., 2]
+        sub_depth = depth[win]
+        hit = ok & (t > 0) & (t < sub_depth) & (z >= 0.0) & (z <= body.height)
+        if not hit.any():
+            return
+        th, zh = t[hit], z[hit]
+        px = ox + th * d[..., 0][hit]
+        py = oy + th * d[..., 1][hit]
+        around = (np.arctan2(py, px) * body.radius).astype(np.float32)
+        look = np.where(
+            zh < 0.85,
+            self.sample(body.legs, around, zh),
+            np.where(
+                zh < body.height - 0.25,
+                self.sample(body.shirt, around, zh),
+                self.sample(body.skin, around, zh),
+            ),
+        )
+        img[win][hit] = look
+        sub_depth[hit] = th
+
+
+@runtime_checkable
+class WorldCamera(Protocol):
+    """A simulated camera that draws the world grid (walls, doors, furniture at their states):
+    the simulator hands it the grid at the start and whenever doors or furniture change."""
+
+    def set_world(self, grid: OccupancyGrid) -> None: ...
+
+
+@dataclass(frozen=True)
+class ForwardCameraConfig:
+    """The simulated forward camera: ``rate`` (Hz), ``exposure_std`` (relative spread of the
+    automatic exposure's gain from frame to frame), image formation (:class:`RenderConfig`)."""
+
+    rate: float = 5.0
+    exposure_std: float = 0.03
+    render: RenderConfig = field(
+        default_factory=lambda: RenderConfig(ambient=0.0, bloom_gain=0.0, vignetting=0.15, noise_std=2.0)
+    )
+
+    def __post_init__(self) -> None:
+        if not self.rate > 0 or self.exposure_std < 0:
+            raise ValueError("ForwardCameraConfig needs rate > 0 and exposure_std >= 0")
+
+
+class ForwardCameraSim:
+    """The robot's forward grey camera in the site's 2.5D world, deterministic for a seed.
+
+    Walls are the world grid's occupied cells (:class:`WorldCamera`), the site's invisible
+    obstacles are solids with their height ranges (``box``, ``glass``, ``table`` on legs), the
+    visitors textured bodies of drawn heights and clothes.
+    """
+
+    name = "forward"
+
+    def __init__(
+        self,
+        site: Site,
+        camera: ForwardCamera | None = None,
+        config: ForwardCameraConfig | None = None,
+        *,
+        seed: int = 0,
+    ) -> None:
+        from tourbot.vision.camera import ForwardCamera
+
+        self.site = site
+        self.camera = camera or ForwardCamera()
+        self.config = config or ForwardCameraConfig()
+        rng_static, self._rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(2))
+        self.scene = Scene(make_texture(rng_static))
+        self.scene.prisms = _obstacle_prisms(site, rng_static)
+        self.scene.set_walls(site.grid)
+        n = 4096
+        self._heights = rng_static.normal(1.72, 0.08, n)
+        self._clothes = rng_static.uniform(40.0, 200.0, (n, 3))
+        self._next = 0.0
+
+    def set_world(self, grid: OccupancyGrid) -> None:
+        self.scene.set_walls(grid)
+
+    def due(self, time: float) -> bool:
+        return time + 1e-9 >= self._next
+
+    def frame(self, time: float, pose: ArrayLike, people: ArrayLike | None = None) -> CameraFrame:
+        """The image seen from the robot's true ``pose`` with visitors at ``people`` ``(N, 2)``."""
+        cfg = self.config
+        self._next = time + 1.0 / cfg.rate
+        cam = self.camera
+        rot, pos = cam.in_world(pose)
+        pts = np.zeros((0, 2)) if people is None else np.asarray(people, dtype=np.float64).reshape(-1, 2)
+        bodies = []
+        for k, (x, y) in enumerate(pts):
+            if math.hypot(x - pos[0], y - pos[1]) > 12.0:
+                continue
+            c = self._clothes[k % len(self._clothes)]
+            bodies.append(
+                Body(
+                    (float(x), float(y)),
+                    0.22,
+                    float(self._heights[k % len(self._heights)]),
+                    Surface(float(c[0]), 25.0, 0.02, k * 1.3),
+                    Surface(float(c[1]), 35.0, 0.015, k * 2.1),
+                    Surface(150.0, 10.0, 0.02, k * 0.7),
+                )
+            )
+        self.scene.bodies = bodies
+        canvas_rng = self._rng
+        gain = float(canvas_rng.normal(1.0, cfg.exposure_std)) if cfg.exposure_std > 0 else 1.0
+        render_cfg = cfg.render
+        image = render(cam.model, cam.width, cam.height, rot, pos, [], canvas_rng, render_cfg, self.scene)
+        if gain != 1.0:
+            image = np.clip(np.round(image.astype(np.float32) * gain), 0, 255).astype(np.uint8)
+        return CameraFrame(time, image, (0.0, 0.0))
+
+
+def _obstacle_prisms(site: Site, rng: np.random.Generator) -> list[Prism]:
+    """The site's invisible obstacles as solids: a box, a glass case, a table (top and four legs)."""
+    from tourbot.site.model import TABLE_LEG_RADIUS, TABLE_TOP
+
+    out: list[Prism] = []
+    for k, obs in enumerate(site.invisible_obstacles):
+        fp = _ccw(np.asarray(obs.outline, dtype=np.float64))
+        lo, hi = obs.height
+        look = Surface(float(rng.uniform(60.0, 200.0)), float(rng.uniform(30.0, 50.0)), 0.008, 11.0 * (k + 1))
+        if obs.kind == "glass":
+            out.append(Prism(fp, (lo, hi), Surface(210.0, 40.0, 0.01, 5.0 * (k + 1)), alpha=0.35))
+        elif obs.kind == "table":
+            out.append(Prism(fp, (max(lo, hi - TABLE_TOP), hi), look))
+            r = TABLE_LEG_RADIUS
+            for cx, cy in obs.leg_centres():
+                leg = np.array([[cx - r, cy - r], [cx + r, cy - r], [cx + r, cy + r], [cx - r, cy + r]])
+                out.append(Prism(leg, (lo, hi - TABLE_TOP), Surface(50.0, 15.0, 0.01)))
+        else:
+            out.append(Prism(fp, (lo, hi), look))
+    return out
+
+
+def _ccw(points: FloatArray) -> FloatArray:
+    x, y = points[:, 0], points[:, 1]
+    area = 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+    return points if area >= 0 else points[::-1].copy()

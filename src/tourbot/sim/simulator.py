@@ -35,7 +35,7 @@ from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
 from tourbot.sim.robot import DiffDrive
-from tourbot.site.model import Site
+from tourbot.site.model import TABLE_LEG_RADIUS, Site
 from tourbot.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 
 if TYPE_CHECKING:
@@ -110,6 +110,8 @@ class Simulator:
         self.laser = SimLaser(cfg.laser, self.static)
         self._occupied = self._world.occupied()
         self._invisible = site.invisible_mask(self.static)
+        # what the laser sees of the obstacles off its plane, derived from their height ranges
+        self._seen_segments, self._seen_legs = _laser_parts(site, cfg.robot.laser_height)
         self._footprint = _disc_offsets(cfg.robot.radius, self.static.resolution)
         # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
         self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
@@ -136,6 +138,15 @@ class Simulator:
         # per camera (``config.record``): the images it took
         self.image_history: dict[str, list[Image]] = {}
         self.objects_history: list[tuple[tuple[DoorState, ...], tuple[FurnitureState, ...]]] = []
+        self._show_world()
+
+    def _show_world(self) -> None:
+        """Hand the world grid (doors, furniture at their states) to the cameras that draw it."""
+        from tourbot.sim.camera import WorldCamera
+
+        for cam in self.cameras:
+            if isinstance(cam, WorldCamera):
+                cam.set_world(self._world)
 
     # -- DrivableSource ---------------------------------------------------------------------------
 
@@ -163,21 +174,29 @@ class Simulator:
         if self.objects.step(self._time, dt, self._rng_objects):
             self._world = self.objects.grid()
             self._occupied = self._world.occupied()
+            self._show_world()
         odom_pose = self.odometry.step(before, self.robot.pose, self._rng_odom)
         out: list[Record] = [Odometry(self._time, odom_pose, tv=self.robot.speed, rv=self.robot.turn_rate)]
         if self._steps % self._scan_every == 0:
             centres, radii = self.legs()
             people = len(radii)
-            if len(others):  # the other robots, after the people: seen, but not as people
-                centres = np.vstack([centres, others])
-                radii = np.concatenate([radii, np.full(len(others), self.config.robot.radius)])
+            segments = self.objects.segments()
+            if self._seen_segments.shape[1]:
+                segments = np.concatenate([segments, self._seen_segments], axis=1)
+            extra = [c for c in (self._seen_legs, others) if len(c)]
+            if len(self._seen_legs):  # the legs of tables, and the other robots: seen, not as people
+                radii = np.r_[radii, np.full(len(self._seen_legs), TABLE_LEG_RADIUS)]
+            if len(others):
+                radii = np.r_[radii, np.full(len(others), self.config.robot.radius)]
+            if extra:
+                centres = np.vstack([centres, *extra])
             ranges = self.laser.scan(
                 self.robot.pose,
                 centres,
                 radii,
                 self._rng_laser,
                 people=people,
-                segments=self.objects.segments(),
+                segments=segments,
             )
             out.append(
                 Scan(self._time, ranges, self.laser.geometry, odom=odom_pose, reference=self.robot.pose)
@@ -294,6 +313,20 @@ class Simulator:
         if now and not self._in_contact[kind]:
             setattr(self.collisions, kind, getattr(self.collisions, kind) + 1)
         self._in_contact[kind] = now or (self._in_contact[kind] and near)
+
+
+def _laser_parts(site: Site, laser_height: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The edges ``(1, M, 4)`` of the obstacles whose outline spans the laser plane, and the centres
+    ``(L, 2)`` of the table legs the laser sees (the rest of each obstacle it does not see)."""
+    edges: list[list[float]] = []
+    legs: list[tuple[float, float]] = []
+    for obs in site.invisible_obstacles:
+        if obs.laser_outline(laser_height):
+            pts = obs.outline
+            edges.extend([*a, *b] for a, b in zip(pts, pts[1:] + pts[:1], strict=True))
+        legs.extend(obs.laser_legs(laser_height))
+    seg = np.asarray(edges, dtype=np.float64).reshape(1, -1, 4)
+    return seg, np.asarray(legs, dtype=np.float64).reshape(-1, 2)
 
 
 def _disc_offsets(radius: float, resolution: float) -> NDArray[np.int64]:

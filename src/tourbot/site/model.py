@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from functools import cached_property
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
 import yaml
@@ -138,12 +138,27 @@ class Furniture(_Model):
         return [(pose[0] + c * x - s * y, pose[1] + s * x + c * y) for x, y in self.outline]
 
 
+#: A table's top is this thick (m); its legs stand this far inside the outline's corners and are
+#: this thick (the laser sees them as four thin posts).
+TABLE_TOP = 0.04
+TABLE_LEG_INSET = 0.05
+TABLE_LEG_RADIUS = 0.025
+
+
 class InvisibleObstacle(_Model):
-    """An obstacle the laser does not see (glass case, low table): world outline and height range."""
+    """An obstacle off the laser plane: world outline (convex), height range and ``kind``.
+
+    ``kind`` says what it is made of: ``box`` (solid from ``height[0]`` to ``height[1]``: a low bench
+    or platform below the laser plane, a wall cabinet or fire extinguisher above it), ``glass`` (a
+    glass case: the laser passes through, the camera sees its reflections) or ``table`` (a top
+    :data:`TABLE_TOP` thick at ``height[1]`` on four thin legs). What a laser at a given height sees
+    of it is derived from these (:meth:`laser_outline`, :meth:`laser_legs`), never drawn twice.
+    """
 
     name: str = Field(min_length=1)
     outline: Polygon
     height: tuple[float, float] = (0.0, 0.3)
+    kind: Literal["box", "glass", "table"] = "box"
 
     @field_validator("height")
     @classmethod
@@ -151,6 +166,31 @@ class InvisibleObstacle(_Model):
         if v[0] > v[1]:
             raise ValueError("height must be (low, high) with low <= high")
         return v
+
+    def laser_outline(self, laser_height: float) -> bool:
+        """Whether a laser at ``laser_height`` sees the outline (a box spanning its plane)."""
+        return self.kind == "box" and self.height[0] <= laser_height <= self.height[1]
+
+    def laser_legs(self, laser_height: float) -> list[Point]:
+        """Centres of the table legs a laser at ``laser_height`` sees (none for boxes and glass)."""
+        if self.kind != "table" or not self.height[0] <= laser_height <= self.height[1] - TABLE_TOP:
+            return []
+        return self.leg_centres()
+
+    def leg_centres(self) -> list[Point]:
+        """A table's legs: one in each corner, :data:`TABLE_LEG_INSET` from both edges."""
+        pts = np.asarray(self.outline, dtype=np.float64)
+        out = []
+        for k, p in enumerate(pts):
+            a = pts[k - 1] - p
+            b = pts[(k + 1) % len(pts)] - p
+            a /= max(float(np.hypot(*a)), 1e-12)
+            b /= max(float(np.hypot(*b)), 1e-12)
+            bis = a + b
+            half = 0.5 * math.acos(float(np.clip(a @ b, -1.0, 1.0)))
+            q = p + bis / max(float(np.hypot(*bis)), 1e-12) * TABLE_LEG_INSET / max(math.sin(half), 1e-6)
+            out.append((float(q[0]), float(q[1])))
+        return out
 
 
 class CeilingLight(_Model):
@@ -211,9 +251,14 @@ class Site(_Model):
         return _static_grid(self)
 
     def invisible_mask(self, grid: OccupancyGrid | None = None) -> np.ndarray:
-        """Cells of ``grid`` (default: the static grid) covered by invisible obstacles."""
+        """Cells of ``grid`` (default: the static grid) covered by invisible obstacles: the
+        hand-drawn second map of the site (every such obstacle, whatever the laser sees of it)."""
         g = grid or self.grid
         return rasterize_polygons(g, [o.outline for o in self.invisible_obstacles])
+
+    def laser_missed(self, laser_height: float) -> list[InvisibleObstacle]:
+        """The invisible obstacles whose outline a laser at ``laser_height`` does not see."""
+        return [o for o in self.invisible_obstacles if not o.laser_outline(laser_height)]
 
 
 class _FieldError(ValueError):
