@@ -95,6 +95,21 @@ def hall_map(cfg: SimConfig) -> Any:
     return OccupancyGrid(prob=prob, resolution=res)
 
 
+def _scan_crowd(
+    caster: Any, pose: FloatArray, angles: FloatArray, crowd: Any, noise: float, rng: np.random.Generator
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """One noisy scan from ``pose`` among the crowd's legs, and which visitors some beam hit (a
+    beam's end point on one of their leg circles)."""
+    centres, radii = crowd.legs()
+    ranges = caster.cast_with_circles(pose[None, :], angles, centres, radii)[0].astype(np.float64)
+    ranges += rng.normal(0.0, noise, ranges.shape)
+    ends = pose[None, 0:2] + ranges[:, None] * np.stack(
+        [np.cos(angles + pose[2]), np.sin(angles + pose[2])], -1
+    )
+    d = np.linalg.norm(ends[:, None, :] - centres[None, :, :], axis=-1) - radii[None, :]
+    return ranges, (d < 0.03).any(axis=0).reshape(-1, 2).any(axis=1)
+
+
 def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None = None) -> SimRun:
     """Run the crowd around the looping robot; record scans, poses and the ground truth."""
     from tourbot.maps.raycast import DDACaster
@@ -130,16 +145,7 @@ def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None
         t = k * cfg.dt
         pose = robot_pose(t)
         crowd.step(cfg.dt, pose, rng)
-        centres, radii = crowd.legs()
-        ranges = caster.cast_with_circles(pose[None, :], angles, centres, radii)[0].astype(np.float64)
-        ranges += rng.normal(0.0, cfg.range_noise, ranges.shape)
-        # Which visitors some beam hit: beam end points on a leg circle.
-        ends = pose[None, 0:2] + ranges[:, None] * np.stack(
-            [np.cos(angles + pose[2]), np.sin(angles + pose[2])], -1
-        )
-        d = np.linalg.norm(ends[:, None, :] - centres[None, :, :], axis=-1) - radii[None, :]
-        hit_leg = (d < 0.03).any(axis=0)
-        seen = hit_leg.reshape(-1, 2).any(axis=1)
+        ranges, seen = _scan_crowd(caster, pose, angles, crowd, cfg.range_noise, rng)
         last_seen[seen] = k
         positions = crowd.positions.copy()
         near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
@@ -768,14 +774,7 @@ def simulate_tour(num_people: int, scans: int, seed: int, cfg: SimConfig | None 
         t = k * cfg.dt
         pose = tour_path(t, cfg)
         crowd.step(cfg.dt, pose, rng)
-        centres, radii = crowd.legs()
-        ranges = caster.cast_with_circles(pose[None, :], angles, centres, radii)[0].astype(np.float64)
-        ranges += rng.normal(0.0, cfg.range_noise, ranges.shape)
-        ends = pose[None, 0:2] + ranges[:, None] * np.stack(
-            [np.cos(angles + pose[2]), np.sin(angles + pose[2])], -1
-        )
-        d = np.linalg.norm(ends[:, None, :] - centres[None, :, :], axis=-1) - radii[None, :]
-        seen = (d < 0.03).any(axis=0).reshape(-1, 2).any(axis=1)
+        ranges, seen = _scan_crowd(caster, pose, angles, crowd, cfg.range_noise, rng)
         last_seen[seen] = k
         positions = crowd.positions.copy()
         near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
