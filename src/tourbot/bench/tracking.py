@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import signal
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
@@ -95,6 +96,38 @@ def hall_map(cfg: SimConfig) -> Any:
     return OccupancyGrid(prob=prob, resolution=res)
 
 
+def _crowd_scans(
+    run: Any,
+    crowd: Any,
+    caster: Any,
+    geometry: Any,
+    robot_pose: Any,
+    num_people: int,
+    scans: int,
+    cfg: Any,
+    rng: np.random.Generator,
+) -> Iterator[float]:
+    """Step the crowd and scan it ``scans`` times from ``robot_pose(t)``, appending each scan, pose,
+    true positions and counted mask (near the robot and seen lately) to ``run``; yields each time."""
+    from tourbot.records import Scan
+
+    last_seen = np.full(num_people, -(10**9))
+    angles = geometry.angles
+    for k in range(scans):
+        t = k * cfg.dt
+        pose = robot_pose(t)
+        crowd.step(cfg.dt, pose, rng)
+        ranges, seen = _scan_crowd(caster, pose, angles, crowd, cfg.range_noise, rng)
+        last_seen[seen] = k
+        positions = crowd.positions.copy()
+        near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
+        run.scans.append(Scan(t, ranges, geometry))
+        run.poses.append(pose)
+        run.truth.append(positions)
+        run.counted.append(near & (k - last_seen < cfg.seen_window))
+        yield t
+
+
 def _scan_crowd(
     caster: Any, pose: FloatArray, angles: FloatArray, crowd: Any, noise: float, rng: np.random.Generator
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
@@ -113,7 +146,7 @@ def _scan_crowd(
 def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None = None) -> SimRun:
     """Run the crowd around the looping robot; record scans, poses and the ground truth."""
     from tourbot.maps.raycast import DDACaster
-    from tourbot.records import LaserGeometry, Scan
+    from tourbot.records import LaserGeometry
     from tourbot.sim.crowd import Crowd, CrowdConfig
 
     cfg = cfg or SimConfig()
@@ -135,24 +168,11 @@ def simulate_crowd(num_people: int, scans: int, seed: int, cfg: SimConfig | None
     )
     crowd = Crowd(CrowdConfig(num_people=num_people, robot_interest=0.0), grid, rng, robot_pose(0.0))
     caster = DDACaster(grid, cfg.max_range)
-    t = 0.0
     for _ in range(round(cfg.warmup / cfg.dt)):
         crowd.step(cfg.dt, robot_pose(0.0), rng)
     run = SimRun(grid=grid)
-    last_seen = np.full(num_people, -(10**9))
-    angles = geometry.angles
-    for k in range(scans):
-        t = k * cfg.dt
-        pose = robot_pose(t)
-        crowd.step(cfg.dt, pose, rng)
-        ranges, seen = _scan_crowd(caster, pose, angles, crowd, cfg.range_noise, rng)
-        last_seen[seen] = k
-        positions = crowd.positions.copy()
-        near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
-        run.scans.append(Scan(t, ranges, geometry))
-        run.poses.append(pose)
-        run.truth.append(positions)
-        run.counted.append(near & (k - last_seen < cfg.seen_window))
+    for _ in _crowd_scans(run, crowd, caster, geometry, robot_pose, num_people, scans, cfg, rng):
+        pass
     return run
 
 
@@ -744,7 +764,7 @@ def simulate_tour(num_people: int, scans: int, seed: int, cfg: SimConfig | None 
     exhibits or walk past), the robot touring :func:`tour_path`; scans and ground truth as in
     :func:`simulate_crowd`, plus who stands (slower than :data:`STANDING_SPEED`) at each scan."""
     from tourbot.maps.raycast import DDACaster
-    from tourbot.records import LaserGeometry, Scan
+    from tourbot.records import LaserGeometry
     from tourbot.sim.crowd import Crowd, CrowdConfig
 
     cfg = cfg or SimConfig()
@@ -768,20 +788,8 @@ def simulate_tour(num_people: int, scans: int, seed: int, cfg: SimConfig | None 
     for _ in range(round(cfg.warmup / cfg.dt)):
         crowd.step(cfg.dt, tour_path(0.0, cfg), rng)
     run = TourRun(grid=grid)
-    last_seen = np.full(num_people, -(10**9))
-    angles = geometry.angles
-    for k in range(scans):
-        t = k * cfg.dt
-        pose = tour_path(t, cfg)
-        crowd.step(cfg.dt, pose, rng)
-        ranges, seen = _scan_crowd(caster, pose, angles, crowd, cfg.range_noise, rng)
-        last_seen[seen] = k
-        positions = crowd.positions.copy()
-        near = np.linalg.norm(positions - pose[None, 0:2], axis=1) <= cfg.eval_range
-        run.scans.append(Scan(t, ranges, geometry))
-        run.poses.append(pose)
-        run.truth.append(positions)
-        run.counted.append(near & (k - last_seen < cfg.seen_window))
+    path = lambda t: tour_path(t, cfg)  # noqa: E731
+    for t in _crowd_scans(run, crowd, caster, geometry, path, num_people, scans, cfg, rng):
         run.standing.append(np.linalg.norm(crowd.velocities, axis=1) < STANDING_SPEED)
         run.at_robot.append(crowd.at_robot.copy())
         run.times.append(t)
