@@ -16,6 +16,7 @@ from tourbot.web.stream import (
     StreamDecoder,
     StreamEncoder,
     StreamError,
+    StreamFidelity,
 )
 
 coord = st.floats(-300.0, 300.0, allow_nan=False)
@@ -280,3 +281,82 @@ def test_standing_visitors_with_jittering_velocities_cost_only_refreshes() -> No
         shown = {p.id: (p.x, p.y) for p in decoder.scene(t).people}
         assert max(math.hypot(*(np.array(shown[i + 1]) - home[i])) for i in range(len(home))) < 0.2
     assert 8 * total / 60.0 < 400  # bits per second; velocities extrapolated: about 3 kbit/s
+
+
+def test_the_budget_costs_nothing_while_the_tolerances_fit_in_it() -> None:
+    """Seven walkers and a turning robot (the paper's scene) need less than the budget: the
+    messages are the very ones an unlimited budget gives."""
+    limited, unlimited = StreamEncoder(StreamConfig()), StreamEncoder(StreamConfig(bitrate=1e9))
+    total = 0
+    for k in range(5 * 60):
+        t = 100.0 + k / 5.0
+        robot = Body(0, 0.5 * k / 5.0, 1.0, 0.5, 0.0, math.remainder(0.3 * k / 5.0, 2 * math.pi), 0.3)
+        scene = Scene(t, robot, tuple(_walk(t, i) for i in range(1, 8)))
+        message = limited.encode(scene)
+        assert message == unlimited.encode(scene)
+        total += len(message or b"")
+    assert 0 < 8 * total / 60.0 < StreamConfig().bitrate
+
+
+def _jittering_crowd(
+    n: int, seconds: float, config: StreamConfig, seed: int = 5
+) -> tuple[int, StreamEncoder]:
+    """``n`` tracked walkers whose estimates jitter (2 cm, 10 cm/s), around a robot driving at
+    0.3 m/s: the bytes of the deltas after the keyframe, and the encoder."""
+    rng = np.random.default_rng(seed)
+    start = rng.uniform(-6, 6, (n, 2))
+    heading = rng.uniform(-math.pi, math.pi, n)
+    velocity = 0.8 * np.stack([np.cos(heading), np.sin(heading)], axis=1)
+    encoder, decoder = StreamEncoder(config), StreamDecoder(config)
+    total = 0
+    for k in range(int(seconds * config.rate_hz)):
+        t = k / config.rate_hz
+        turn = np.sin(0.3 * t + heading)[:, None] * 0.3  # walkers curve a little
+        xy = start + velocity * t + turn + rng.normal(0.0, 0.02, start.shape)
+        v = velocity + rng.normal(0.0, 0.1, start.shape)
+        people = tuple(Body(i + 1, *xy[i], *v[i]) for i in range(n))
+        robot = Body(0, 0.3 * t, 0.0, 0.3, 0.0)
+        message = encoder.encode(Scene(t, robot, people))
+        if message is not None:
+            decoder.feed(message)
+            total += len(message) + config.framing_bytes if k else 0
+        shown = decoder.scene(t)
+        robot_error = math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y)
+        assert robot_error <= config.position_tolerance + 0.02
+    return total, encoder
+
+
+def test_a_dense_crowd_keeps_to_the_budget_and_the_robot_to_its_tolerance() -> None:
+    config = StreamConfig()
+    total, encoder = _jittering_crowd(40, 60.0, config)
+    assert 8 * total / 60.0 <= config.bitrate * 1.02  # the bucket's one second of burst, spread
+    unlimited, _ = _jittering_crowd(40, 60.0, StreamConfig(bitrate=1e9))
+    assert unlimited > 2 * total  # the tolerances alone would need far more
+    fidelity = encoder.fidelity.summary()
+    assert fidelity["samples"] > 0.9 * 40 * 300  # nearly every person shown nearly all the time
+    assert fidelity["mean_m"] < 0.3  # and within 30 cm of its estimate on average (7 cm unlimited)
+
+
+def test_the_worst_predicted_person_is_sent_first() -> None:
+    config = StreamConfig(min_batch=1)
+    encoder = StreamEncoder(config)
+    people = (Body(1, 0.0, 0.0), Body(2, 5.0, 0.0))
+    encoder.encode(Scene(0.0, Body(0, 0.0, 0.0), people))
+    # after 0.15 s the bucket holds 15 bytes: room for one person beside the message's head
+    message = encoder.encode(Scene(0.15, Body(0, 0.0, 0.0), (Body(1, 0.3, 0.0), Body(2, 5.9, 0.0))))
+    assert message is not None
+    decoder = StreamDecoder(config)
+    decoder.feed(StreamEncoder(config).encode(Scene(0.0, Body(0, 0.0, 0.0), people)) or b"")
+    decoder.feed(message)
+    shown = {p.id: p.x for p in decoder.scene().people}
+    assert shown == {1: 0.0, 2: pytest.approx(5.9)}  # 90 cm off goes before 30 cm off
+
+
+def test_fidelity_quantiles() -> None:
+    fidelity = StreamFidelity()
+    for e in (0.004, 0.05, 0.05, 0.3, 5.0):
+        fidelity.add(e)
+    assert fidelity.quantile(0.5) == pytest.approx(0.06)
+    assert fidelity.quantile(1.0) == 2.0
+    assert fidelity.worst == 5.0
+    assert fidelity.mean == pytest.approx(5.404 / 5)

@@ -122,7 +122,14 @@ class _Viewer:
         self.port = port
         self.origin = f"http://127.0.0.1:{origin_port or port}"
         self.robot = robot
-        self.decoder = StreamDecoder(StreamConfig(**{k: v for k, v in stream.items() if k != "rate_hz"}))
+        self.decoder = StreamDecoder(
+            StreamConfig(
+                position_quantum=stream["position_quantum"],
+                velocity_quantum=stream["velocity_quantum"],
+                turn_quantum=stream["turn_quantum"],
+                time_quantum=stream["time_quantum"],
+            )
+        )
         self.delays: list[tuple[float, float]] = []  # (received at, delay)
         self.naive = naive
         self._epoch = 0.0
@@ -276,6 +283,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         await driver.run(time.monotonic() + warmup)
         wire_start, page_start = down[0], await page.evaluate("() => window.tourbot.live.bytes")
         texts_start = await page.evaluate("() => window.tourbot.live.texts")
+        await _staff(server, "DELETE", robot)  # the shown people's error, counted from here
         start = time.monotonic()
         people: list[int] = []
         while time.monotonic() < start + seconds:
@@ -286,6 +294,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         payload = await page.evaluate("() => window.tourbot.live.bytes") - page_start
         texts = await page.evaluate("() => window.tourbot.live.texts") - texts_start
         messages = await page.evaluate("() => document.getElementById('messages').children.length")
+        fidelity = (await _staff(server, "GET", robot))["people_shown"]
         await browser.close()
     await driver.close()
     relay.close()
@@ -297,6 +306,9 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
         "page_text_kbit_s": 8 * texts / elapsed / 1000,
         "people_shown_mean": sum(people) / max(1, len(people)),
         "people_shown_max": max(people, default=0),
+        "people_error_mean_m": fidelity["mean_m"],
+        "people_error_p95_m": fidelity["p95_m"],
+        "people_unshown_fraction": fidelity["unshown"] / max(1, fidelity["unshown"] + fidelity["samples"]),
         "message_lines": messages,
         "tour": tour,
     }
@@ -605,6 +617,21 @@ def register(bench: typer.Typer) -> None:
             )
             report.add(measure="  tracked people shown (mean)", value=bandwidth["people_shown_mean"], unit="")
             report.add(measure="  tracked people shown (max)", value=bandwidth["people_shown_max"], unit="")
+            report.add(
+                measure="  shown people vs estimates, mean",
+                value=100 * bandwidth["people_error_mean_m"],
+                unit="cm",
+            )
+            report.add(
+                measure="  shown people vs estimates, p95",
+                value=100 * bandwidth["people_error_p95_m"],
+                unit="cm",
+            )
+            report.add(
+                measure="  tracks not shown yet (share of samples)",
+                value=100 * bandwidth["people_unshown_fraction"],
+                unit="%",
+            )
         else:
             report.add(
                 measure="  payload (binary + status JSON)", value=bandwidth["payload_kbit_s"], unit="kbit/s"

@@ -582,11 +582,15 @@ def create_app(
 
     @app.get("/api/admin/stream/{name}")
     def admin_stream(_: Staff, name: str) -> dict[str, Any]:
-        """Server-side delay from sampling a state to handing its frame to each client's socket."""
-        delays = sorted(hub_for(name).send_delays)
+        """Server-side delay from sampling a state to handing its frame to each client's socket, and
+        how far the people the viewers were shown stood from the tracker's estimates."""
+        hub = hub_for(name)
+        delays = sorted(hub.send_delays)
+        people = hub.stream.fidelity.summary()
         if not delays:
-            return {"frames": 0}
+            return {"frames": 0, "people_shown": people}
         return {
+            "people_shown": people,
             "frames": len(delays),
             "p50_ms": 1000 * delays[len(delays) // 2],
             "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
@@ -595,6 +599,7 @@ def create_app(
     @app.delete("/api/admin/stream/{name}")
     def admin_stream_reset(_: Staff, name: str) -> dict[str, bool]:
         hub_for(name).send_delays.clear()
+        hub_for(name).stream.reset_fidelity()
         return {"ok": True}
 
     @app.post("/api/robots/{name}/staff-stop")
