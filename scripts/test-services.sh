@@ -3,6 +3,7 @@
 #   chromium    the browser tests (tests/web/test_browser.py, Playwright drives Debian's build)
 #   espeak-ng   the speech test (tests/web/test_speech.py)
 #   postgresql  the web site's database tests on PostgreSQL (tests/web, TOURBOT_TEST_DATABASE_URL)
+#   redis-server the fan-out tests (tests/web/test_fanout.py start their own broker on loopback)
 #
 # Installs what is missing when run as root on a machine with apt-get (as CI is), starts a
 # PostgreSQL cluster on loopback with a `tourbot` role and a `tourbot_test` database, and prints the
@@ -12,13 +13,14 @@
 # A database of your own is used as it is: set TOURBOT_TEST_DATABASE_URL before `make test`.
 set -euo pipefail
 
-PACKAGES=(chromium postgresql espeak-ng)
+PACKAGES=(chromium postgresql espeak-ng redis-server)
 URL_DEFAULT="postgresql+psycopg://tourbot:tourbot@127.0.0.1:5432/tourbot_test"
 
 say() { echo "test-services: $*" >&2; }
 
 missing=()
 [[ -x /usr/bin/chromium ]] || missing+=(chromium)
+command -v redis-server >/dev/null 2>&1 || missing+=(redis-server)
 command -v espeak-ng >/dev/null 2>&1 || missing+=(espeak-ng)
 if [[ -z "${TOURBOT_TEST_DATABASE_URL:-}" ]] && ! command -v pg_ctlcluster >/dev/null 2>&1; then
   missing+=(postgresql)

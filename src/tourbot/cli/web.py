@@ -124,8 +124,26 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         foxglove: FoxgloveOpt = None,
+        broker: Annotated[
+            str | None,
+            typer.Option(
+                help="publish the robots' state on this Redis broker (redis://HOST:PORT/DB) "
+                "for follower servers"
+            ),
+        ] = None,
+        follow: Annotated[
+            str | None,
+            typer.Option(
+                help="run no robots: show those a server publishes on this Redis broker "
+                "(control stays on that server)"
+            ),
+        ] = None,
     ) -> None:
-        """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream."""
+        """Serve the tele-presence site: visitor page, on-board screen, staff pages, live stream.
+
+        Several servers can share the viewers of the same robots: one runs them with ``--broker``,
+        the others show them with ``--follow`` (the same site, and best the same ``--database``).
+        """
         from tourbot.app.simulated import crowd_config
         from tourbot.errors import InputError
         from tourbot.localization.profile import LocalizationProfile
@@ -141,6 +159,10 @@ def register(app: typer.Typer) -> None:
         if foxglove is not None and not 0 < foxglove <= 65535 - robots:
             raise InputError(f"must be a TCP port (1-{65535 - robots}), got {foxglove}", field="--foxglove")
         crowd_config(crowd)
+        if broker and follow:
+            raise InputError(
+                "give --broker (publish) or --follow (show another server's), not both", field="--follow"
+            )
         if (certfile is None) != (keyfile is None):
             raise InputError(
                 "TLS needs both --certfile and --keyfile", field="--keyfile" if certfile else "--certfile"
@@ -158,6 +180,7 @@ def register(app: typer.Typer) -> None:
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
             mcl=LocalizationProfile.for_site(site_path(site), config)[0].mcl,
             certfile=certfile, keyfile=keyfile, trusted_proxies=proxies, foxglove=foxglove,
+            broker=broker, follow=follow,
         )  # fmt: skip
         web, _ = build_site_app(settings)
         run(web, host, port, certfile=certfile, keyfile=keyfile, trusted_proxies=proxies)

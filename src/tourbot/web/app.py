@@ -781,6 +781,9 @@ async def _execute(
     arbiter.seen(client.session, now)
     if isinstance(command, Ping):
         return None
+    elsewhere = getattr(hub.link, "controlled_at", None)  # a follower server (web.fanout)
+    if elsewhere is not None:
+        raise CommandError(f"this server only shows the robot; to book and drive it, go to {elsewhere}")
     if isinstance(command, Book):
         if phrasebook is not None:
             raise CommandError("the on-board screen does not book slots: it always has precedence")

@@ -55,6 +55,8 @@ class ServeSettings:
     trusted_proxies: tuple[str, ...] = ()  # addresses whose X-Forwarded-For/-Proto are believed
     onboard_token: str | None = None  # pairs the robot's screen (default: a new one at each start)
     foxglove: int | None = None  # a live Foxglove server per robot on this port (+1, +2 for the others)
+    broker: str | None = None  # publish the robots' views on this Redis broker (web.fanout)
+    follow: str | None = None  # show the robots a controlling server publishes on this broker
 
 
 def _robot_names(n: int) -> list[str]:
@@ -171,6 +173,51 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     return links
 
 
+def _roster(site: str) -> str:
+    return f"tourbot:{site}:robots"
+
+
+def published_links(settings: ServeSettings, site: str, links: dict[str, RobotLink]) -> dict[str, RobotLink]:
+    """``links``, each publishing its views on ``settings.broker``; the roster (robot names and
+    this server's address, where they are controlled) is left on the broker for followers."""
+    import json
+
+    from tourbot.web.fanout import PublishingLink, channel, connect
+
+    assert settings.broker is not None
+    client = connect(settings.broker)
+    control = addresses(settings.host, settings.port, tls=settings.certfile is not None)["visitor page"]
+    client.set(_roster(site), json.dumps({"robots": list(links), "control": control}))
+    return {name: PublishingLink(link, client, channel(site, name)) for name, link in links.items()}
+
+
+def followed_links(settings: ServeSettings, site: str) -> dict[str, RobotLink]:
+    """The robots of ``site`` that a controlling server publishes on ``settings.follow``."""
+    import json
+
+    from tourbot.web.fanout import BrokerError, FollowerLink, channel, connect
+
+    assert settings.follow is not None
+    client = connect(settings.follow)
+    roster = client.get(_roster(site))
+    if roster is None:
+        raise BrokerError(
+            f"no robots of site {site!r} on the broker {settings.follow}: start the controlling "
+            f"server first (tourbot serve --site {site} --broker {settings.follow})"
+        )
+    try:
+        data = json.loads(roster)
+        names, control = [str(n) for n in data["robots"]], str(data["control"])
+    except (ValueError, KeyError, TypeError):
+        raise BrokerError(f"{settings.follow}: the key {_roster(site)} is not a tourbot roster") from None
+    links: dict[str, RobotLink] = {}
+    for name in names:
+        link = FollowerLink(client, channel(site, name), controlled_at=control)
+        link.wait_ready()
+        links[name] = link
+    return links
+
+
 def build_site_app(
     settings: ServeSettings,
     links: dict[str, RobotLink] | None = None,
@@ -196,8 +243,12 @@ def build_site_app(
         console.print(
             f"staff login created: user [bold]staff[/], password [bold]{password}[/]", soft_wrap=True
         )
+    if settings.broker and settings.follow:
+        raise TourbotError("a server either publishes its robots (--broker) or follows another's (--follow)")
     if links is None:
-        links = simulated_links(settings)
+        links = followed_links(settings, site.name) if settings.follow else simulated_links(settings)
+    if settings.broker:
+        links = published_links(settings, site.name, links)
     base = WebConfig()
     onboard_token = settings.onboard_token or secrets.token_urlsafe(18)
     config = WebConfig(
@@ -207,6 +258,7 @@ def build_site_app(
         guard=GuardConfig(),
         onboard_token=onboard_token,
         secure_cookies=settings.certfile is not None,
+        drive_robots=not settings.follow,
     )
     app = create_app(links, db, site.grid, config)
     app.state.pairing = f"/onboard/pair?token={onboard_token}"
