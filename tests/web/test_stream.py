@@ -331,7 +331,7 @@ def test_a_dense_crowd_keeps_to_the_budget_and_the_robot_to_its_tolerance() -> N
     total, encoder = _jittering_crowd(40, 60.0, config)
     assert 8 * total / 60.0 <= config.bitrate * 1.02  # the bucket's one second of burst, spread
     unlimited, _ = _jittering_crowd(40, 60.0, StreamConfig(bitrate=1e9))
-    assert 8 * unlimited / 60.0 > 1.3 * config.bitrate  # the tolerances alone would need more
+    assert unlimited > 2 * total  # the tolerances alone would need far more
     fidelity = encoder.fidelity.summary()
     assert fidelity["samples"] > 0.9 * 40 * 300  # nearly every person shown nearly all the time
     assert fidelity["mean_m"] < 0.3  # and within 30 cm of its estimate on average (7 cm unlimited)
@@ -360,19 +360,3 @@ def test_fidelity_quantiles() -> None:
     assert fidelity.quantile(1.0) == 2.0
     assert fidelity.worst == 5.0
     assert fidelity.mean == pytest.approx(5.404 / 5)
-
-
-def test_a_person_is_sent_with_the_velocity_it_walked() -> None:
-    """A visitor walking at 1 m/s whose tracked velocity swings by 0.4 m/s: once resent, the viewer
-    extrapolates with the walk since the last message, not with that scan's estimate."""
-    config = StreamConfig()
-    encoder, decoder = StreamEncoder(config), StreamDecoder(config)
-    swings = [0.4, -0.4]
-    for k in range(60):
-        t = k / config.rate_hz
-        person = Body(7, 1.0 * t, 0.0, 1.0 + swings[k % 2], 0.0)
-        message = encoder.encode(Scene(t, Body(0, 0.0, 0.0), (person,)))
-        if message is not None:
-            decoder.feed(message)
-    (shown,) = decoder.scene().people
-    assert shown.vx == pytest.approx(1.0, abs=0.05)  # (1.4 or 0.6 from the estimate)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import struct
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 from tourbot.errors import TourbotError
 from tourbot.geometry import wrap_angle
@@ -85,9 +85,7 @@ class StreamConfig:
     ``moving_speed`` (that rule keeps the robot's avatar from drifting once it stops). A person
     slower than ``moving_speed`` is sent standing (velocity zero): a visitor standing at an exhibit
     or around the robot costs one message, not one each time its jittering velocity walks the
-    extrapolation 15 cm off. A person resent two frames or more after its last message is sent
-    with the velocity it walked since then (its displacement over the time), not the scan's
-    estimate: the walk predicts the next seconds better than a jittering velocity does.
+    extrapolation 15 cm off.
 
     ``bitrate`` is the paper's 1 kbit/s (section 6.1.1) less what the status texts take (about
     0.2 kbit/s): the bits per second the deltas may spend, WebSocket framing
@@ -305,7 +303,6 @@ class StreamEncoder:
         affordable = max(0, int((self._tokens - cost) // body_cost))
         if updates or removed or affordable >= min(len(people), c.min_batch):
             for person in people[:affordable]:
-                person = self._walked(person, t_client)
                 payload, self._held[person.id] = quantizer.body(t_client, person)
                 updates.append(payload)
                 cost += len(payload)
@@ -340,15 +337,6 @@ class StreamEncoder:
                 ranked.append((urgency, body))
         ranked.sort(key=lambda pair: -pair[0])
         return robot, [body for _, body in ranked]
-
-    def _walked(self, person: Body, t: float) -> Body:
-        """``person`` with the velocity it walked at since it was last sent, when that is two frames
-        ago or more: a tracker's velocity jitters from scan to scan, the walk does not."""
-        held = self._held.get(person.id)
-        if held is None or t - held.t < 1.5 / self.config.rate_hz:
-            return person
-        dt = t - held.t
-        return replace(person, vx=(person.x - held.x) / dt, vy=(person.y - held.y) / dt)
 
     def _observe(self, bodies: dict[int, Body], t: float) -> None:
         """Add what the client shows of each person now to :attr:`fidelity`."""
