@@ -56,14 +56,22 @@ def _cpu_seconds(pid: int) -> float:
 class _Server:
     """``tourbot serve`` in a child process on a fresh SQLite file."""
 
-    def __init__(self, site: str, crowd: str, seed: int, robots: int = 1, robot_process: bool = True) -> None:
+    def __init__(
+        self,
+        site: str,
+        crowd: str,
+        seed: int,
+        robots: int = 1,
+        robot_process: bool = True,
+        extra: tuple[str, ...] = (),
+    ) -> None:
         self.port = _free_port()
         self.folder = tempfile.TemporaryDirectory(prefix="tourbot-bench-web-")
         db = f"sqlite:///{Path(self.folder.name) / 'site.db'}"
         command = [
             sys.executable, "-m", "tourbot", "serve", "--site", site, "--port", str(self.port),
             "--database", db, "--crowd", crowd, "--seed", str(seed), "--robots", str(robots),
-            "--robot-process" if robot_process else "--robot-in-server",
+            "--robot-process" if robot_process else "--robot-in-server", *extra,
         ]  # fmt: skip
         env = {
             **os.environ,
@@ -96,6 +104,42 @@ class _Server:
         except subprocess.TimeoutExpired:
             self.process.kill()
         self.folder.cleanup()
+
+
+class _Broker:
+    """A Redis server of the bench's own on loopback (no persistence), for ``--followers``."""
+
+    def __init__(self) -> None:
+        import shutil
+
+        from tourbot.web.fanout import BrokerError, connect
+
+        server = shutil.which("redis-server")
+        if server is None:
+            raise typer.BadParameter(
+                "redis-server is missing (apt-get install redis-server)", param_hint="--followers"
+            )
+        self.port = _free_port()
+        self.url = f"redis://127.0.0.1:{self.port}/0"
+        self.process = subprocess.Popen(
+            [server, "--port", str(self.port), "--bind", "127.0.0.1", "--save", "", "--appendonly", "no"],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        deadline = time.monotonic() + 20.0
+        while True:
+            try:
+                connect(self.url).close()
+                return
+            except BrokerError:
+                if time.monotonic() > deadline:
+                    self.close()
+                    raise
+                time.sleep(0.1)
+
+    def close(self) -> None:
+        self.process.terminate()
+        self.process.wait(10)
 
 
 async def _session(base: str) -> str:
@@ -402,10 +446,18 @@ def _cpu_between(samples: list[tuple[float, float]], start: float, end: float) -
     return inside[-1] - inside[0] if len(inside) > 1 else math.nan
 
 
-async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes: int = 4) -> dict[str, Any]:
+async def _viewers(
+    server: _Server,
+    n: int,
+    seconds: float,
+    pid: int,
+    processes: int = 4,
+    watched: list[_Server] | None = None,
+) -> dict[str, Any]:
     """``n`` viewers in ``processes`` worker processes (so that the viewers' own lag is not the
     measure); each frame's delay is its arrival time minus the server's sampling time written in
-    the frame (one machine: one clock; the stream's 10 ms time quantum gives +-5 ms)."""
+    the frame (one machine: one clock; the stream's 10 ms time quantum gives +-5 ms). The viewers
+    watch ``server``, or are spread over the ``watched`` servers (followers of ``server``)."""
     import multiprocessing
 
     site = await _site(server.base)
@@ -420,14 +472,16 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes:
     ctx = multiprocessing.get_context("spawn")
     ready, results, stop = ctx.Queue(), ctx.Queue(), ctx.Event()
     shares = [n // processes + (1 if k < n % processes else 0) for k in range(processes)]
+    spread = watched or [server]
     workers = [
         ctx.Process(
             target=_viewer_worker,
-            args=(server.port, server.base, robot, site["stream"], share, ready, stop, results),
+            args=(at.port, at.base, robot, site["stream"], share, ready, stop, results),
             daemon=True,
         )
-        for share in shares
+        for k, share in enumerate(shares)
         if share
+        for at in [spread[k % len(spread)]]
     ]
     for w in workers:
         w.start()
@@ -436,10 +490,13 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes:
     await asyncio.sleep(2.0)  # keyframes and joining out of the way
     await _staff(server, "DELETE", robot)  # the server's own delays from here on
     robots = _children(pid)
+    others = [s.process.pid for s in spread if s is not server]
     start, wall0 = time.time(), time.monotonic()
     cpu0 = [_cpu_seconds(p) for p in [pid, *robots]]
+    other0 = sum(_cpu_seconds(p) for p in others)
     await asyncio.sleep(seconds)
     cpu1 = [_cpu_seconds(p) for p in [pid, *robots]]
+    other1 = sum(_cpu_seconds(p) for p in others)
     wall, end = time.monotonic() - wall0, time.time()
     stop.set()
     gathered = [await asyncio.to_thread(results.get, True, 120) for _ in workers]
@@ -461,6 +518,8 @@ async def _viewers(server: _Server, n: int, seconds: float, pid: int, processes:
         "server_cpu": (cpu1[0] - cpu0[0]) / wall,
         "robot_cpu": sum(b - a for a, b in zip(cpu0[1:], cpu1[1:], strict=True)) / wall,
         "viewer_cpu": viewer_cpu,
+        "follower_cpu": (other1 - other0) / wall,
+        "followers": len(others),
         "server_p50_ms": at_server.get("p50_ms", math.nan),
         "server_p99_ms": at_server.get("p99_ms", math.nan),
     }
@@ -561,6 +620,15 @@ def register(bench: typer.Typer) -> None:
         browser: Annotated[
             bool, typer.Option(help="measure the bandwidth with the visitor page in Chromium (the wire)")
         ] = False,
+        followers: Annotated[
+            int,
+            typer.Option(
+                min=0,
+                max=8,
+                help="follower servers behind a Redis broker the bench starts; the viewers are "
+                "spread over them (serve --broker / --follow)",
+            ),
+        ] = 0,
         output: Annotated[Path | None, typer.Option(help="JSON file")] = None,
     ) -> None:
         """Live-stream bandwidth, many viewers, command-to-motion latency (server in its own process)."""
@@ -574,25 +642,51 @@ def register(bench: typer.Typer) -> None:
             "web",
             ["measure", "value", "unit", "target", "met"],
             meta={"site": site, "seconds": seconds, "viewers": viewers, "seed": seed, "crowd": visitors,
-                  "browser": browser},
+                  "browser": browser, "followers": followers},
         )  # fmt: skip
-        server = _Server(site, visitors, seed)
+        broker = _Broker() if followers else None
+        extra = () if broker is None else ("--broker", broker.url)
+        server = _Server(site, visitors, seed, extra=extra)
+        watched: list[_Server] = []
+        hops: list[float] = []
         try:
             with Progress(transient=True) as progress:
                 task = progress.add_task("starting the server (simulated site)", total=4)
                 server.wait()
+                if broker is not None:
+                    watched = [
+                        _Server(site, visitors, seed, extra=("--follow", broker.url))
+                        for _ in range(followers)
+                    ]
+                    for follower in watched:
+                        follower.wait()
                 progress.update(task, advance=1, description=f"bandwidth, one viewer, {seconds:.0f} s")
                 measure = _browser_bandwidth if browser else _bandwidth
                 bandwidth = asyncio.run(measure(server, seconds))
                 progress.update(task, advance=1, description=f"{viewers} viewers, {viewer_seconds:.0f} s")
                 pid = server.process.pid
-                crowd = asyncio.run(_viewers(server, viewers, viewer_seconds, pid, viewer_processes))
+                crowd = asyncio.run(
+                    _viewers(server, viewers, viewer_seconds, pid, viewer_processes, watched or None)
+                )
+                if broker is not None:
+                    from tourbot.site.default import site_path
+                    from tourbot.site.model import load_site
+                    from tourbot.web.fanout import channel, publish_delays
+
+                    served = asyncio.run(_site(server.base))
+                    robot = served["robots"][0]
+                    name = load_site(site_path(site)).name
+                    hops = sorted(publish_delays(broker.url, channel(name, robot), 5.0))
                 baseline = asyncio.run(_viewers(server, 1, min(10.0, viewer_seconds), pid, 1))
                 progress.update(task, advance=1, description="command-to-motion latency")
                 latency = asyncio.run(_latency(server, trials))
                 progress.update(task, advance=1)
         finally:
+            for follower in watched:
+                follower.close()
             server.close()
+            if broker is not None:
+                broker.close()
         in_server: dict[str, Any] = {}
         if compare:  # the same viewers against the earlier design: the robot steps in the server
             old = _Server(site, visitors, seed, robot_process=False)
@@ -679,6 +773,19 @@ def register(bench: typer.Typer) -> None:
             unit="% of a core",
         )
         report.add(measure="update delay p99 (1 viewer)", value=baseline.get("p99_ms", math.nan), unit="ms")
+        if watched:
+            report.add(
+                measure=f"follower servers' CPU ({len(watched)} processes)",
+                value=100 * crowd.get("follower_cpu", math.nan),
+                unit="% of a core",
+            )
+            report.add(
+                measure="  broker hop, published -> received p50 / p99",
+                value=f"{1000 * hops[len(hops) // 2]:.1f} / {1000 * hops[int(0.99 * (len(hops) - 1))]:.1f}"
+                if hops
+                else "-",
+                unit="ms",
+            )
         if in_server:
             report.add(
                 measure=f"  robot in the server's process: p50 / p99 ({viewers})",
@@ -699,7 +806,15 @@ def register(bench: typer.Typer) -> None:
             baseline_run=baseline,
             latency=latency,
             in_server=in_server,
+            broker_hop_ms=[1000 * h for h in hops],
         )
+        if watched:
+            report.notes.append(
+                f"the {viewers} viewers watch {len(watched)} follower servers (serve --follow) of the "
+                "server that runs the robot (serve --broker) through a Redis broker; their delay is "
+                "counted from the follower's sampling, which adds the broker hop and up to one 5 Hz "
+                "period of waiting for the follower's next tick"
+            )
         report.notes.append(
             "server = `tourbot serve` child process (web server) with the simulated robot in its own "
             "process; the viewers run in their own worker processes on the same 2 cores; a delay is a "

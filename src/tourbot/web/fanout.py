@@ -12,7 +12,8 @@ hub's event loop never waits on the network. A follower's :class:`FollowerLink` 
 view it received; once none has come for ``stale_after`` seconds, the view is shown at rest and
 marked ``failed`` ("no news from the robot's server"), and recovers by itself when views resume.
 
-A view travels as compact JSON on the channel ``tourbot:<site>:<robot>`` (:func:`channel`).
+A view travels as compact JSON on the channel ``tourbot:<site>:<robot>`` (:func:`channel`), with
+the time it was published (``sent``); :func:`publish_delays` measures the hop.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ __all__ = [
     "connect",
     "decode_view",
     "encode_view",
+    "publish_delays",
 ]
 
 log = logging.getLogger(__name__)
@@ -67,9 +69,12 @@ def connect(url: str) -> redis.Redis:
     return client
 
 
-def encode_view(view: RobotView) -> bytes:
-    """A view as compact JSON (positions rounded to the millimetre)."""
-    data = asdict(view)
+def encode_view(view: RobotView, sent: float | None = None) -> bytes:
+    """A view as compact JSON (positions rounded to the millimetre); ``sent``: when it was
+    published (unix s), for the followers' delay."""
+    data: dict[str, Any] = asdict(view)
+    if sent is not None:
+        data["sent"] = sent
     for key in ("x", "y", "theta", "v", "omega"):
         data[key] = round(data[key], 4)
     for key in ("people", "truth"):
@@ -113,6 +118,25 @@ def decode_view(message: bytes) -> RobotView:
         raise BrokerError(f"not a robot view on the broker ({type(exc).__name__}: {exc})") from None
 
 
+def publish_delays(url: str, channel: str, seconds: float) -> list[float]:
+    """Listen on ``channel`` for ``seconds``: each view's arrival minus its publication (s)."""
+    client = connect(url)
+    pubsub = client.pubsub(ignore_subscribe_messages=True)
+    pubsub.subscribe(channel)
+    delays: list[float] = []
+    end = time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            message = pubsub.get_message(timeout=0.5)
+            if message is not None and message.get("type") == "message":
+                with contextlib.suppress(ValueError, KeyError, TypeError):
+                    delays.append(time.time() - float(json.loads(message["data"])["sent"]))
+    finally:
+        pubsub.close()
+        client.close()
+    return delays
+
+
 class PublishingLink:
     """A robot link whose every sampled view is also published on the broker (by a thread of its
     own, latest view only); steps and commands go to the wrapped link."""
@@ -140,7 +164,7 @@ class PublishingLink:
                 if self._closed or view is None:
                     return
             try:
-                self._client.publish(self.channel, encode_view(view))
+                self._client.publish(self.channel, encode_view(view, time.time()))
                 self.published += 1
             except redis.RedisError as exc:  # the broker went away: the followers say so; retry
                 log.warning("cannot publish on %s: %s", self.channel, exc)
