@@ -529,10 +529,15 @@ async def _staff(server: _Server, method: str, robot: str) -> dict[str, Any]:
     """The server's own send-delay statistics (staff API)."""
     import httpx
 
-    async with httpx.AsyncClient(base_url=server.base, trust_env=False) as client:
-        await client.post("/api/login", json={"username": "staff", "password": "bench-password"})
-        response = await client.request(method, f"/api/admin/stream/{robot}")
-        return dict(response.json())
+    try:
+        async with httpx.AsyncClient(base_url=server.base, trust_env=False, timeout=120.0) as client:
+            await client.post("/api/login", json={"username": "staff", "password": "bench-password"})
+            response = await client.request(method, f"/api/admin/stream/{robot}")
+            return dict(response.json())
+    except httpx.HTTPError as exc:  # a server too loaded to answer in two minutes
+        raise typer.BadParameter(
+            f"the server's staff API did not answer: {type(exc).__name__} {exc}"
+        ) from None
 
 
 async def _latency(server: _Server, trials: int) -> dict[str, Any]:
