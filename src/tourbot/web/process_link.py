@@ -10,7 +10,8 @@ Two pipes join the processes:
 * state (robot -> server): the :class:`RobotView` after every step; the server's reader thread
   keeps only the latest (latest-state-wins: it never builds a backlog);
 * control (server -> robot, and back): a command (method name and arguments) and its answer
-  (``None``, or the message of the :class:`TourbotError` it raised). The robot serves commands
+  (``("ok", result)``, or ``("error", message)`` of the :class:`TourbotError` it raised; a
+  picture of the robot's camera comes back as its JPEG bytes). The robot serves commands
   while it waits for its next step, so a command waits for at most one step.
 
 The robot process ignores Ctrl-C (the terminal sends it to the whole process group): the server
@@ -37,7 +38,7 @@ __all__ = ["ProcessLink", "RestartableFactory", "RobotProcessError"]
 
 log = logging.getLogger(__name__)
 
-_COMMANDS = frozenset({"send_goal", "start_tour", "stop"})
+_COMMANDS = frozenset({"send_goal", "start_tour", "around", "photo", "stop"})
 
 
 class RobotProcessError(TourbotError):
@@ -79,13 +80,13 @@ def _robot_main(
                 return
             name, args = message
             try:
-                getattr(link, name)(*args)
-                control.send(None)
+                result = getattr(link, name)(*args)
+                control.send(("ok", result))
             except TourbotError as exc:
-                control.send(str(exc))
+                control.send(("error", str(exc)))
             except Exception as exc:
                 log.exception("robot command %s failed", name)
-                control.send(f"{type(exc).__name__}: {exc}")
+                control.send(("error", f"{type(exc).__name__}: {exc}"))
 
 
 @runtime_checkable
@@ -247,10 +248,16 @@ class ProcessLink:
     def start_tour(self, name: str, exhibits: list[tuple[str, float, float, float]]) -> None:
         self._call("start_tour", name, exhibits)
 
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        self._call("around", exhibit, x, y, theta)
+
+    def photo(self) -> bytes:
+        return bytes(self._call("photo"))
+
     def stop(self) -> None:
         self._call("stop")
 
-    def _call(self, name: str, *args: Any) -> None:
+    def _call(self, name: str, *args: Any) -> Any:
         assert name in _COMMANDS
         self.wait_ready()
         with self._command_lock:
@@ -263,8 +270,10 @@ class ProcessLink:
                 answer = self._control.recv()
             except (BrokenPipeError, EOFError, OSError):
                 raise RobotProcessError(f"robot {self.name}: its process stopped") from None
-        if answer is not None:
-            raise TourbotError(answer)
+        kind, result = answer
+        if kind != "ok":
+            raise TourbotError(str(result))
+        return result
 
     def _stop_process(self, timeout: float) -> None:
         with contextlib.suppress(BrokenPipeError, OSError):

@@ -27,7 +27,9 @@ from tourbot.web.sitedata import import_site
 if TYPE_CHECKING:
     import uvicorn
 
+    from tourbot.sim.camera import ForwardCameraSim
     from tourbot.sim.fleet import FleetPoses
+    from tourbot.sim.simulator import Simulator
 
 __all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
@@ -61,6 +63,39 @@ def _robot_names(n: int) -> list[str]:
     # The TOURBOT and WebFAIR robots' names (Lefkos at FHW, Albert at Hannover, Rhino in Bonn).
     names = ["lefkos", "albert", "rhino", "minerva"]
     return [names[i] if i < len(names) else f"robot{i + 1}" for i in range(n)]
+
+
+#: The high-resolution picture: the forward camera's images this many times as wide and high.
+PHOTO_SCALE = 2.0
+
+
+@dataclass
+class SimulatedPhoto:
+    """A high-resolution picture of a simulated robot's forward camera, rendered on request from
+    where the robot stands now, with the visitors, doors and furniture as they are (JPEG)."""
+
+    simulator: Simulator
+    camera: ForwardCameraSim
+    quality: int = 90
+
+    @classmethod
+    def of(cls, simulator: Simulator, seed: int) -> SimulatedPhoto:
+        from tourbot.sim.camera import ForwardCameraSim
+        from tourbot.vision.camera import ForwardCamera
+
+        camera = ForwardCameraSim(simulator.site, ForwardCamera().scaled(PHOTO_SCALE), seed=seed)
+        return cls(simulator, camera)
+
+    def __call__(self) -> bytes:
+        import cv2
+
+        sim = self.simulator
+        self.camera.set_world(sim.world)
+        frame = self.camera.frame(sim.time, sim.robot.pose, sim.people_positions())
+        ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
+        if not ok:
+            raise TourbotError("the camera's picture could not be encoded")
+        return bytes(jpeg.tobytes())
 
 
 @dataclass(frozen=True)
@@ -121,7 +156,12 @@ class SimulatedRobotFactory:
             ).__enter__()
             robot.runtime.add_sink(RunPublisher(live, robot.runtime))
         period = float(robot.simulator.dt) / self.speedup
-        return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
+        return RuntimeLink(
+            robot.runtime,
+            period=period,
+            site_tours=frozenset(t.name for t in site.tours),
+            camera=SimulatedPhoto.of(robot.simulator, self.seed),
+        )
 
 
 def _fleet(robots: int) -> FleetPoses | None:
