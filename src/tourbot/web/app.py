@@ -518,7 +518,11 @@ def create_app(
             )
         return {"robots": out}
 
-    @app.post("/api/robots/{name}/photo")
+    @app.post(
+        "/api/robots/{name}/photo",
+        response_class=Response,
+        responses={200: {"content": {"image/jpeg": {}}, "description": "the picture"}},
+    )
     async def robot_photo(request: Request, name: str) -> Response:
         """A high-resolution JPEG of the robot's camera, for the visitor in control only, at most
         one per ``photo_interval`` seconds and robot (rendering one takes the robot a moment)."""
