@@ -56,6 +56,10 @@ def test_state_goes_out_and_commands_come_back() -> None:
             link.start_tour("nope", [])
         link.start_tour("highlights", [("a", 3.0, 3.0, 0.0)])
         _wait(lambda: link.view().nav.tour == "highlights")
+        link.around("fresco", 4.0, 2.0, 0.0)
+        _wait(lambda: link.view().nav.tour == "around fresco")
+        jpeg = link.photo()  # a result comes back from the robot's process
+        assert jpeg[:2] == b"\xff\xd8"
         link.stop()
         _wait(lambda: link.view().nav.state == "stopped")
         link.step()  # nothing to do: the robot steps itself

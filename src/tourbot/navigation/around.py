@@ -45,14 +45,15 @@ def exhibit_centre(pose: tuple[float, float, float], distance: float) -> tuple[f
 def viewpoints_around(
     pose: tuple[float, float, float], costmap: CostMap, config: AroundConfig | None = None
 ) -> list[tuple[float, float, float]]:
-    """The poses around the exhibit viewed from ``pose`` (the viewing pose first, then around it
-    counter-clockwise), each facing the exhibit, that ``costmap`` lets the robot stand at and reach
-    from the viewing pose."""
+    """The poses around the exhibit viewed from ``pose``, each facing the exhibit, that ``costmap``
+    lets the robot stand at and reach from the viewing pose, in the order of one sweep around it:
+    counter-clockwise from the viewing pose on a free circle, else from one end of the free arc
+    to the other (the robot never crosses back over the side it cannot reach)."""
     cfg = config or AroundConfig()
     cx, cy = exhibit_centre(pose, cfg.distance)
     start = pose[2] + math.pi  # the viewing pose's direction seen from the exhibit
     reach = costmap.field(pose[:2]) if costmap.traversable(pose[:2]) else None
-    out: list[tuple[float, float, float]] = []
+    free: dict[int, tuple[float, float, float]] = {}
     for k in range(cfg.views):
         phi = start + 2.0 * math.pi * k / cfg.views
         x, y = cx + cfg.distance * math.cos(phi), cy + cfg.distance * math.sin(phi)
@@ -62,5 +63,11 @@ def viewpoints_around(
             r, c = costmap.cell((x, y))
             if not np.isfinite(reach[r, c]):
                 continue
-        out.append((x, y, float(wrap_angle(phi + math.pi))))
-    return out
+        free[k] = (x, y, float(wrap_angle(phi + math.pi)))
+    order = sorted(free)
+    if 0 < len(order) < cfg.views:
+        # start after the widest gap of the circle: the sweep goes from one end of the arc to the other
+        gaps = [(order[(i + 1) % len(order)] - order[i]) % cfg.views or cfg.views for i in range(len(order))]
+        first = (int(np.argmax(gaps)) + 1) % len(order)
+        order = order[first:] + order[:first]
+    return [free[k] for k in order]
