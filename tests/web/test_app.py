@@ -509,6 +509,7 @@ def test_only_the_holder_gets_a_picture_and_not_too_often(
             assert photo.status_code == 200
             assert photo.headers["content-type"] == "image/jpeg"
             image = cv2.imdecode(np.frombuffer(photo.content, np.uint8), cv2.IMREAD_GRAYSCALE)
+            assert image is not None
             assert image.shape == (48, 64)
             again = client.post("/api/robots/lefkos/photo")
             assert again.status_code == 429

@@ -475,13 +475,19 @@ def test_the_holder_and_the_staff_talk_as_text(
     onboard = _Visitor(browser, url + f"/onboard/pair?token={PAIRING}")
     onboard.page.wait_for_selector("#face[data-mood='happy']")
     dialogs: list[str] = []
+
+    def on_dialog(dialog: Any) -> None:
+        dialogs.append(dialog.message)
+        dialog.dismiss()
+
     attack = "<img src=x onerror=\"document.title='owned'\"> Where is the loom?"
     visitor.page.fill("#chat-text", attack)
     visitor.page.click("#chat button")
     visitor.page.wait_for_function("() => document.querySelectorAll('#chat-log .chat-line').length === 1")
 
     staff = _Visitor(browser, url + "/admin")
-    staff.page.on("dialog", lambda d: (dialogs.append(d.message), d.dismiss()))
+    for page in (visitor, onboard, staff):
+        page.page.on("dialog", on_dialog)
     site_db.set_staff("curator", "correct horse")
     staff.page.fill("#username", "curator")
     staff.page.fill("#password", "correct horse")
