@@ -179,7 +179,9 @@ def _fleet(robots: int) -> FleetPoses | None:
 
 def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
-    when ``settings.robot_process`` (else stepped by the server's thread)."""
+    when ``settings.robot_process`` (else stepped by the server's thread). Several robots share
+    one world (:mod:`tourbot.sim.fleet`): each other's bodies and one crowd of visitors, stepped by
+    the first robot's simulator."""
     from tourbot.web.process_link import ProcessLink
 
     links: dict[str, RobotLink] = {}
@@ -190,7 +192,13 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
         share = None if fleet is None else (fleet.name, settings.robots, i)
         if settings.robot_process:
             factory = SimulatedRobotFactory(
-                settings.site, settings.crowd, seed, settings.mcl, foxglove=fox, foxglove_host=settings.host
+                settings.site,
+                settings.crowd,
+                seed,
+                settings.mcl,
+                foxglove=fox,
+                foxglove_host=settings.host,
+                fleet=share,
             )
             links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
         else:
