@@ -184,3 +184,34 @@ def test_the_simulated_robot_takes_a_high_resolution_picture() -> None:
     sim.carry(away)  # type: ignore[attr-defined]
     turned = picture()
     assert corr(turned, reference.frame(0.0, away).image) > 0.9
+
+
+@pytest.mark.slow
+def test_served_robots_in_their_processes_share_one_crowd() -> None:
+    """``serve --robots 2`` as it runs them (each robot in its own process): both simulators
+    have the same visitors (their debug truth, read from each process, names the same people at
+    the same places, give or take a step's walk), and each one's body is in the other's world."""
+    import math
+    import time
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.web.process_link import ProcessLink
+    from tourbot.web.serve import simulated_links
+
+    settings = ServeSettings(site="fhw", robots=2, crowd="40", mcl=MCLConfig().with_samples(100))
+    links = simulated_links(settings)
+    try:
+        assert list(links) == ["lefkos", "albert"]
+        lefkos, albert = links["lefkos"], links["albert"]
+        assert isinstance(lefkos, ProcessLink)
+        time.sleep(3.0)  # both processes stepping
+        a, b = lefkos.view(), albert.view()
+        assert len(a.truth) == len(b.truth) == 40
+        by_id = {p.id: p for p in a.truth}
+        drift = max(math.hypot(by_id[p.id].x - p.x, by_id[p.id].y - p.y) for p in b.truth)
+        assert drift < 0.5  # at most a few steps apart (1.5 m/s at most)
+    finally:
+        for link in links.values():
+            close = getattr(link, "close", None)
+            if callable(close):
+                close()
