@@ -500,13 +500,12 @@ def create_app(
         }
 
     @app.get("/api/robots")
-    def api_robots() -> dict[str, Any]:
-        """Each robot's control queue as a visitor choosing a robot sees it (no one's identity)."""
-        now = time.time()
+    async def api_robots() -> dict[str, Any]:
+        """Each robot's control queue as a visitor choosing a robot sees it (no one's identity;
+        the slots as the hubs last brought them up to date, five times a second)."""
         out = []
         for name, hub in hubs.items():
             arbiter = hub.arbiter
-            arbiter.update(now)
             out.append(
                 {
                     "name": name,
@@ -529,7 +528,6 @@ def create_app(
         client = await asyncio.to_thread(lookup, request.cookies.get(COOKIE))
         hub = hub_for(name)
         now = time.time()
-        hub.arbiter.update(now)
         if client is None or hub.arbiter.holder != client.session:
             raise HTTPException(403, "only the visitor in control of the robot may take pictures")
         wait = hub.photo_at + cfg.photo_interval - now
