@@ -89,6 +89,7 @@ async function takePhoto() {
   const img = $("photo");
   if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
   img.src = URL.createObjectURL(await response.blob());
+  $("photo-link").href = img.src; // the full 1280 x 960 picture in a tab of its own
   $("photo-caption").textContent = `${state.robot}'s camera, ${new Date().toLocaleTimeString()}`;
   $("photo-box").hidden = false;
 }
