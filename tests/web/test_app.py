@@ -361,6 +361,28 @@ def test_each_robot_has_its_own_queue(db: Database, tmp_path: Path) -> None:
     assert lefkos.commands == []
 
 
+def test_a_visitor_drives_one_robot_at_a_time(db: Database, tmp_path: Path) -> None:
+    """Booking another robot gives up the slot at the first: its queue moves on at once."""
+    app = create_app({"lefkos": FakeRobot(), "albert": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path))
+    with TestClient(app) as client:
+        first, second = new_session(client), new_session(client)
+        with (
+            connect(client, first, "lefkos") as a,
+            connect(client, second, "lefkos") as b,
+            connect(client, first, "albert") as a2,
+        ):
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("queued"))
+            a2.send_text(json.dumps({"type": "book"}))
+            wait_for(a2, role_is("holder"))
+            wait_for(b, role_is("holder"))  # lefkos passed on to the next in its queue
+            wait_for(a, role_is("watcher"))
+    reasons = [b[4] for b in db.bookings()]
+    assert reasons[0] == "left"  # the first visitor's slot at lefkos, given up by booking albert
+
+
 def test_the_robot_list_shows_each_queue(db: Database, tmp_path: Path) -> None:
     """A visitor choosing a robot sees which are driven and how many wait (no one's identity)."""
     app = create_app({"lefkos": FakeRobot(), "albert": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path))

@@ -338,6 +338,8 @@ def create_app(
         title="tourbot", lifespan=lifespan, docs_url=None, redoc_url=None, openapi_url="/api/openapi.json"
     )
     app.state.hubs = hubs
+    for hub in hubs.values():
+        hub.museum = list(hubs.values())
     app.state.db = db
     app.state.config = cfg
     # Outermost first: the body limit, then cross-site refusal, both before any route runs.
@@ -877,6 +879,11 @@ async def _execute(
             raise CommandError(
                 f"this address already has {arbiter.config.places_per_group} places in the queue"
             )
+        # one robot at a time: booking this one gives up a slot or a place at another
+        for other in hub.museum:
+            if other is not hub and client.session in (other.arbiter.holder, *other.arbiter.queue):
+                other.arbiter.leave(client.session, now)
+                await other.slot_changed()
         await hub.slot_changed()
         return {"type": "ack", "command": "book"}
     if isinstance(command, Leave):

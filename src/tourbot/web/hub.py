@@ -147,6 +147,7 @@ class RobotHub:
         self.photo_at = float("-inf")  # when the last high-resolution picture was asked for
         self.send_delays: deque[float] = deque(maxlen=100_000)
         self.connections: dict[int, int] = {}
+        self.museum: list[RobotHub] = [self]  # every robot of the server (a visitor books one at a time)
         self._bookings: dict[int, int] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
