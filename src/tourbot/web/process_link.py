@@ -9,9 +9,11 @@ Two pipes join the processes:
 
 * state (robot -> server): the :class:`RobotView` after every step; the server's reader thread
   keeps only the latest (latest-state-wins: it never builds a backlog);
-* control (server -> robot, and back): a command (method name and arguments) and its answer
-  (``("ok", result)``, or ``("error", message)`` of the :class:`TourbotError` it raised; a
-  picture of the robot's camera comes back as its JPEG bytes). The robot serves commands
+* control (server -> robot, and back): a command (its number, method name and arguments) and its
+  answer (the number, then ``"ok"`` and the result, or ``"error"`` and the message of the
+  :class:`TourbotError` it raised; a picture of the robot's camera comes back as its JPEG bytes).
+  The numbers pair them: the late answer of a command that timed out is dropped, never taken for
+  the next command's. The robot serves commands
   while it waits for its next step, so a command waits for at most one step.
 
 The robot process ignores Ctrl-C (the terminal sends it to the whole process group): the server
@@ -78,15 +80,15 @@ def _robot_main(
                 return
             if message is None:  # close
                 return
-            name, args = message
+            seq, name, args = message
             try:
                 result = getattr(link, name)(*args)
-                control.send(("ok", result))
+                control.send((seq, "ok", result))
             except TourbotError as exc:
-                control.send(("error", str(exc)))
+                control.send((seq, "error", str(exc)))
             except Exception as exc:
                 log.exception("robot command %s failed", name)
-                control.send(("error", f"{type(exc).__name__}: {exc}"))
+                control.send((seq, "error", f"{type(exc).__name__}: {exc}"))
 
 
 @runtime_checkable
@@ -137,6 +139,7 @@ class ProcessLink:
         self._closing = False
         self._view: RobotView | None = None
         self._command_lock = threading.Lock()
+        self._seq = 0  # the number of the last command sent
         self._reader: threading.Thread | None = None
         self._spawn(factory)
 
@@ -264,10 +267,15 @@ class ProcessLink:
             if self.failure is not None or not self._process.is_alive():
                 raise RobotProcessError(f"robot {self.name}: {self.failure or 'its process stopped'}")
             try:
-                self._control.send((name, args))
-                if not self._control.poll(self.command_timeout):
-                    raise RobotProcessError(f"robot {self.name}: no answer in {self.command_timeout} s")
-                answer = self._control.recv()
+                self._seq += 1
+                self._control.send((self._seq, name, args))
+                deadline = time.monotonic() + self.command_timeout
+                while True:  # answers to earlier commands that timed out are dropped
+                    if not self._control.poll(max(0.0, deadline - time.monotonic())):
+                        raise RobotProcessError(f"robot {self.name}: no answer in {self.command_timeout} s")
+                    seq, *answer = self._control.recv()
+                    if seq == self._seq:
+                        break
             except (BrokenPipeError, EOFError, OSError):
                 raise RobotProcessError(f"robot {self.name}: its process stopped") from None
         kind, result = answer
