@@ -241,7 +241,8 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     """The real thing, no fake robot: the FHW museum simulated with visitors, MCL and the navigator
     in the robot's own process (4x real time, so that the test stays short), served as by
     ``tourbot demo``. A visitor books, sends the robot to the Alexander map (12 m away), sees it
-    arrive, and the robot drawn on the page stands at the exhibit."""
+    arrive, and the robot drawn on the page stands at the exhibit; a picture of its camera comes at
+    full size, and moving around the exhibit takes it to the next viewpoint."""
     from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
     from tourbot.web.serve import ServeSettings, build_site_app
 
@@ -269,6 +270,18 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
         # the estimated pose the robot acts on, at the exhibit's viewing pose (navigator's tolerance)
         assert abs(shown["x"] - target.x) < 0.6, shown
         assert abs(shown["y"] - target.y) < 0.6, shown
+        # the robot's process renders its forward camera at 1280 x 960 where it stands
+        visitor.page.click("#photo-button")
+        visitor.page.wait_for_function(
+            "() => document.getElementById('photo').naturalWidth > 0", timeout=30000
+        )
+        assert visitor.page.evaluate("() => [photo.naturalWidth, photo.naturalHeight]") == [1280, 960]
+        # ... and goes round the exhibit, viewpoint after viewpoint
+        visitor.page.click("#info [data-around='alexander-map']")
+        visitor.page.wait_for_function(
+            "() => /tour around alexander-map, [1-9]/.test(document.getElementById('state').textContent)",
+            timeout=90000,
+        )
         assert visitor.outside == []
         assert visitor.errors == []
 
