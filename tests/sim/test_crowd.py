@@ -282,9 +282,11 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
 
 
 @settings(max_examples=30, deadline=None)
-@given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2))
-def test_move_people_matches_reference(seed: int, n: int, h: float) -> None:
+@given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2), st.integers(1, 3))
+def test_move_people_matches_reference(seed: int, n: int, h: float, m: int) -> None:
     w = _world(seed, n)
+    # the robot the visitors gather at, and the museum's other robots
+    robots = np.random.default_rng(seed + 1).uniform(0.5, 5.5, size=(m, 2))
     params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3, 0.3])
     args = (
         w["pos"],
@@ -301,8 +303,7 @@ def test_move_people_matches_reference(seed: int, n: int, h: float) -> None:
         0.1,
         w["walkable"],
         0.25,
-        2.5,
-        2.0,
+        robots,
         params,
         h,
     )

@@ -76,3 +76,74 @@ def test_robots_see_and_stop_at_each_other() -> None:
         assert math.hypot(a.robot.pose[0] - b.robot.pose[0], a.robot.pose[1] - b.robot.pose[1]) > gap + 0.2
     finally:
         fleet.close()
+
+
+def _write_crowd_from_another_process(name: str) -> None:
+    fleet = FleetPoses(2, name=name)
+    people = np.array([[1.0, 2.0], [3.0, 4.0]])
+    legs = np.array([[0.9, 2.0], [1.1, 2.0], [2.9, 4.0], [3.1, 4.0]])
+    fleet.write_crowd(7.5, people, np.array([[0.5, 0.0], [0.0, -0.5]]), legs, np.full(4, 0.06))
+    fleet.close()
+
+
+def test_the_crowd_is_shared_between_processes() -> None:
+    fleet = FleetPoses(2)
+    try:
+        assert fleet.read_crowd() is None  # the host has not written yet
+        process = multiprocessing.get_context("spawn").Process(
+            target=_write_crowd_from_another_process, args=(fleet.name,)
+        )
+        process.start()
+        process.join(timeout=60)
+        assert process.exitcode == 0
+        crowd = fleet.read_crowd()
+        assert crowd is not None
+        assert crowd.time == 7.5
+        assert crowd.positions.tolist() == [[1.0, 2.0], [3.0, 4.0]]
+        assert crowd.velocities.tolist() == [[0.5, 0.0], [0.0, -0.5]]
+        assert crowd.centres.shape == (4, 2)
+        assert crowd.radii.tolist() == [0.06] * 4
+    finally:
+        fleet.close()
+
+
+def test_the_robots_of_one_museum_see_one_crowd_that_walks_around_both() -> None:
+    """The first robot's simulator steps the one crowd; the second sees the same visitors (its
+    laser hits them, its truth is theirs) and has none of its own; no visitor walks into either."""
+    from dataclasses import replace
+
+    from tourbot.app.simulated import crowd_config
+
+    site = default_site()
+    crowd = crowd_config("peak")
+    assert crowd is not None
+    config = SimConfig(dynamic_objects=False, crowd=replace(crowd, robot_interest=0.0))
+    starts = [site.exhibits[i].viewing_pose for i in (0, 3)]
+    fleet = FleetPoses(2)
+    try:
+        host = Simulator(site, config, seed=0, start=starts[0], fleet=(fleet, 0))
+        guest = Simulator(site, config, seed=1, start=starts[1], fleet=(fleet, 1))
+        assert guest.crowd is None
+        assert host.crowd is not None
+        hits = 0
+        closest = math.inf
+        radius = config.robot.radius
+        for _ in range(600):  # 60 s: visitors who did not avoid the guest walked into it (10 times)
+            host.poll()
+            records = guest.poll() or ()
+            assert np.array_equal(guest.people_positions(), host.people_positions())
+            scans = [r for r in records if isinstance(r, Scan)]
+            if scans:
+                hits += int(guest.laser.last_person_hits.sum())
+            people = host.people_positions()
+            for sim in (host, guest):
+                x, y, _ = sim.robot.pose
+                closest = min(closest, float(np.min(np.hypot(people[:, 0] - x, people[:, 1] - y))))
+        assert len(guest.truth().people) == host.crowd.num_people > 100
+        assert guest.truth().people[5].vx == pytest.approx(float(host.crowd.velocities[5, 0]))
+        assert hits > 0  # the guest's laser sees the host's visitors
+        # nobody inside a robot (the crowd's hard constraint: robot radius + half a person's)
+        assert closest >= radius + 0.5 * crowd.person_radius - 1e-6
+        assert guest.collisions.person == 0
+    finally:
+        fleet.close()

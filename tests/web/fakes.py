@@ -84,6 +84,31 @@ class FakeRobot:
             self.tour, self.tour_name, self.done = list(exhibits), name, 0
             self._next_stop()
 
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        """Four viewpoints 1 m around the point 1 m ahead of the viewing pose, run as a tour."""
+        cx, cy = x + math.cos(theta), y + math.sin(theta)
+        stops = [
+            (exhibit, cx - math.cos(theta + k * math.pi / 2), cy - math.sin(theta + k * math.pi / 2), 0.0)
+            for k in range(4)
+        ]
+        with self._lock:
+            self.commands.append(("around", exhibit))
+            self.tour, self.tour_name, self.done = stops, f"around {exhibit}", 0
+            self._next_stop()
+
+    def photo(self) -> bytes:
+        """A small grey JPEG, marked with the robot's position (a real robot renders its camera)."""
+        import cv2
+        import numpy as np
+
+        image = np.full((48, 64), 128, dtype=np.uint8)
+        with self._lock:
+            self.commands.append(("photo", None))
+            image[:, : max(1, min(63, int(self.x * 5)))] = 200
+        ok, jpeg = cv2.imencode(".jpg", image)
+        assert ok
+        return bytes(jpeg.tobytes())
+
     def stop(self) -> None:
         with self._lock:
             self.commands.append(("stop", None))

@@ -361,6 +361,188 @@ def test_each_robot_has_its_own_queue(db: Database, tmp_path: Path) -> None:
     assert lefkos.commands == []
 
 
+def test_a_visitor_drives_one_robot_at_a_time(db: Database, tmp_path: Path) -> None:
+    """Booking another robot gives up the slot at the first: its queue moves on at once."""
+    app = create_app({"lefkos": FakeRobot(), "albert": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path))
+    with TestClient(app) as client:
+        first, second = new_session(client), new_session(client)
+        with (
+            connect(client, first, "lefkos") as a,
+            connect(client, second, "lefkos") as b,
+            connect(client, first, "albert") as a2,
+        ):
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("queued"))
+            a2.send_text(json.dumps({"type": "book"}))
+            wait_for(a2, role_is("holder"))
+            wait_for(b, role_is("holder"))  # lefkos passed on to the next in its queue
+            wait_for(a, role_is("watcher"))
+    reasons = [b[4] for b in db.bookings()]
+    assert reasons[0] == "left"  # the first visitor's slot at lefkos, given up by booking albert
+
+
+def test_the_robot_list_shows_each_queue(db: Database, tmp_path: Path) -> None:
+    """A visitor choosing a robot sees which are driven and how many wait (no one's identity)."""
+    app = create_app({"lefkos": FakeRobot(), "albert": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path))
+    with TestClient(app) as client:
+        free = {r["name"]: r for r in client.get("/api/robots").json()["robots"]}
+        assert free["lefkos"]["driven"] is False
+        assert free["albert"]["waiting"] == 0
+        first, second = new_session(client), new_session(client)
+        with connect(client, first, "lefkos") as a, connect(client, second, "lefkos") as b:
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("queued"))
+            robots = {r["name"]: r for r in client.get("/api/robots").json()["robots"]}
+        assert robots["lefkos"] == {
+            "name": "lefkos", "driven": True, "waiting": 1, "state": "idle", "staff_stop": False
+        }  # fmt: skip
+        assert robots["albert"]["driven"] is False
+        assert str(first) not in json.dumps(robots)
+
+
+def test_the_text_channel_between_the_holder_and_the_staff(client: TestClient, db: Database) -> None:
+    """The holder writes, the message is stored in the site database, the staff read it and answer;
+    the answer reaches the holder's page, never a watcher's; a watcher cannot write."""
+    holder, watcher = new_session(client), new_session(client)
+    with connect(client, holder) as a, connect(client, watcher) as b:
+        b.send_text(json.dumps({"type": "chat", "text": "hello?"}))
+        assert "only the visitor in control" in wait_for(b, lambda m: m["type"] == "error")["message"]
+        a.send_text(json.dumps({"type": "book"}))
+        wait_for(a, role_is("holder"))
+        a.send_text(json.dumps({"type": "chat", "text": "<img src=x onerror=alert(1)> where is the loom?"}))
+        mine = wait_for(a, lambda m: m["type"] == "chat")
+        assert mine["sender"] == "visitor"
+        assert mine["text"] == "<img src=x onerror=alert(1)> where is the loom?"  # text, the page shows it so
+        robot_id = hub_of(client).robot_id
+        stored = db.messages(robot_id)
+        assert [(m.sender, m.text) for m in stored] == [("visitor", mine["text"])]
+        assert client.get("/api/admin/robots/lefkos/chat").status_code == 401
+        login(client)
+        seen = client.get("/api/admin/robots/lefkos/chat").json()
+        assert seen["holder"] is True
+        assert [(m["sender"], m["current"]) for m in seen["messages"]] == [("visitor", True)]
+        reply = client.post("/api/admin/robots/lefkos/chat", json={"text": "Behind you, on the left."})
+        assert reply.status_code == 200
+        answer = wait_for(a, lambda m: m["type"] == "chat" and m["sender"] == "staff")
+        assert answer["text"] == "Behind you, on the left."
+        b.send_text(json.dumps({"type": "ping"}))
+        for _ in range(30):  # the watcher's stream goes on, without the conversation
+            message = b.receive()
+            assert "Behind you" not in str(message.get("text"))
+        assert [m.sender for m in db.messages(robot_id, session_id=stored[0].session)] == ["visitor", "staff"]
+        a.send_text(json.dumps({"type": "leave"}))
+        wait_for(a, role_is("watcher"))
+    assert client.post("/api/admin/robots/lefkos/chat", json={"text": "still there?"}).status_code == 409
+
+
+def test_the_text_channel_is_bounded_and_rate_limited(client: TestClient, db: Database) -> None:
+    token = new_session(client)
+    with connect(client, token) as ws:
+        ws.send_text(json.dumps({"type": "book"}))
+        wait_for(ws, role_is("holder"))
+        ws.send_text(json.dumps({"type": "chat", "text": "x" * 301}))
+        error = wait_for(ws, lambda m: m["type"] == "error")["message"]
+        assert "at most 300" in error
+        assert "xxxx" not in error
+        ws.send_text(json.dumps({"type": "chat", "text": "\u0007 \u200b"}))
+        assert "empty" in wait_for(ws, lambda m: m["type"] == "error")["message"]
+        for i in range(3):  # the burst
+            ws.send_text(json.dumps({"type": "chat", "text": f"message {i}"}))
+            wait_for(ws, lambda m: m["type"] == "ack" and m["command"] == "chat")
+        ws.send_text(json.dumps({"type": "chat", "text": "one too many"}))
+        assert "too many messages" in wait_for(ws, lambda m: m["type"] == "error")["message"]
+        assert [m.text for m in db.messages(hub_of(client).robot_id)] == [f"message {i}" for i in range(3)]
+        login(client)
+        too_long = client.post("/api/admin/robots/lefkos/chat", json={"text": "<b>" * 200})
+        assert too_long.status_code == 422
+        assert "<b>" not in too_long.text
+        assert client.post("/api/admin/robots/lefkos/chat", json={"text": ""}).status_code == 422
+        cross = {"origin": "http://evil.example"}
+        assert (
+            client.post("/api/admin/robots/lefkos/chat", json={"text": "hi"}, headers=cross).status_code
+            == 403
+        )
+        codes = [
+            client.post("/api/admin/robots/lefkos/chat", json={"text": f"r{i}"}).status_code for i in range(5)
+        ]
+        assert codes[:3] == [200, 200, 200]
+        assert codes[3:] == [429, 429]
+
+
+def test_the_onboard_screen_sees_and_answers_the_holder(client: TestClient) -> None:
+    holder = new_session(client)
+    client.cookies.clear()
+    client.get(f"/onboard/pair?token={PAIRING}", follow_redirects=False)
+    screen = client.cookies.get(COOKIE)
+    client.cookies.clear()
+    assert screen
+    with connect(client, screen, query="?screen=onboard") as onboard:
+        onboard.send_text(json.dumps({"type": "chat", "text": "anyone there?"}))
+        assert "no web visitor" in wait_for(onboard, lambda m: m["type"] == "error")["message"]
+        with connect(client, holder) as a:
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            a.send_text(json.dumps({"type": "chat", "text": "Hello from far away"}))
+            got = wait_for(onboard, lambda m: m["type"] == "chat")
+            assert (got["sender"], got["text"]) == ("visitor", "Hello from far away")
+            onboard.send_text(json.dumps({"type": "chat", "text": "Hello from the museum"}))
+            back = wait_for(a, lambda m: m["type"] == "chat" and m["sender"] == "onboard")
+            assert back["text"] == "Hello from the museum"
+
+
+def test_the_holder_asks_to_move_around_an_exhibit(client: TestClient, robot: FakeRobot) -> None:
+    first, second = new_session(client), new_session(client)
+    with connect(client, first) as a, connect(client, second) as b:
+        b.send_text(json.dumps({"type": "around", "exhibit": "amphora"}))
+        assert "book a slot" in wait_for(b, lambda m: m["type"] == "error")["message"]
+        a.send_text(json.dumps({"type": "book"}))
+        wait_for(a, role_is("holder"))
+        a.send_text(json.dumps({"type": "around", "exhibit": "nowhere"}))
+        assert wait_for(a, lambda m: m["type"] == "error")["message"] == "no such exhibit or tour"
+        a.send_text(json.dumps({"type": "around", "exhibit": "amphora"}))
+        wait_for(a, lambda m: m["type"] == "ack" and m["command"] == "around")
+        moving = wait_for(a, lambda m: m["type"] == "status" and m["nav"]["tour"] == "around amphora")
+        assert moving["nav"]["exhibit"] == "amphora"
+    assert robot.commands == [("around", "amphora")]
+
+
+def test_only_the_holder_gets_a_picture_and_not_too_often(
+    robot: FakeRobot, db: Database, tmp_path: Path
+) -> None:
+    import cv2
+
+    config = WebConfig(speech_dir=tmp_path, photo_interval=1.0)
+    with TestClient(create_app({"lefkos": robot}, db, None, config)) as client:
+        holder, watcher = new_session(client), new_session(client)
+        with connect(client, holder) as a:
+            assert client.post("/api/robots/lefkos/photo").status_code == 403  # no session
+            client.cookies.set(COOKIE, watcher)
+            assert client.post("/api/robots/lefkos/photo").status_code == 403
+            a.send_text(json.dumps({"type": "book"}))
+            wait_for(a, role_is("holder"))
+            client.cookies.set(COOKIE, holder)
+            cross = client.post("/api/robots/lefkos/photo", headers={"origin": "http://evil.example"})
+            assert cross.status_code == 403
+            photo = client.post("/api/robots/lefkos/photo")
+            assert photo.status_code == 200
+            assert photo.headers["content-type"] == "image/jpeg"
+            image = cv2.imdecode(np.frombuffer(photo.content, np.uint8), cv2.IMREAD_GRAYSCALE)
+            assert image is not None
+            assert image.shape == (48, 64)
+            again = client.post("/api/robots/lefkos/photo")
+            assert again.status_code == 429
+            assert int(again.headers["retry-after"]) >= 1
+            time.sleep(1.05)
+            assert client.post("/api/robots/lefkos/photo").status_code == 200
+            assert client.post("/api/robots/ghost/photo").status_code == 404
+        client.cookies.clear()
+    assert [c for c in robot.commands if c[0] == "photo"] == [("photo", None), ("photo", None)]
+
+
 def test_holder_and_watcher_get_the_path_of_a_new_goal(client: TestClient) -> None:
     """The planned path is published by the hub (one JSON text shared by all the viewers)."""
     with connect(client, new_session(client)) as holder, connect(client, new_session(client)) as watcher:

@@ -241,7 +241,8 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     """The real thing, no fake robot: the FHW museum simulated with visitors, MCL and the navigator
     in the robot's own process (4x real time, so that the test stays short), served as by
     ``tourbot demo``. A visitor books, sends the robot to the Alexander map (12 m away), sees it
-    arrive, and the robot drawn on the page stands at the exhibit."""
+    arrive, and the robot drawn on the page stands at the exhibit; a picture of its camera comes at
+    full size, and moving around the exhibit takes it to the next viewpoint."""
     from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
     from tourbot.web.serve import ServeSettings, build_site_app
 
@@ -269,6 +270,18 @@ def test_visitor_sends_the_simulated_robot_to_an_exhibit(
         # the estimated pose the robot acts on, at the exhibit's viewing pose (navigator's tolerance)
         assert abs(shown["x"] - target.x) < 0.6, shown
         assert abs(shown["y"] - target.y) < 0.6, shown
+        # the robot's process renders its forward camera at 1280 x 960 where it stands
+        visitor.page.click("#photo-button")
+        visitor.page.wait_for_function(
+            "() => document.getElementById('photo').naturalWidth > 0", timeout=30000
+        )
+        assert visitor.page.evaluate("() => [photo.naturalWidth, photo.naturalHeight]") == [1280, 960]
+        # ... and goes round the exhibit, viewpoint after viewpoint
+        visitor.page.click("#info [data-around='alexander-map']")
+        visitor.page.wait_for_function(
+            "() => /tour around alexander-map, [1-9]/.test(document.getElementById('state').textContent)",
+            timeout=90000,
+        )
         assert visitor.outside == []
         assert visitor.errors == []
 
@@ -405,3 +418,158 @@ def test_status_messages_are_not_repeated(server: tuple[str, FakeRobot], browser
     assert len(lines) == 3
     assert "Arrived at Amphora" in lines[0]
     assert "×10" in lines[1] or "×10" in lines[2]
+
+
+@pytest.fixture
+def two_robots(site_db: Database, tmp_path: Path) -> Iterator[tuple[str, FakeRobot, FakeRobot]]:
+    """Two robots in one hall (WebFAIR), each with its own queue."""
+    if find_node_modules() is None:
+        pytest.skip("three.js is not installed (npm ci)")
+    lefkos, albert = FakeRobot(speed=2.0), FakeRobot(speed=2.0)
+    config = WebConfig(site_name="Test hall", speech_dir=tmp_path / "speech", onboard_token=PAIRING)
+    with LiveServer(create_app({"lefkos": lefkos, "albert": albert}, site_db, _room(), config)) as url:
+        yield url, lefkos, albert
+
+
+def _option(visitor: _Visitor, robot: str) -> str:
+    return str(visitor.page.locator(f"#robot option[value='{robot}']").inner_text())
+
+
+def test_a_visitor_chooses_a_free_robot_while_another_is_driven(
+    two_robots: tuple[str, FakeRobot, FakeRobot], browser: Any
+) -> None:
+    url, lefkos, albert = two_robots
+    first = _Visitor(browser, url)
+    first.page.wait_for_selector("#exhibits button[data-exhibit='amphora']")
+    first.page.click("#book")
+    first.slot("holder")
+    second = _Visitor(browser, url)
+    # the list says which robot is driven and which is free (refreshed every 5 s)
+    second.page.wait_for_function(
+        "() => document.querySelector(\"#robot option[value='lefkos']\")?.textContent.includes('driven')",
+        timeout=15000,
+    )
+    assert "free" in _option(second, "albert")
+    assert second.page.input_value("#robot") == "lefkos"
+    second.page.select_option("#robot", "albert")
+    second.page.wait_for_url("**/?robot=albert")
+    second.page.wait_for_selector("#exhibits button[data-exhibit='loom']")
+    second.page.click("#book")
+    second.slot("holder")  # albert's queue: not behind lefkos' holder
+    second.page.click("#exhibits button[data-exhibit='loom']")
+    second.page.wait_for_function(
+        "() => document.getElementById('state').textContent.includes('Arrived at Loom')", timeout=20000
+    )
+    assert albert.commands == [("goal", (3.0, 6.0, 0.0, "loom"))]
+    assert lefkos.commands == []
+    shown = second.page.evaluate("() => window.tourbot.live.scene(0).find(b => b.id === 0)")
+    assert abs(shown["x"] - albert.x) < 0.1  # the page follows the robot chosen
+    first.page.wait_for_function(
+        "() => document.querySelector(\"#robot option[value='albert']\")?.textContent.includes('driven')",
+        timeout=15000,
+    )
+    for visitor in (first, second):
+        assert visitor.outside == []
+        assert visitor.errors == []
+
+
+def test_the_holder_and_the_staff_talk_as_text(
+    server: tuple[str, FakeRobot], browser: Any, site_db: Database
+) -> None:
+    """The text channel in the pages: the visitor in control writes, the staff page shows it as text
+    (markup in it stays text), the staff answer, the visitor's page shows the answer; the robot's
+    own screen shows both and answers too."""
+    url, _ = server
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_selector("#book")
+    assert visitor.page.is_disabled("#chat-text")  # only the visitor in control writes
+    visitor.page.click("#book")
+    visitor.slot("holder")
+    onboard = _Visitor(browser, url + f"/onboard/pair?token={PAIRING}")
+    onboard.page.wait_for_selector("#face[data-mood='happy']")
+    dialogs: list[str] = []
+
+    def on_dialog(dialog: Any) -> None:
+        dialogs.append(dialog.message)
+        dialog.dismiss()
+
+    attack = "<img src=x onerror=\"document.title='owned'\"> Where is the loom?"
+    visitor.page.fill("#chat-text", attack)
+    visitor.page.click("#chat button")
+    visitor.page.wait_for_function("() => document.querySelectorAll('#chat-log .chat-line').length === 1")
+
+    staff = _Visitor(browser, url + "/admin")
+    for page in (visitor, onboard, staff):
+        page.page.on("dialog", on_dialog)
+    site_db.set_staff("curator", "correct horse")
+    staff.page.fill("#username", "curator")
+    staff.page.fill("#password", "correct horse")
+    staff.page.click("#login button")
+    staff.page.wait_for_selector("#talk:not([hidden])")
+    staff.page.wait_for_function(
+        "() => document.getElementById('chat-log').textContent.includes('Where is the loom?')", timeout=10000
+    )
+    line = staff.page.locator("#chat-log .chat-line").first
+    assert attack in line.inner_text()
+    assert staff.page.locator("#chat-log img").count() == 0  # shown as text, not as markup
+    staff.page.fill("#chat-text", "Behind you, on the left.")
+    staff.page.click("#chat button")
+    visitor.page.wait_for_function(
+        "() => document.getElementById('chat-log').textContent.includes('Staff: Behind you, on the left.')",
+        timeout=10000,
+    )
+    onboard.page.wait_for_function(
+        "() => document.getElementById('chat-log').textContent.includes('Behind you')", timeout=10000
+    )
+    assert "Where is the loom?" in onboard.page.inner_text("#chat-log")
+    assert onboard.page.locator("#chat-log img").count() == 0
+    onboard.page.fill("#chat-text", "Waving at you now!")
+    onboard.page.click("#chat button")
+    visitor.page.wait_for_function(
+        "() => document.getElementById('chat-log').textContent.includes('At the robot: Waving at you now!')",
+        timeout=10000,
+    )
+    visitor.page.reload()  # the conversation is kept over a reload, each line once
+    visitor.page.wait_for_function("() => document.querySelectorAll('#chat-log .chat-line').length === 3")
+    assert visitor.page.locator("#chat-log img").count() == 0
+    for page in (visitor, staff, onboard):
+        assert page.page.title() != "owned"
+        assert page.outside == []
+        assert page.errors == []
+    assert dialogs == []
+
+
+def test_the_holder_takes_a_picture_and_moves_around_an_exhibit(
+    server: tuple[str, FakeRobot], browser: Any
+) -> None:
+    url, robot = server
+    watcher = _Visitor(browser, url)
+    watcher.page.wait_for_selector("#book")
+    watcher.page.click("#photo-button")
+    watcher.page.wait_for_function(
+        "() => document.getElementById('messages').textContent.includes('Take control first')"
+    )
+    assert watcher.page.is_hidden("#photo-box")
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_selector("#book")
+    visitor.page.click("#book")
+    visitor.slot("holder")
+    visitor.page.click("#photo-button")
+    visitor.page.wait_for_selector("#photo-box:not([hidden])")
+    visitor.page.wait_for_function("() => document.getElementById('photo').naturalWidth > 0")
+    size = visitor.page.evaluate("() => [photo.naturalWidth, photo.naturalHeight]")
+    assert size == [64, 48]  # the robot's JPEG, decoded by the browser
+    visitor.page.click("#photo-button")  # at once again: one picture per 5 s
+    visitor.page.wait_for_function(
+        "() => document.getElementById('messages').textContent.includes('No picture: one picture at a time')"
+    )
+    visitor.page.click("#exhibits button[data-exhibit='amphora']")
+    visitor.page.click("#info [data-around='amphora']")
+    visitor.page.wait_for_function(
+        "() => document.getElementById('state').textContent.includes('tour around amphora')", timeout=10000
+    )
+    assert robot.commands[-1] == ("around", "amphora")
+    assert [c for c in robot.commands if c[0] == "photo"] == [("photo", None)]
+    for page in (watcher, visitor):
+        assert page.outside == []
+        assert page.errors == []

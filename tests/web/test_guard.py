@@ -8,7 +8,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tourbot.web.guard import Command, CommandError, GuardConfig, json_depth, origin_allowed, parse_command
+from tourbot.web.guard import (
+    Chat,
+    Command,
+    CommandError,
+    GuardConfig,
+    json_depth,
+    origin_allowed,
+    parse_command,
+)
 
 CONFIG = GuardConfig()
 _json = st.recursive(
@@ -16,15 +24,16 @@ _json = st.recursive(
     lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
     max_leaves=30,
 )
+_TYPES = ["book", "leave", "ping", "stop", "goto", "exhibit", "tour", "around", "chat", "say"]
 _commands = st.fixed_dictionaries(
-    {"type": st.sampled_from(["book", "leave", "ping", "stop", "goto", "exhibit", "tour", "say", "x"])},
+    {"type": st.sampled_from([*_TYPES, "x"])},
     optional={
         "x": _json,
         "y": st.floats() | st.integers() | st.text(max_size=5),
         "theta": st.floats(),
         "exhibit": _json,
         "tour": st.text(max_size=80),
-        "text": st.text(max_size=300),
+        "text": st.text(max_size=320),
     },
 )
 
@@ -56,7 +65,9 @@ def test_any_json_gives_a_command_or_a_command_error(data: object, wrap: int) ->
     except CommandError:
         return
     assert wrap == 0  # a command is never found inside an array
-    assert command.type in ("book", "leave", "ping", "stop", "goto", "exhibit", "tour", "say")
+    assert command.type in _TYPES
+    if isinstance(command, Chat):
+        assert 1 <= len(command.text) <= 300
     assert isinstance(command, Command.__origin__.__args__)  # type: ignore[attr-defined]
 
 

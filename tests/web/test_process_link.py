@@ -28,6 +28,35 @@ class _PickyRobot(FakeRobot):
         super().start_tour(name, exhibits)
 
 
+class _SlowCamera(FakeRobot):
+    """Its first picture takes 1.5 s (a large render on a loaded machine), the others none."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pictures = 0
+
+    def photo(self) -> bytes:
+        self.pictures += 1
+        if self.pictures == 1:
+            time.sleep(1.5)
+        return super().photo()
+
+
+def test_a_late_answer_is_never_taken_for_the_next_commands() -> None:
+    link = ProcessLink(_SlowCamera, name="slow", command_timeout=0.5)
+    try:
+        link.wait_ready(60)
+        with pytest.raises(RobotProcessError, match=r"no answer in 0\.5 s"):
+            link.photo()
+        time.sleep(1.5)  # the late picture's answer arrives meanwhile
+        link.send_goal(6.0, 2.0)  # takes its own answer, not the late picture's
+        assert link.photo()[:2] == b"\xff\xd8"  # a picture, not the goal's answer
+        link.stop()
+        _wait(lambda: link.view().nav.state == "stopped")
+    finally:
+        link.close()
+
+
 def _broken() -> RobotLink:
     raise TourbotError("the site file is missing")
 
@@ -56,6 +85,10 @@ def test_state_goes_out_and_commands_come_back() -> None:
             link.start_tour("nope", [])
         link.start_tour("highlights", [("a", 3.0, 3.0, 0.0)])
         _wait(lambda: link.view().nav.tour == "highlights")
+        link.around("fresco", 4.0, 2.0, 0.0)
+        _wait(lambda: link.view().nav.tour == "around fresco")
+        jpeg = link.photo()  # a result comes back from the robot's process
+        assert jpeg[:2] == b"\xff\xd8"
         link.stop()
         _wait(lambda: link.view().nav.state == "stopped")
         link.step()  # nothing to do: the robot steps itself

@@ -2,6 +2,8 @@ from __future__ import annotations
 
 from typing import Any, cast
 
+import pytest
+
 from tourbot.runtime.loop import Runtime
 from tourbot.snapshot import (
     GroundTruth,
@@ -96,3 +98,48 @@ def test_site_tours_run_on_the_robot_and_web_tours_as_goals() -> None:
     assert fake.calls[-1] == ("goal", 5.0, 5.0, 0.0)
     link.stop()
     assert fake.calls[-1:] == [("stop",)]
+
+
+@pytest.mark.slow
+def test_the_simulated_robot_moves_around_an_exhibit() -> None:
+    """In the simulated FHW museum (no visitors), "move around this exhibit" takes the robot to
+    each viewpoint around the trireme model in turn, facing it, on its own estimate."""
+    import math
+
+    from tourbot.app.simulated import SimulationSettings, simulated_runtime
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.navigation.around import AroundConfig, exhibit_centre, viewpoints_around
+    from tourbot.navigation.navigator import SiteNavigator
+    from tourbot.site.default import default_site
+
+    site = default_site()
+    exhibit = next(e for e in site.exhibits if e.name == "trireme-model")
+    settings = SimulationSettings(crowd="empty", seed=1, mcl=MCLConfig().with_samples(300))
+    robot = simulated_runtime(site, settings, start=exhibit.viewing_pose, record=False)
+    config = AroundConfig(dwell=0.0)
+    link = RuntimeLink(robot.runtime, around_config=config)
+    assert isinstance(robot.navigator, SiteNavigator)
+    views = viewpoints_around(exhibit.viewing_pose, robot.navigator.costmap, config)
+    assert len(views) >= 4
+    link.around(exhibit.name, *exhibit.viewing_pose)
+    assert link.view().nav.tour == f"around {exhibit.name}"
+    reached: list[int] = []  # the viewpoint each arrival was at, in order
+    estimate_error: list[float] = []
+    while robot.simulator.time < 240.0 and link.view().nav.tour is not None:
+        link.step()
+        snap = robot.runtime.snapshot()
+        if snap.navigation.mode != NavMode.FINISHED:  # arrived at a viewpoint (seen once each)
+            continue
+        true = robot.simulator.robot.pose
+        k = min(range(len(views)), key=lambda i: math.dist(views[i][:2], true[:2]))
+        reached.append(k)
+        assert snap.pose is not None
+        estimate_error.append(math.dist(snap.pose.pose[:2], true[:2]))
+        assert math.dist(views[k][:2], true[:2]) < 0.4, (k, true)
+        centre = exhibit_centre(exhibit.viewing_pose, config.distance)
+        facing = math.atan2(centre[1] - true[1], centre[0] - true[0])
+        assert abs(math.remainder(true[2] - facing, 2 * math.pi)) < 0.35
+    assert link.view().nav.tour is None, "the robot did not finish going around"
+    assert reached == list(range(len(views)))  # every viewpoint, in the sweep's order
+    assert max(estimate_error) < 0.3
+    print(f"around {exhibit.name}: {len(views)} viewpoints in {robot.simulator.time:.1f} s simulated")

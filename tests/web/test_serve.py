@@ -143,3 +143,75 @@ def test_the_robots_of_one_museum_share_their_poses() -> None:
             assert math.hypot(other[0] - there[0], other[1] - there[1]) < 1e-9
     finally:
         fleet.close()
+
+
+def test_the_simulated_robot_takes_a_high_resolution_picture() -> None:
+    """The served simulated robot's picture: its forward camera rendered at twice the size of the
+    images its vision uses (1280 x 960), from where the robot stands when asked."""
+    import math
+
+    import cv2
+    import numpy as np
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.sim.camera import ForwardCameraSim
+    from tourbot.site.default import default_site
+    from tourbot.vision.camera import ForwardCamera
+    from tourbot.web.runtime_link import RuntimeLink
+    from tourbot.web.serve import SimulatedRobotFactory
+
+    site = default_site()
+    link = SimulatedRobotFactory("fhw", "empty", 0, MCLConfig().with_samples(100))()
+    assert isinstance(link, RuntimeLink)
+    link.step()
+    sim = link.runtime.source
+    reference = ForwardCameraSim(site, ForwardCamera().scaled(2.0), seed=0)
+
+    def picture() -> np.ndarray:
+        image = cv2.imdecode(np.frombuffer(link.photo(), np.uint8), cv2.IMREAD_GRAYSCALE)
+        assert image is not None
+        return np.asarray(image, dtype=np.float64)
+
+    def corr(a: np.ndarray, b: np.ndarray) -> float:
+        return float(np.corrcoef(a.ravel(), b.ravel())[0, 1])
+
+    here = sim.robot.pose  # type: ignore[attr-defined]
+    first = picture()
+    assert first.shape == (960, 1280)
+    assert corr(first, reference.frame(0.0, here).image) > 0.9
+    away = (here[0], here[1], here[2] + math.pi)
+    assert corr(first, reference.frame(0.0, away).image) < 0.5
+    sim.carry(away)  # type: ignore[attr-defined]
+    turned = picture()
+    assert corr(turned, reference.frame(0.0, away).image) > 0.9
+
+
+@pytest.mark.slow
+def test_served_robots_in_their_processes_share_one_crowd() -> None:
+    """``serve --robots 2`` as it runs them (each robot in its own process): both simulators
+    have the same visitors (their debug truth, read from each process, names the same people at
+    the same places, give or take a step's walk), and each one's body is in the other's world."""
+    import math
+    import time
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.web.process_link import ProcessLink
+    from tourbot.web.serve import simulated_links
+
+    settings = ServeSettings(site="fhw", robots=2, crowd="40", mcl=MCLConfig().with_samples(100))
+    links = simulated_links(settings)
+    try:
+        assert list(links) == ["lefkos", "albert"]
+        lefkos, albert = links["lefkos"], links["albert"]
+        assert isinstance(lefkos, ProcessLink)
+        time.sleep(3.0)  # both processes stepping
+        a, b = lefkos.view(), albert.view()
+        assert len(a.truth) == len(b.truth) == 40
+        by_id = {p.id: p for p in a.truth}
+        drift = max(math.hypot(by_id[p.id].x - p.x, by_id[p.id].y - p.y) for p in b.truth)
+        assert drift < 0.5  # at most a few steps apart (1.5 m/s at most)
+    finally:
+        for link in links.values():
+            close = getattr(link, "close", None)
+            if callable(close):
+                close()

@@ -96,7 +96,14 @@ def register(app: typer.Typer) -> None:
         host: Annotated[str, typer.Option(help="address to listen on")] = "127.0.0.1",
         port: Annotated[int, typer.Option(help="TCP port")] = 8000,
         database: DatabaseOpt = None,
-        robots: Annotated[int, typer.Option(min=1, max=8, help="simulated robots, each with its queue")] = 1,
+        robots: Annotated[
+            int,
+            typer.Option(
+                min=1,
+                max=8,
+                help="simulated robots in one museum (one world: one crowd), each with its queue",
+            ),
+        ] = 1,
         crowd: Annotated[str, typer.Option(help="visitors: empty, sparse, peak or a number")] = "sparse",
         seed: Annotated[int, typer.Option(help="simulation seed")] = 0,
         slot_minutes: Annotated[float, typer.Option(help="length of a control slot")] = 10.0,

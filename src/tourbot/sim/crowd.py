@@ -467,8 +467,7 @@ def move_people(
     res: float,
     walkable: NDArray[np.bool_],
     coarse_res: float,
-    robot_x: float,
-    robot_y: float,
+    robots: FloatArray,
     params: FloatArray,
     h: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
@@ -478,10 +477,11 @@ def move_people(
     velocity over ``tau``; exponential, anisotropic repulsion from other people, each with their own
     personal-space radius ``radii`` (:func:`social_forces`; those with no desired velocity stand),
     from the nearest wall (the
-    distance transform of the map) and from the robot; a pull towards the group's leader when
+    distance transform of the map) and from each robot (``robots`` ``(M, 2)``, several in one
+    museum; the first is the one visitors gather at); a pull towards the group's leader when
     more than 1.5 m away. Speeds are capped at ``cap``. Then hard constraints: a person closer
     than half a radius to a wall is pushed out, one who would leave the walkable space stays
-    where they were (and stops), nobody enters the robot. Legs advance their gait phase with the
+    where they were (and stops), nobody enters a robot. Legs advance their gait phase with the
     distance walked; walkers face where they go, visitors standing at the robot face it.
     """
     n = pos.shape[0]
@@ -513,14 +513,15 @@ def move_people(
         )
         ax = acc[i, 0] + mag * wall_dir[r, c, 0]
         ay = acc[i, 1] + mag * wall_dir[r, c, 1]
-        # Robot.
-        rx = pos[i, 0] - robot_x
-        ry = pos[i, 1] - robot_y
-        rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
-        gap = rd - params[_P_ROBOT_R] - radius
-        mag = params[_P_ROBOT_A] / params[_P_ROBOT_B] * math.exp(-gap / params[_P_ROBOT_B]) / rd
-        ax += mag * rx
-        ay += mag * ry
+        # Robots.
+        for k in range(robots.shape[0]):
+            rx = pos[i, 0] - robots[k, 0]
+            ry = pos[i, 1] - robots[k, 1]
+            rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
+            gap = rd - params[_P_ROBOT_R] - radius
+            mag = params[_P_ROBOT_A] / params[_P_ROBOT_B] * math.exp(-gap / params[_P_ROBOT_B]) / rd
+            ax += mag * rx
+            ay += mag * ry
         # Group cohesion.
         lx = pos[group[i], 0] - pos[i, 0]
         ly = pos[group[i], 1] - pos[i, 1]
@@ -563,20 +564,21 @@ def move_people(
                 py = pos[i, 1]
                 vx = 0.0
                 vy = 0.0
-        # Not into the robot.
-        rx = px - robot_x
-        ry = py - robot_y
-        rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
-        if rd < min_gap:
-            px = robot_x + rx / rd * min_gap
-            py = robot_y + ry / rd * min_gap
+        # Not into a robot.
+        for k in range(robots.shape[0]):
+            rx = px - robots[k, 0]
+            ry = py - robots[k, 1]
+            rd = max(math.sqrt(rx * rx + ry * ry), 1e-9)
+            if rd < min_gap:
+                px = robots[k, 0] + rx / rd * min_gap
+                py = robots[k, 1] + ry / rd * min_gap
         # Gait and heading.
         sp = math.sqrt(vx * vx + vy * vy)
         new_phase[i] = (phase[i] + 2.0 * math.pi * sp * h / params[_P_STRIDE]) % (2.0 * math.pi)
         if sp > 0.1:
             new_heading[i] = math.atan2(vy, vx)
         elif at_robot[i]:
-            new_heading[i] = math.atan2(robot_y - py, robot_x - px)
+            new_heading[i] = math.atan2(robots[0, 1] - py, robots[0, 0] - px)
         else:
             new_heading[i] = heading[i]
         new_pos[i, 0] = px
@@ -601,14 +603,12 @@ def move_people_reference(
     res: float,
     walkable: NDArray[np.bool_],
     coarse_res: float,
-    robot_x: float,
-    robot_y: float,
+    robots: FloatArray,
     params: FloatArray,
     h: float,
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Plain-numpy :func:`move_people` for the property tests."""
     tau, radius = params[_P_TAU], params[_P_RADIUS]
-    robot = np.array([robot_x, robot_y])
 
     def wall(points: FloatArray) -> tuple[FloatArray, FloatArray]:
         c = np.clip(np.floor(points[:, 0] / res).astype(np.int64), 0, wall_dist.shape[1] - 1)
@@ -630,10 +630,13 @@ def move_people_reference(
     )
     wd, wn = wall(pos)
     acc += (params[_P_WALL_A] / params[_P_WALL_B] * np.exp(-(wd - radius) / params[_P_WALL_B]))[:, None] * wn
-    rel = pos - robot
-    rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
-    gap = rd - params[_P_ROBOT_R] - radius
-    acc += (params[_P_ROBOT_A] / params[_P_ROBOT_B] * np.exp(-gap / params[_P_ROBOT_B]) / rd)[:, None] * rel
+    for robot in robots:
+        rel = pos - robot
+        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+        gap = rd - params[_P_ROBOT_R] - radius
+        acc += (params[_P_ROBOT_A] / params[_P_ROBOT_B] * np.exp(-gap / params[_P_ROBOT_B]) / rd)[
+            :, None
+        ] * rel
     to_lead = pos[group] - pos
     acc += params[_P_COHESION] * np.where(np.linalg.norm(to_lead, axis=-1, keepdims=True) > 1.5, to_lead, 0.0)
 
@@ -654,14 +657,15 @@ def move_people_reference(
     new_vel[keep_y, 0] = 0.0
     new_pos[stop] = pos[stop]
     new_vel[stop] = 0.0
-    rel = new_pos - robot
-    rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
     min_gap = params[_P_ROBOT_R] + 0.5 * radius
-    close = rd < min_gap
-    new_pos = np.where(close[:, None], robot + rel / rd[:, None] * min_gap, new_pos)
+    for robot in robots:
+        rel = new_pos - robot
+        rd = np.maximum(np.linalg.norm(rel, axis=-1), 1e-9)
+        close = rd < min_gap
+        new_pos = np.where(close[:, None], robot + rel / rd[:, None] * min_gap, new_pos)
     speed = np.linalg.norm(new_vel, axis=-1)
     new_phase = np.mod(phase + 2.0 * np.pi * speed * h / params[_P_STRIDE], 2.0 * np.pi)
-    face_robot = np.arctan2(robot_y - new_pos[:, 1], robot_x - new_pos[:, 0])
+    face_robot = np.arctan2(robots[0, 1] - new_pos[:, 1], robots[0, 0] - new_pos[:, 0])
     new_heading = np.where(
         speed > 0.1, np.arctan2(new_vel[:, 1], new_vel[:, 0]), np.where(at_robot, face_robot, heading)
     )
@@ -793,6 +797,7 @@ class Crowd:
         if self._count > 0 and len(self._space.free_cells) == 0:
             raise CrowdError("the map has no free space wide enough for a person")
         self._robot = self._local_pose(robot_pose)
+        self._robots = np.ascontiguousarray(self._robot[None, :2])  # this robot first, then the others
         # The pose the standing ring is laid out from: the robot's while it drives, kept while it
         # stands (so the ring stays put as it turns on the spot).
         self._anchor = self._robot.copy()
@@ -1137,11 +1142,19 @@ class Crowd:
 
     # ---- stepping ----------------------------------------------------------------------------
 
-    def step(self, dt: float, robot_pose: ArrayLike, rng: np.random.Generator) -> None:
-        """Advance the crowd by ``dt`` seconds with the robot at ``robot_pose`` (world)."""
+    def step(
+        self, dt: float, robot_pose: ArrayLike, rng: np.random.Generator, others: ArrayLike | None = None
+    ) -> None:
+        """Advance the crowd by ``dt`` seconds with the robot at ``robot_pose`` (world) and the
+        museum's other robots at ``others`` (world ``(M, 2)``): the visitors gather at the robot,
+        follow it and step out of its way; every robot's body they walk around and never enter."""
         if dt < 0:
             raise CrowdError(f"cannot step a crowd backwards in time (dt={dt})")
         robot = self._local_pose(robot_pose)
+        more = np.zeros((0, 2)) if others is None else np.asarray(others, dtype=np.float64).reshape(-1, 2)
+        self._robots = np.ascontiguousarray(
+            np.vstack([robot[None, :2], self._local_point(more).reshape(-1, 2)])
+        )
         if dt > 0:
             self._robot_vel = (robot[:2] - self._robot[:2]) / dt
             self._robot_moving = float(np.hypot(*self._robot_vel)) > 0.05
@@ -1416,8 +1429,7 @@ class Crowd:
             sp.res,
             sp.walkable,
             sp.coarse_res,
-            float(self._robot[0]),
-            float(self._robot[1]),
+            self._robots,
             self._params,
             h,
         )

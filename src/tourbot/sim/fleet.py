@@ -1,29 +1,59 @@
-"""Several robots in one museum: their true poses shared between the robots' processes.
+"""Several robots in one museum: one world shared between the robots' processes.
 
 Each simulated robot runs in its own process (``tourbot serve --robots N``) with its own
 simulator. A :class:`FleetPoses` is a small block of shared memory (``multiprocessing.
-shared_memory``) holding every robot's true pose: each simulator writes its own after each step
-and reads the others', whose bodies then stand in its world. Its laser sees them (as discs of the
-robots' radius) and its base stops against them, so the navigators, which only see the laser,
-avoid each other as they avoid visitors. The poses are truth, used by the simulators only; a
-robot's estimators never read them.
+shared_memory``) holding the world they share:
 
-A pose is three doubles written without a lock: a reader may, rarely, see one robot's pose
-half-updated from one step to the next, at most one step (10 cm) off, which the laser's noise
-already exceeds.
+* every robot's true pose: each simulator writes its own after each step and reads the others',
+  whose bodies then stand in its world. Its laser sees them (as discs of the robots' radius) and
+  its base stops against them, so the navigators, which only see the laser, avoid each other as
+  they avoid visitors;
+* the visitors: one crowd, stepped by the first robot's simulator (the world's host) with every
+  robot's pose, and written here after each of its steps (centres, velocities and the legs the
+  laser sees); the other robots' simulators read it instead of running a crowd of their own. So
+  every laser sees the same visitors, every base stops at them, and the visitors walk around
+  every robot (they gather at, follow and step aside for the host robot only).
+
+Why the host's process and not a crowd process of its own: the crowd then restarts with the host
+(the supervisor restarts a robot process that dies) and costs no further process on a 2-core
+machine; the price is that a restarted host draws a fresh crowd.
+
+Truth, used by the simulators only; a robot's estimators never read it. A pose is three doubles
+written without a lock: a reader may, rarely, see one robot's pose half-updated from one step to
+the next, at most one step (10 cm) off, which the laser's noise already exceeds. The crowd is
+larger and is written under a sequence counter (odd while writing): a reader that saw it change
+reads again.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from multiprocessing import shared_memory
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["FleetPoses"]
+__all__ = ["FleetCrowd", "FleetPoses"]
 
 _FIELDS = 4  # x, y, theta, present (1.0 once the robot has written its pose)
+_HEADER = 4  # the crowd's sequence counter, visitors, leg circles, time
+_PERSON = 4  # x, y, vx, vy
+_CIRCLE = 3  # x, y, radius
+#: The most visitors the shared crowd holds (the peak-hour FHW crowd has about 210).
+MAX_VISITORS = 1024
+
+
+@dataclass(frozen=True)
+class FleetCrowd:
+    """The shared crowd at one instant (world frame): visitors' centres and velocities ``(N, 2)``,
+    and the circles the laser sees (legs or bodies, ``(K, 2)`` and ``(K,)``)."""
+
+    time: float
+    positions: NDArray[np.float64]
+    velocities: NDArray[np.float64]
+    centres: NDArray[np.float64]
+    radii: NDArray[np.float64]
 
 
 class FleetPoses:
@@ -33,16 +63,25 @@ class FleetPoses:
         if size < 1:
             raise ValueError("a fleet has at least one robot")
         self.size = size
-        nbytes = size * _FIELDS * 8
+        floats = size * _FIELDS + _HEADER + MAX_VISITORS * (_PERSON + 2 * _CIRCLE)
+        nbytes = floats * 8
         if name is None:
             self._shm = shared_memory.SharedMemory(create=True, size=nbytes)
             self._owner = True
         else:
             self._shm = shared_memory.SharedMemory(name=name)
             self._owner = False
-        self._poses: NDArray[np.float64] = np.ndarray((size, _FIELDS), dtype=np.float64, buffer=self._shm.buf)
+        block: NDArray[np.float64] = np.ndarray((floats,), dtype=np.float64, buffer=self._shm.buf)
+        self._poses = block[: size * _FIELDS].reshape(size, _FIELDS)
+        start = size * _FIELDS
+        self._header = block[start : start + _HEADER]
+        start += _HEADER
+        self._people = block[start : start + MAX_VISITORS * _PERSON].reshape(MAX_VISITORS, _PERSON)
+        start += MAX_VISITORS * _PERSON
+        self._circles = block[start:].reshape(2 * MAX_VISITORS, _CIRCLE)
+        self._block = block
         if self._owner:
-            self._poses[:] = 0.0
+            block[:] = 0.0
 
     @property
     def name(self) -> str:
@@ -61,9 +100,45 @@ class FleetPoses:
         out = rows[keep, :2]
         return out[np.isfinite(out).all(axis=1)]
 
+    def write_crowd(
+        self,
+        time: float,
+        positions: NDArray[np.float64],
+        velocities: NDArray[np.float64],
+        centres: NDArray[np.float64],
+        radii: NDArray[np.float64],
+    ) -> None:
+        """The host's crowd now (at most :data:`MAX_VISITORS` visitors are shared)."""
+        n = min(len(positions), MAX_VISITORS)
+        k = min(len(radii), 2 * MAX_VISITORS)
+        head = self._header
+        head[0] += 1.0  # odd: being written
+        self._people[:n, :2] = positions[:n]
+        self._people[:n, 2:] = velocities[:n]
+        self._circles[:k, :2] = centres[:k]
+        self._circles[:k, 2] = radii[:k]
+        head[1], head[2], head[3] = n, k, time
+        head[0] += 1.0
+
+    def read_crowd(self) -> FleetCrowd | None:
+        """The crowd the host last wrote (None before its first write)."""
+        head = self._header
+        for _ in range(100):
+            seq = float(head[0])
+            if seq == 0.0:
+                return None
+            if seq % 2.0 == 1.0:
+                continue
+            n, k, time = int(head[1]), int(head[2]), float(head[3])
+            people = self._people[:n].copy()
+            circles = self._circles[:k].copy()
+            if float(head[0]) == seq:
+                return FleetCrowd(time, people[:, :2], people[:, 2:], circles[:, :2], circles[:, 2])
+        return None
+
     def close(self) -> None:
         """Detach (and, for the creator, free the memory)."""
-        del self._poses
+        del self._poses, self._header, self._people, self._circles, self._block
         self._shm.close()
         if self._owner:
             self._shm.unlink()

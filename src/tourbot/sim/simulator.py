@@ -4,7 +4,8 @@ Each :meth:`Simulator.poll` advances the world by ``dt``: the base follows its c
 limits (stopped by walls, doors, furniture and invisible obstacles, which count as collisions), the
 crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture change,
 the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the project's
-one ray caster against the world and the visitors' legs; each camera on the robot
+one ray caster against the world and the visitors' legs (several robots in one museum share one
+world: ``tourbot.sim.fleet``, the first robot's simulator stepping the one crowd); each camera on the robot
 (``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward camera) renders its image
 when one is due. It returns the odometry reading, the scan and the images as records; the truth
 (robot, people, doors, furniture, collisions) is kept beside them for metrics only, and the whole
@@ -30,7 +31,7 @@ from tourbot.maps.objects import distance_to_segments
 from tourbot.records import Image, Odometry, Record, RobotLog, Scan
 from tourbot.robot import DiffDriveConfig
 from tourbot.sim.crowd import Crowd, CrowdConfig
-from tourbot.sim.fleet import FleetPoses, nearest
+from tourbot.sim.fleet import FleetCrowd, FleetPoses, nearest
 from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
@@ -116,7 +117,11 @@ class Simulator:
         # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
         self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
         self.crowd: Crowd | None = None
-        if cfg.crowd is not None:
+        # several robots in one museum: the first robot's simulator hosts the one crowd, the
+        # others see it through the fleet's shared memory (sim.fleet)
+        self._guest = fleet is not None and fleet[1] != 0
+        self._shared: FleetCrowd | None = None
+        if cfg.crowd is not None and not self._guest:
             crowd_cfg = cfg.crowd
             if not crowd_cfg.points_of_interest and site.exhibits:
                 from dataclasses import replace
@@ -169,7 +174,14 @@ class Simulator:
         self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
         if self.crowd is not None:
-            self.crowd.step(dt, self.robot.pose, self._rng_crowd)
+            self.crowd.step(dt, self.robot.pose, self._rng_crowd, others)
+            if self.fleet is not None:
+                self.fleet[0].write_crowd(
+                    self._time, self.crowd.positions, self.crowd.velocities, *self.legs()
+                )
+        elif self._guest:
+            assert self.fleet is not None
+            self._shared = self.fleet[0].read_crowd() or self._shared
         self._check_people()
         if self.objects.step(self._time, dt, self._rng_objects):
             self._world = self.objects.grid()
@@ -229,7 +241,10 @@ class Simulator:
 
     def truth(self) -> GroundTruth:
         pos = self.people_positions()
-        vel = self.crowd.velocities if self.crowd is not None else np.zeros((0, 2))
+        if self.crowd is not None:
+            vel = self.crowd.velocities
+        else:
+            vel = self._shared.velocities if self._shared is not None else np.zeros((0, 2))
         people = tuple(
             PersonState(i, float(p[0]), float(p[1]), float(v[0]), float(v[1]))
             for i, (p, v) in enumerate(zip(pos, vel, strict=True))
@@ -246,8 +261,10 @@ class Simulator:
 
     def legs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """People's legs as circles (centres ``(K, 2)``, radii ``(K,)``); doors and furniture are
-        :meth:`DynamicObjects.segments`."""
+        :meth:`DynamicObjects.segments`. A guest of a fleet: the host's crowd."""
         if self.crowd is None:
+            if self._shared is not None:
+                return self._shared.centres, self._shared.radii
             return np.zeros((0, 2)), np.zeros(0)
         return self._crowd_circles()
 
@@ -258,7 +275,9 @@ class Simulator:
         return self._legs
 
     def people_positions(self) -> NDArray[np.float64]:
-        return self.crowd.positions.copy() if self.crowd is not None else np.zeros((0, 2))
+        if self.crowd is not None:
+            return self.crowd.positions.copy()
+        return self._shared.positions.copy() if self._shared is not None else np.zeros((0, 2))
 
     @property
     def world(self) -> OccupancyGrid:
@@ -299,10 +318,10 @@ class Simulator:
             self.robot.apply(pose, v, w)
 
     def _check_people(self) -> None:
-        if self.crowd is None:
+        centres, radii = self.legs()
+        if not len(radii):
             self._contact("person", False)
             return
-        centres, radii = self._crowd_circles()
         x, y, _ = self.robot.pose
         d = np.hypot(centres[:, 0] - x, centres[:, 1] - y) - radii
         radius = self.config.robot.radius

@@ -7,6 +7,13 @@
 * ``/ws/{robot}`` the live stream (binary, :mod:`tourbot.web.stream`) and the commands (JSON,
   :mod:`tourbot.web.guard`), one connection per page.
 
+Several robots in one museum (WebFAIR): each robot has its own control queue, and a visitor chooses
+the robot on the page (``/api/robots`` says who is driving each and how many wait). The visitor in
+control may ask for a high-resolution picture of the robot's camera (``/api/robots/{robot}/photo``),
+ask the robot to move around an exhibit, and write to the people on site: the staff answer from the
+staff page, the robot's own screen shows the messages and answers too (the text channel, stored in
+the site database).
+
 A session is a random token in an HttpOnly cookie; the server keeps only its hash. Only the slot
 holder's commands move a robot, checked here on the server, never in the page.
 """
@@ -19,6 +26,7 @@ import hashlib
 import hmac
 import io
 import json
+import math
 import os
 import re
 import time
@@ -50,7 +58,10 @@ from tourbot.maps.grid import OccupancyGrid
 from tourbot.web.db import Database, DatabaseError, check_link_url
 from tourbot.web.face import FaceConfig
 from tourbot.web.guard import (
+    MAX_CHAT_TEXT,
+    Around,
     Book,
+    Chat,
     CommandError,
     GoTo,
     GoToExhibit,
@@ -121,6 +132,7 @@ class WebConfig:
     max_body_bytes: int = 64 * 1024
     login_attempts_per_minute: int = 6
     drive_robots: bool = True
+    photo_interval: float = 5.0  # s between two high-resolution pictures of one robot's camera
 
 
 @dataclass
@@ -130,6 +142,7 @@ class _Client:
     staff: bool
     seen: float = field(default_factory=time.time)  # last use (the server ends idle sessions)
     stored: float = field(default_factory=time.time)  # last use written to the database
+    chat: TokenBucket | None = None  # the text channel's rate limit of this session
 
 
 class _Login(BaseModel):
@@ -170,6 +183,11 @@ class _Place(BaseModel):
     x: Annotated[float, Field(ge=-1e4, le=1e4)]
     y: Annotated[float, Field(ge=-1e4, le=1e4)]
     theta: Annotated[float, Field(ge=-10, le=10)] | None = None
+
+
+class _ChatIn(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    text: Annotated[str, Field(min_length=1, max_length=MAX_CHAT_TEXT)]
 
 
 class _TourIn(BaseModel):
@@ -320,6 +338,8 @@ def create_app(
         title="tourbot", lifespan=lifespan, docs_url=None, redoc_url=None, openapi_url="/api/openapi.json"
     )
     app.state.hubs = hubs
+    for hub in hubs.values():
+        hub.museum = list(hubs.values())
     app.state.db = db
     app.state.config = cfg
     # Outermost first: the body limit, then cross-site refusal, both before any route runs.
@@ -481,6 +501,51 @@ def create_app(
             "three": modules is not None,
         }
 
+    @app.get("/api/robots")
+    async def api_robots() -> dict[str, Any]:
+        """Each robot's control queue as a visitor choosing a robot sees it (no one's identity;
+        the slots as the hubs last brought them up to date, five times a second)."""
+        out = []
+        for name, hub in hubs.items():
+            arbiter = hub.arbiter
+            out.append(
+                {
+                    "name": name,
+                    "driven": arbiter.holder is not None,
+                    "waiting": len(arbiter.queue),
+                    "state": hub.nav_status.get("state", "idle"),
+                    "staff_stop": arbiter.staff_stopped,
+                }
+            )
+        return {"robots": out}
+
+    @app.post(
+        "/api/robots/{name}/photo",
+        response_class=Response,
+        responses={200: {"content": {"image/jpeg": {}}, "description": "the picture"}},
+    )
+    async def robot_photo(request: Request, name: str) -> Response:
+        """A high-resolution JPEG of the robot's camera, for the visitor in control only, at most
+        one per ``photo_interval`` seconds and robot (rendering one takes the robot a moment)."""
+        client = await asyncio.to_thread(lookup, request.cookies.get(COOKIE))
+        hub = hub_for(name)
+        now = time.time()
+        if client is None or hub.arbiter.holder != client.session:
+            raise HTTPException(403, "only the visitor in control of the robot may take pictures")
+        wait = hub.photo_at + cfg.photo_interval - now
+        if wait > 0:
+            raise HTTPException(
+                429,
+                "one picture at a time: wait a few seconds",
+                headers={"Retry-After": str(math.ceil(wait))},
+            )
+        hub.photo_at = now
+        try:
+            jpeg = await hub.command(lambda link: link.photo())
+        except TourbotError:
+            raise HTTPException(503, "the robot's camera gave no picture") from None
+        return Response(jpeg, media_type="image/jpeg", headers={"Cache-Control": "no-store"})
+
     @app.get("/api/exhibits/{slug}")
     def api_exhibit(slug: str) -> dict[str, object]:
         try:
@@ -602,6 +667,30 @@ def create_app(
         hub_for(name).stream.reset_fidelity()
         return {"ok": True}
 
+    @app.get("/api/admin/robots/{name}/chat")
+    def admin_chat(_: Staff, name: str) -> dict[str, Any]:
+        """The robot's latest messages, and whether a visitor is in control to write to."""
+        hub = hub_for(name)
+        holder = hub.arbiter.holder
+        return {
+            "holder": holder is not None,
+            "messages": [
+                {**m.as_dict(), "current": m.session == holder} for m in db.messages(hub.robot_id, limit=50)
+            ],
+        }
+
+    @app.post("/api/admin/robots/{name}/chat")
+    async def admin_chat_reply(staff: Staff, name: str, body: _ChatIn) -> dict[str, Any]:
+        """A staff member writes to the visitor in control of the robot."""
+        hub = hub_for(name)
+        if not _chat_allowed(staff, cfg.guard):
+            raise HTTPException(429, "too many messages: slow down")
+        holder = hub.arbiter.holder
+        if holder is None:
+            raise HTTPException(409, "no visitor is in control of this robot")
+        item = await hub.post_chat(holder, "staff", body.text)
+        return item.as_dict()
+
     @app.post("/api/robots/{name}/staff-stop")
     async def staff_stop(_: Staff, name: str) -> dict[str, bool]:
         hub = hub_for(name)
@@ -683,7 +772,8 @@ async def _send_loop(
     status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
     sent_truth: str | None = None
-    said = len(hub.announcements)
+    said = hub.announcements[-1].seq if hub.announcements else 0
+    chat_seen = 0  # this visitor's conversation is sent from its start (a reload keeps it)
     while ws.application_state == WebSocketState.CONNECTED:
         seen = await hub.wait_change(seen)
         scene = hub.scene
@@ -719,6 +809,11 @@ async def _send_loop(
                 audio = None if item.audio is None else f"/speech/{item.audio}"
                 await ws.send_text(json.dumps({"type": "say", "text": item.text, "audio": audio}))
                 said = item.seq
+        for line in hub.chat:
+            if line.id > chat_seen:
+                chat_seen = line.id
+                if onboard or line.session == client.session:
+                    await ws.send_text(json.dumps({"type": "chat", **line.as_dict()}))
 
 
 async def _reply(ws: WebSocket, kind: str, **fields: Any) -> None:
@@ -752,7 +847,7 @@ async def _receive_loop(
             continue
         try:
             command = parse_command(raw or b"", cfg.guard)
-            answer = await _execute(command, hub, client, db, now, phrasebook, host)
+            answer = await _execute(command, hub, client, db, now, phrasebook, host, cfg.guard)
         except TourbotError as exc:
             # a command's error names the rule; the database's would quote the client's slug
             if isinstance(exc, CommandError):
@@ -775,6 +870,7 @@ async def _execute(
     now: float,
     phrasebook: PhraseBook | None,
     host: str = "?",
+    guard: GuardConfig | None = None,
 ) -> dict[str, Any] | None:
     """Carry out one command; :class:`CommandError` when this client may not."""
     arbiter = hub.arbiter
@@ -791,12 +887,19 @@ async def _execute(
             raise CommandError(
                 f"this address already has {arbiter.config.places_per_group} places in the queue"
             )
+        # one robot at a time: booking this one gives up a slot or a place at another
+        for other in hub.museum:
+            if other is not hub and client.session in (other.arbiter.holder, *other.arbiter.queue):
+                other.arbiter.leave(client.session, now)
+                await other.slot_changed()
         await hub.slot_changed()
         return {"type": "ack", "command": "book"}
     if isinstance(command, Leave):
         arbiter.leave(client.session, now)
         await hub.slot_changed()
         return {"type": "ack", "command": "leave"}
+    if isinstance(command, Chat):
+        return await _chat(command.text, hub, client, phrasebook is not None, guard or GuardConfig())
     if phrasebook is not None:
         if arbiter.staff_stopped:
             raise CommandError("the robot was stopped by staff")
@@ -824,10 +927,43 @@ async def _execute(
             raise CommandError(f"tour {tour.slug!r} has no exhibits")
         plan = [(e.slug, e.x, e.y, e.theta) for e in stops]
         await hub.command(lambda link: link.start_tour(tour.slug, plan))
+    elif isinstance(command, Around):
+        exhibit = await asyncio.to_thread(db.exhibit, command.exhibit)
+        await hub.command(lambda link: link.around(exhibit.slug, exhibit.x, exhibit.y, exhibit.theta))
+        await asyncio.to_thread(db.record_visit, exhibit.slug, hub.robot_id, source, now)
     elif isinstance(command, Stop):
         await hub.command(lambda link: link.stop())
     await hub.notify()
     return {"type": "ack", "command": command.type}
+
+
+def _chat_allowed(client: _Client, guard: GuardConfig) -> bool:
+    """The text channel's rate limit of one session (staff, visitor or on-board screen)."""
+    if client.chat is None:
+        client.chat = TokenBucket(guard.chat_per_minute / 60.0, guard.chat_burst)
+    return client.chat.allow(time.monotonic())
+
+
+async def _chat(
+    text: str, hub: RobotHub, client: _Client, onboard: bool, guard: GuardConfig
+) -> dict[str, Any]:
+    """A message from the visitor in control to the people on site, or from the on-board screen
+    back to that visitor."""
+    text = "".join(c for c in text if c.isprintable() or c == " ").strip()
+    if not text:
+        raise CommandError("an empty message is not sent")
+    if not _chat_allowed(client, guard):
+        raise CommandError("too many messages: slow down")
+    holder = hub.arbiter.holder
+    if onboard:
+        if holder is None:
+            raise CommandError("no web visitor is in control to write to")
+        await hub.post_chat(holder, "onboard", text)
+    else:
+        if holder != client.session:
+            raise CommandError("only the visitor in control of the robot can write to the staff")
+        await hub.post_chat(client.session, "visitor", text)
+    return {"type": "ack", "command": "chat"}
 
 
 def _why_not(hub: RobotHub, session: int, now: float) -> str:

@@ -3,7 +3,8 @@ database" of exhibits, and the task specification saying where the exhibits are)
 
 Tables: robots, exhibits with their media (pictures, links), tours (ordered exhibits), visitor
 sessions, control bookings (who held which robot when, and why the slot ended), visits (statistics:
-which exhibit was shown, to whom) and staff users. SQLite by default, PostgreSQL through
+which exhibit was shown, to whom), staff users, and the text messages between the visitor in control
+of a robot and the people on site (WebFAIR's tele-conferencing). SQLite by default, PostgreSQL through
 ``DATABASE_URL``. The schema is owned by the alembic migrations in ``tourbot/web/migrations``,
 applied at every start (:func:`open_database`), so an upgrade keeps a site's content.
 """
@@ -23,6 +24,7 @@ from pathlib import Path
 from sqlalchemy import (
     Float,
     ForeignKey,
+    Index,
     Integer,
     String,
     Text,
@@ -40,10 +42,12 @@ from tourbot.errors import TourbotError
 __all__ = [
     "Base",
     "Booking",
+    "ChatMessage",
     "Database",
     "DatabaseError",
     "Exhibit",
     "Media",
+    "MessageData",
     "Robot",
     "StaffUser",
     "Tour",
@@ -166,6 +170,20 @@ class Visit(Base):
     at: Mapped[float] = mapped_column(Float)
 
 
+class ChatMessage(Base):
+    """A text message of one conversation: the visitor session in control of a robot (``session``)
+    and the people on site; ``sender`` is ``visitor``, ``staff`` or ``onboard``."""
+
+    __tablename__ = "chat_messages"
+    __table_args__ = (Index("ix_chat_messages_robot", "robot_id", "id"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True)
+    robot_id: Mapped[int] = mapped_column(ForeignKey("robots.id"))
+    session_id: Mapped[int] = mapped_column(ForeignKey("visitor_sessions.id"))
+    sender: Mapped[str] = mapped_column(String(16))
+    text: Mapped[str] = mapped_column(String(500))
+    at: Mapped[float] = mapped_column(Float)
+
+
 def default_url(site: str = "site") -> str:
     """``$DATABASE_URL``, else a SQLite file ``tourbot-SITE.db`` in the current folder."""
     return os.environ.get("DATABASE_URL") or f"sqlite:///tourbot-{site}.db"
@@ -268,6 +286,25 @@ class TourData:
             "description": self.description,
             "exhibits": list(self.exhibits),
         }
+
+
+@dataclass(frozen=True)
+class MessageData:
+    """A chat message as the pages get it (the conversation's session id is the server's only)."""
+
+    id: int
+    robot_id: int
+    session: int
+    sender: str
+    text: str
+    at: float
+
+    def as_dict(self) -> dict[str, object]:
+        return {"id": self.id, "sender": self.sender, "text": self.text, "at": round(self.at, 3)}
+
+
+CHAT_SENDERS = ("visitor", "staff", "onboard")
+MAX_CHAT_CHARS = 500
 
 
 def _exhibit_data(e: Exhibit) -> ExhibitData:
@@ -505,6 +542,30 @@ class Database:
                 select(Exhibit.slug, func.count(Visit.id)).join(Visit, isouter=True).group_by(Exhibit.slug)
             )
             return {slug: int(n) for slug, n in rows}
+
+    # --- the text channel ----------------------------------------------------------------
+    def add_message(self, robot_id: int, session_id: int, sender: str, text: str, now: float) -> MessageData:
+        """Store a message of the conversation with visitor session ``session_id`` on a robot."""
+        if sender not in CHAT_SENDERS:
+            raise DatabaseError(f"a message's sender is one of {', '.join(CHAT_SENDERS)}")
+        if not text or len(text) > MAX_CHAT_CHARS:
+            raise DatabaseError(f"a message has 1 to {MAX_CHAT_CHARS} characters")
+        with self.session() as s:
+            row = ChatMessage(robot_id=robot_id, session_id=session_id, sender=sender, text=text, at=now)
+            s.add(row)
+            s.flush()
+            return MessageData(row.id, robot_id, session_id, sender, text, now)
+
+    def messages(self, robot_id: int, limit: int = 50, session_id: int | None = None) -> list[MessageData]:
+        """The latest ``limit`` messages on a robot (of one conversation if ``session_id``), oldest first."""
+        query = select(ChatMessage).where(ChatMessage.robot_id == robot_id)
+        if session_id is not None:
+            query = query.where(ChatMessage.session_id == session_id)
+        with self.session() as s:
+            rows = s.scalars(query.order_by(ChatMessage.id.desc()).limit(limit)).all()
+            return [
+                MessageData(r.id, r.robot_id, r.session_id, r.sender, r.text, r.at) for r in reversed(rows)
+            ]
 
     # --- staff ---------------------------------------------------------------------------
     def set_staff(self, username: str, password: str) -> None:

@@ -189,6 +189,12 @@ class PublishingLink:
     def stop(self) -> None:
         self.link.stop()
 
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        self.link.around(exhibit, x, y, theta)
+
+    def photo(self) -> bytes:
+        return self.link.photo()
+
     def close(self) -> None:
         with self._wake:
             self._closed = True
@@ -274,6 +280,13 @@ class FollowerLink:
 
     def stop(self) -> None:
         self._refuse()
+
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:  # noqa: ARG002
+        self._refuse()
+
+    def photo(self) -> bytes:
+        self._refuse()
+        return b""
 
     def close(self) -> None:
         self._closed.set()

@@ -18,6 +18,9 @@ from pydantic import BaseModel, ConfigDict, Field, TypeAdapter, ValidationError
 from tourbot.errors import TourbotError
 
 __all__ = [
+    "MAX_CHAT_TEXT",
+    "Around",
+    "Chat",
     "Command",
     "CommandError",
     "GuardConfig",
@@ -34,12 +37,15 @@ class CommandError(TourbotError):
 
 @dataclass(frozen=True)
 class GuardConfig:
-    """Limits on what clients send: message size, command rate (sustained and burst)."""
+    """Limits on what clients send: message size, command rate (sustained and burst), and the
+    text channel's rate per session (``chat_per_minute`` sustained, ``chat_burst`` at once)."""
 
     max_message_bytes: int = 2048
     max_json_depth: int = 8  # a command is one flat object; deeper nesting is refused unparsed
     commands_per_second: float = 5.0
     burst: int = 10
+    chat_per_minute: float = 12.0
+    chat_burst: int = 3
 
 
 @dataclass
@@ -103,6 +109,24 @@ class StartTour(_Strict):
     tour: _Slug
 
 
+class Around(_Strict):
+    """Move around this exhibit (Burgard et al., section 6.1): view it from several directions."""
+
+    type: Literal["around"]
+    exhibit: _Slug
+
+
+#: The longest text message of the text channel (characters).
+MAX_CHAT_TEXT = 300
+
+
+class Chat(_Strict):
+    """A text message to the people on site (from the visitor in control) or back (on-board)."""
+
+    type: Literal["chat"]
+    text: Annotated[str, Field(min_length=1, max_length=MAX_CHAT_TEXT)]
+
+
 class Say(_Strict):
     """A phrase typed on (or heard by) the on-board screen."""
 
@@ -111,7 +135,8 @@ class Say(_Strict):
 
 
 Command = Annotated[
-    Book | Leave | Ping | Stop | GoTo | GoToExhibit | StartTour | Say, Field(discriminator="type")
+    Book | Leave | Ping | Stop | GoTo | GoToExhibit | StartTour | Around | Chat | Say,
+    Field(discriminator="type"),
 ]
 _COMMAND: TypeAdapter[Command] = TypeAdapter(Command)
 

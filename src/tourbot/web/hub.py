@@ -20,9 +20,9 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
-from tourbot.web.db import Database, DatabaseError
+from tourbot.web.db import Database, DatabaseError, MessageData
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
@@ -31,6 +31,7 @@ from tourbot.web.stream import MAX_BODIES, Body, Scene, StreamBroadcast, StreamC
 __all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 
 def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1) -> Scene:
@@ -142,14 +143,18 @@ class RobotHub:
         self._path_checked = 0.0
         self.version = 0
         self.announcements: list[Announcement] = []
+        self.chat: list[MessageData] = []  # the text channel's latest messages, for delivery
+        self.photo_at = float("-inf")  # when the last high-resolution picture was asked for
         self.send_delays: deque[float] = deque(maxlen=100_000)
         self.connections: dict[int, int] = {}
+        self.museum: list[RobotHub] = [self]  # every robot of the server (a visitor books one at a time)
         self._bookings: dict[int, int] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._task: asyncio.Task[None] | None = None
         self._changed: asyncio.Event | None = None  # set at a change, then replaced by a fresh one
         self._last_state: tuple[str, str | None] = ("idle", None)
+        self._presented: tuple[str | None, str] | None = None
         self._pending_since: float | None = None
 
     # --- lifecycle --------------------------------------------------------------------------
@@ -221,7 +226,11 @@ class RobotHub:
         await self._sync_slots(now)
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
-            await self._arrived(state[1])
+            # an exhibit is presented once per tour: moving around it stops at it several times
+            presented = (view.nav.tour, state[1])
+            if view.nav.tour is None or presented != self._presented:
+                await self._arrived(state[1])
+            self._presented = presented
         self._last_state = state
         await self.notify()
 
@@ -293,6 +302,15 @@ class RobotHub:
         await self.notify()
         return item
 
+    async def post_chat(self, session: int, sender: str, text: str) -> MessageData:
+        """A message of the conversation with visitor ``session``: stored, then delivered to that
+        visitor's pages and the on-board screens (the staff page reads the database)."""
+        item = await asyncio.to_thread(self.db.add_message, self.robot_id, session, sender, text, time.time())
+        self.chat.append(item)
+        del self.chat[:-50]
+        await self.notify()
+        return item
+
     def face(self) -> dict[str, object]:
         view = self.view
         if view is None:
@@ -355,12 +373,12 @@ class RobotHub:
         self.db.booking_ended(booking, now, reason)
 
     # --- commands (already authorised by the caller) ------------------------------------------
-    async def command(self, action: Callable[[RobotLink], None]) -> None:
+    async def command(self, action: Callable[[RobotLink], T]) -> T:
         """Run ``action`` on the link between two robot steps (in a worker thread: the event loop
-        never waits for a step)."""
+        never waits for a step); its result."""
 
-        def locked() -> None:
+        def locked() -> T:
             with self.lock:
-                action(self.link)
+                return action(self.link)
 
-        await asyncio.to_thread(locked)
+        return await asyncio.to_thread(locked)

@@ -1,7 +1,8 @@
 """What the web server needs from a robot: the :class:`RobotLink` protocol.
 
 The server never reaches into the robot's estimators: it reads a plain :class:`RobotView` (pose
-estimate, people tracks, navigation status) and sends goals, tours and stops. The simulator
+estimate, people tracks, navigation status) and sends goals, tours, "move around this exhibit" and
+stops, and asks for a high-resolution picture of the robot's camera. The simulator
 runtime and the real robot plug in through :mod:`tourbot.web.runtime_link`;
 :mod:`tourbot.web.process_link` runs such a link in a process of its own.
 """
@@ -82,5 +83,15 @@ class RobotLink(Protocol):
     ) -> None: ...
 
     def start_tour(self, name: str, exhibits: list[tuple[str, float, float, float]]) -> None: ...
+
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        """Move around the exhibit seen from the viewing pose ``(x, y, theta)``: view it from
+        several directions (Burgard et al., section 6.1)."""
+        ...
+
+    def photo(self) -> bytes:
+        """A high-resolution JPEG from the robot's camera, taken now (a TourbotError when the
+        robot has no camera)."""
+        ...
 
     def stop(self) -> None: ...

@@ -9,8 +9,11 @@ Two pipes join the processes:
 
 * state (robot -> server): the :class:`RobotView` after every step; the server's reader thread
   keeps only the latest (latest-state-wins: it never builds a backlog);
-* control (server -> robot, and back): a command (method name and arguments) and its answer
-  (``None``, or the message of the :class:`TourbotError` it raised). The robot serves commands
+* control (server -> robot, and back): a command (its number, method name and arguments) and its
+  answer (the number, then ``"ok"`` and the result, or ``"error"`` and the message of the
+  :class:`TourbotError` it raised; a picture of the robot's camera comes back as its JPEG bytes).
+  The numbers pair them: the late answer of a command that timed out is dropped, never taken for
+  the next command's. The robot serves commands
   while it waits for its next step, so a command waits for at most one step.
 
 The robot process ignores Ctrl-C (the terminal sends it to the whole process group): the server
@@ -37,7 +40,7 @@ __all__ = ["ProcessLink", "RestartableFactory", "RobotProcessError"]
 
 log = logging.getLogger(__name__)
 
-_COMMANDS = frozenset({"send_goal", "start_tour", "stop"})
+_COMMANDS = frozenset({"send_goal", "start_tour", "around", "photo", "stop"})
 
 
 class RobotProcessError(TourbotError):
@@ -77,15 +80,15 @@ def _robot_main(
                 return
             if message is None:  # close
                 return
-            name, args = message
+            seq, name, args = message
             try:
-                getattr(link, name)(*args)
-                control.send(None)
+                result = getattr(link, name)(*args)
+                control.send((seq, "ok", result))
             except TourbotError as exc:
-                control.send(str(exc))
+                control.send((seq, "error", str(exc)))
             except Exception as exc:
                 log.exception("robot command %s failed", name)
-                control.send(f"{type(exc).__name__}: {exc}")
+                control.send((seq, "error", f"{type(exc).__name__}: {exc}"))
 
 
 @runtime_checkable
@@ -136,6 +139,7 @@ class ProcessLink:
         self._closing = False
         self._view: RobotView | None = None
         self._command_lock = threading.Lock()
+        self._seq = 0  # the number of the last command sent
         self._reader: threading.Thread | None = None
         self._spawn(factory)
 
@@ -247,24 +251,37 @@ class ProcessLink:
     def start_tour(self, name: str, exhibits: list[tuple[str, float, float, float]]) -> None:
         self._call("start_tour", name, exhibits)
 
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        self._call("around", exhibit, x, y, theta)
+
+    def photo(self) -> bytes:
+        return bytes(self._call("photo"))
+
     def stop(self) -> None:
         self._call("stop")
 
-    def _call(self, name: str, *args: Any) -> None:
+    def _call(self, name: str, *args: Any) -> Any:
         assert name in _COMMANDS
         self.wait_ready()
         with self._command_lock:
             if self.failure is not None or not self._process.is_alive():
                 raise RobotProcessError(f"robot {self.name}: {self.failure or 'its process stopped'}")
             try:
-                self._control.send((name, args))
-                if not self._control.poll(self.command_timeout):
-                    raise RobotProcessError(f"robot {self.name}: no answer in {self.command_timeout} s")
-                answer = self._control.recv()
+                self._seq += 1
+                self._control.send((self._seq, name, args))
+                deadline = time.monotonic() + self.command_timeout
+                while True:  # answers to earlier commands that timed out are dropped
+                    if not self._control.poll(max(0.0, deadline - time.monotonic())):
+                        raise RobotProcessError(f"robot {self.name}: no answer in {self.command_timeout} s")
+                    seq, *answer = self._control.recv()
+                    if seq == self._seq:
+                        break
             except (BrokenPipeError, EOFError, OSError):
                 raise RobotProcessError(f"robot {self.name}: its process stopped") from None
-        if answer is not None:
-            raise TourbotError(answer)
+        kind, result = answer
+        if kind != "ok":
+            raise TourbotError(str(result))
+        return result
 
     def _stop_process(self, timeout: float) -> None:
         with contextlib.suppress(BrokenPipeError, OSError):

@@ -6,14 +6,23 @@ The simulator runtime and a real robot's runtime both give a plain
 robot acts on) and the people tracker's confirmed tracks (what it perceives); without a tracker no
 people are shown. A simulator's true people travel apart, as debug truth, for the pages' labelled
 debug overlay only.
+
+"Move around this exhibit" runs like a tour authored on the web: a sequence of goals, the
+viewpoints around the exhibit (:func:`tourbot.navigation.around.viewpoints_around`) on the
+robot's own map, a short dwell at each. A high-resolution picture of the robot's camera comes from
+the ``camera`` given (for a simulated robot, its simulated forward camera; see
+:mod:`tourbot.web.serve`).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from tourbot.errors import TourbotError
+from tourbot.navigation.around import AroundConfig, viewpoints_around
+from tourbot.navigation.navigator import SiteNavigator
 from tourbot.runtime.loop import Runtime
 from tourbot.snapshot import NavMode, StateSnapshot
 from tourbot.web.link import NavStatus, PersonView, RobotView
@@ -43,7 +52,10 @@ class RuntimeLink:
     period: float = 0.1
     site_tours: frozenset[str] = frozenset()
     dwell: float = 10.0
+    around_config: AroundConfig = field(default_factory=AroundConfig)
+    camera: Callable[[], bytes] | None = None  # a high-resolution JPEG of the robot's camera, now
     _exhibit: str | None = None
+    _stop_dwell: float = 10.0
     _web_tour: str | None = None
     _stops: list[tuple[str, float, float, float]] = field(default_factory=list)
     _done: int = 0
@@ -71,7 +83,26 @@ class RuntimeLink:
         if not exhibits:
             raise TourbotError(f"tour {name!r} has no exhibits")
         self._web_tour, self._stops, self._done = name, list(exhibits), 0
+        self._stop_dwell = self.dwell
         self._go_to_stop()
+
+    def around(self, exhibit: str, x: float, y: float, theta: float) -> None:
+        """Move around the exhibit viewed from ``(x, y, theta)``: its viewpoints, on the robot's map."""
+        navigator = self.runtime.navigator
+        if not isinstance(navigator, SiteNavigator):
+            raise TourbotError("this robot cannot plan a way around an exhibit")
+        views = viewpoints_around((x, y, theta), navigator.costmap, self.around_config)
+        if not views:
+            raise TourbotError("no place around this exhibit is free on the robot's map")
+        self._web_tour, self._done = f"around {exhibit}", 0
+        self._stops = [(exhibit, vx, vy, vtheta) for vx, vy, vtheta in views]
+        self._stop_dwell = self.around_config.dwell
+        self._go_to_stop()
+
+    def photo(self) -> bytes:
+        if self.camera is None:
+            raise TourbotError("this robot has no camera")
+        return self.camera()
 
     def stop(self) -> None:
         self._web_tour, self._stops, self._exhibit = None, [], None
@@ -92,7 +123,7 @@ class RuntimeLink:
             return
         now = time.monotonic()
         if self._dwell_until is None:
-            self._dwell_until = now + self.dwell
+            self._dwell_until = now + self._stop_dwell
         if now >= self._dwell_until:
             self._finished_seen = True
             self._done += 1

@@ -27,7 +27,9 @@ from tourbot.web.sitedata import import_site
 if TYPE_CHECKING:
     import uvicorn
 
+    from tourbot.sim.camera import ForwardCameraSim
     from tourbot.sim.fleet import FleetPoses
+    from tourbot.sim.simulator import Simulator
 
 __all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
 
@@ -63,6 +65,39 @@ def _robot_names(n: int) -> list[str]:
     # The TOURBOT and WebFAIR robots' names (Lefkos at FHW, Albert at Hannover, Rhino in Bonn).
     names = ["lefkos", "albert", "rhino", "minerva"]
     return [names[i] if i < len(names) else f"robot{i + 1}" for i in range(n)]
+
+
+#: The high-resolution picture: the forward camera's images this many times as wide and high.
+PHOTO_SCALE = 2.0
+
+
+@dataclass
+class SimulatedPhoto:
+    """A high-resolution picture of a simulated robot's forward camera, rendered on request from
+    where the robot stands now, with the visitors, doors and furniture as they are (JPEG)."""
+
+    simulator: Simulator
+    camera: ForwardCameraSim
+    quality: int = 90
+
+    @classmethod
+    def of(cls, simulator: Simulator, seed: int) -> SimulatedPhoto:
+        from tourbot.sim.camera import ForwardCameraSim
+        from tourbot.vision.camera import ForwardCamera
+
+        camera = ForwardCameraSim(simulator.site, ForwardCamera().scaled(PHOTO_SCALE), seed=seed)
+        return cls(simulator, camera)
+
+    def __call__(self) -> bytes:
+        import cv2
+
+        sim = self.simulator
+        self.camera.set_world(sim.world)
+        frame = self.camera.frame(sim.time, sim.robot.pose, sim.people_positions())
+        ok, jpeg = cv2.imencode(".jpg", frame.image, [cv2.IMWRITE_JPEG_QUALITY, self.quality])
+        if not ok:
+            raise TourbotError("the camera's picture could not be encoded")
+        return bytes(jpeg.tobytes())
 
 
 @dataclass(frozen=True)
@@ -123,7 +158,12 @@ class SimulatedRobotFactory:
             ).__enter__()
             robot.runtime.add_sink(RunPublisher(live, robot.runtime))
         period = float(robot.simulator.dt) / self.speedup
-        return RuntimeLink(robot.runtime, period=period, site_tours=frozenset(t.name for t in site.tours))
+        return RuntimeLink(
+            robot.runtime,
+            period=period,
+            site_tours=frozenset(t.name for t in site.tours),
+            camera=SimulatedPhoto.of(robot.simulator, self.seed),
+        )
 
 
 def _fleet(robots: int) -> FleetPoses | None:
@@ -141,7 +181,9 @@ def _fleet(robots: int) -> FleetPoses | None:
 
 def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
     """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
-    when ``settings.robot_process`` (else stepped by the server's thread)."""
+    when ``settings.robot_process`` (else stepped by the server's thread). Several robots share
+    one world (:mod:`tourbot.sim.fleet`): each other's bodies and one crowd of visitors, stepped by
+    the first robot's simulator."""
     from tourbot.web.process_link import ProcessLink
 
     links: dict[str, RobotLink] = {}
@@ -152,7 +194,13 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
         share = None if fleet is None else (fleet.name, settings.robots, i)
         if settings.robot_process:
             factory = SimulatedRobotFactory(
-                settings.site, settings.crowd, seed, settings.mcl, foxglove=fox, foxglove_host=settings.host
+                settings.site,
+                settings.crowd,
+                seed,
+                settings.mcl,
+                foxglove=fox,
+                foxglove_host=settings.host,
+                fleet=share,
             )
             links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
         else:

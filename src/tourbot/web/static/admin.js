@@ -1,6 +1,6 @@
 // Staff authoring (Burgard et al., section 7.1): exhibits with text, pictures and links, placed on
 // the map with a click; tours as ordered exhibits; visit statistics; the staff stop.
-import { getJSON, el } from "./live.js";
+import { chatLine, getJSON, el } from "./live.js";
 import { MapView } from "./mapview.js";
 
 const $ = (id) => document.getElementById(id);
@@ -60,13 +60,45 @@ async function reload() {
   $("stats").replaceChildren(...Object.entries(stats.visits).map(([slug, n]) => el("tr", {}, el("td", {}, slug), el("td", {}, String(n)))));
 }
 
+// The text channel: the chosen robot's messages, read every 2 s; the answer goes to the visitor in
+// control of that robot (messages of earlier visitors are shown greyed).
+let chatRobot = null;
+async function readChat() {
+  const robot = $("chat-robot").value;
+  if (!robot) return;
+  const log = $("chat-log");
+  if (robot !== chatRobot) { log.replaceChildren(); chatRobot = robot; }
+  const chat = await getJSON(`/api/admin/robots/${encodeURIComponent(robot)}/chat`);
+  for (const m of chat.messages) {
+    chatLine(log, m, "staff");
+    log.querySelector(`[data-id="${Number(m.id)}"]`).classList.toggle("earlier", !m.current);
+  }
+  $("chat-note").textContent = chat.holder ? "" : "No visitor is driving this robot now.";
+}
+
 async function loggedIn(user) {
   $("login-box").hidden = true;
   $("work").hidden = false;
   $("logout").hidden = false;
   $("who").textContent = user;
   await reload();
+  $("chat-robot").replaceChildren(...site.robots.map((r) => el("option", { value: r }, r)));
+  $("talk").hidden = false;
+  $("chat-robot").addEventListener("change", () => readChat().catch(() => {}));
+  readChat().catch(() => {});
+  setInterval(() => readChat().catch(() => {}), 2000);
 }
+
+$("chat").addEventListener("submit", async (event) => {
+  event.preventDefault();
+  const text = $("chat-text").value.trim();
+  if (!text) return;
+  try {
+    await post(`/api/admin/robots/${encodeURIComponent($("chat-robot").value)}/chat`, { text });
+    $("chat-text").value = "";
+    await readChat();
+  } catch (error) { $("chat-note").textContent = `not sent: ${error.message}`; }
+});
 
 $("login").addEventListener("submit", async (event) => {
   event.preventDefault();

@@ -5,12 +5,12 @@ const PENDING_S = 5; // a command waits at most this long for the connection to 
 const PENDING_MAX = 16;
 
 export class Live {
-  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onSay, onReply, onOpen, onTruth } = {}) {
+  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onSay, onReply, onOpen, onTruth, onChat } = {}) {
     this.robot = robot;
     this.config = streamConfig;
     this.screen = screen;
     this.debug = debug;
-    this.handlers = { onStatus, onPath, onSay, onReply, onOpen, onTruth };
+    this.handlers = { onStatus, onPath, onSay, onReply, onOpen, onTruth, onChat };
     this.decoder = new StreamDecoder(streamConfig);
     this.offset = null; // local clock minus server clock (s), smallest seen: the least delayed
     this.ws = null;
@@ -64,6 +64,7 @@ export class Live {
     else if (message.type === "path" && h.onPath) h.onPath(message.points);
     else if (message.type === "say" && h.onSay) h.onSay(message);
     else if (message.type === "truth" && h.onTruth) h.onTruth(message.people);
+    else if (message.type === "chat" && h.onChat) h.onChat(message);
     else if (h.onReply) h.onReply(message);
   }
 
@@ -94,6 +95,18 @@ export async function getJSON(url, options = {}) {
   const body = await response.json().catch(() => ({}));
   if (!response.ok) throw new Error(body.detail ? JSON.stringify(body.detail) : response.statusText);
   return body;
+}
+
+// The text channel's lines: each message once (a reconnection sends the conversation again), as
+// text (never as HTML), newest last.
+const SENDERS = { visitor: "Visitor", staff: "Staff", onboard: "At the robot" };
+export function chatLine(log, message, me) {
+  if (log.querySelector(`[data-id="${Number(message.id)}"]`)) return;
+  const who = message.sender === me ? "You" : SENDERS[message.sender] || "?";
+  log.append(el("div", { class: "chat-line", "data-id": String(Number(message.id)), "data-sender": message.sender },
+    el("b", {}, `${who}: `), message.text));
+  while (log.children.length > 100) log.firstChild.remove();
+  log.scrollTop = log.scrollHeight;
 }
 
 export function el(tag, attrs = {}, ...children) {

@@ -2,7 +2,7 @@
 // the robot (typed, or from an offline recognizer feeding the same box), hear it answer, and see
 // its face: happy when the way is free, then neutral, then angry the longer it is blocked; the eyes
 // look where the robot is heading.
-import { Live, getJSON, el } from "./live.js";
+import { Live, chatLine, getJSON, el } from "./live.js";
 
 const $ = (id) => document.getElementById(id);
 const MOODS = {
@@ -45,6 +45,7 @@ async function start() {
       $("state").textContent = exhibit ? `${status.nav.state}: ${exhibit.name}` : status.nav.state;
     },
     onSay: (message) => say(message.text, message.audio),
+    onChat: (line) => chatLine($("chat-log"), line, "onboard"),
     onReply: (reply) => { if (reply.type === "error") say(reply.message, null); },
   });
   for (const t of site.tours) {
@@ -58,6 +59,12 @@ async function start() {
     const text = $("phrase").value.trim();
     if (text) live.send({ type: "say", text });
     $("phrase").value = "";
+  });
+  $("chat").addEventListener("submit", (event) => {
+    event.preventDefault();
+    const text = $("chat-text").value.trim();
+    if (text) live.send({ type: "chat", text });
+    $("chat-text").value = "";
   });
   $("hint").textContent = "Try: who are you? · what time is it? · give me a tour · show me the " +
     (site.exhibits[0] ? site.exhibits[0].name : "exhibit") + " · help";

@@ -1,6 +1,6 @@
 // The remote visitor page (Burgard et al., section 6.1): tours and exhibits on the left, the live
 // 2D floor plan and the 3D view in the centre, exhibit information on the right.
-import { Live, getJSON, el } from "./live.js";
+import { Live, chatLine, getJSON, el } from "./live.js";
 import { MapView } from "./mapview.js";
 
 const $ = (id) => document.getElementById(id);
@@ -32,7 +32,9 @@ function message(text) {
 
 function showExhibit(e) {
   const info = $("info");
-  info.replaceChildren(el("h2", {}, e.name), el("p", {}, e.text || e.summary || ""));
+  info.replaceChildren(el("h2", {}, e.name), el("p", {}, e.text || e.summary || ""),
+    el("button", { id: "around", "data-around": e.slug, onclick: () => command({ type: "around", exhibit: e.slug }) },
+      "Move around this exhibit"));
   for (const p of e.pictures) info.append(el("figure", {}, el("img", { src: p.url, alt: p.caption }), el("figcaption", {}, p.caption)));
   for (const l of e.links) info.append(el("p", {}, el("a", { href: l.url, target: "_blank", rel: "noopener" }, l.caption || l.url)));
 }
@@ -57,6 +59,39 @@ function renderSlot() {
   else text = `Watching (${s.queue_length} waiting)`;
   $("slot").textContent = text;
   $("slot").dataset.role = s.role;
+  for (const c of $("chat").elements) c.disabled = s.role !== "holder";
+}
+
+// The robots of the museum, each with its own queue: the visitor chooses one (the page reloads
+// on it); the list says which are free and how many wait for each.
+async function listRobots() {
+  const { robots } = await getJSON("/api/robots");
+  for (const r of robots) {
+    let option = [...$("robot").options].find((o) => o.value === r.name);
+    if (!option) { option = el("option", { value: r.name }, r.name); $("robot").append(option); }
+    const busy = r.staff_stop ? "stopped by staff" : r.driven ? `driven, ${r.waiting} waiting` : "free";
+    option.textContent = `${r.name} (${busy})`;
+    option.dataset.driven = String(r.driven);
+  }
+}
+
+async function takePhoto() {
+  if (state.role !== "holder") {
+    message("Take control first: the pictures are for the visitor driving the robot.");
+    return;
+  }
+  const response = await fetch(`/api/robots/${encodeURIComponent(state.robot)}/photo`, { method: "POST", credentials: "same-origin" });
+  if (!response.ok) {
+    const body = await response.json().catch(() => ({}));
+    message(`No picture: ${typeof body.detail === "string" ? body.detail : response.statusText}`);
+    return;
+  }
+  const img = $("photo");
+  if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+  img.src = URL.createObjectURL(await response.blob());
+  $("photo-link").href = img.src; // the full 1280 x 960 picture in a tab of its own
+  $("photo-caption").textContent = `${state.robot}'s camera, ${new Date().toLocaleTimeString()}`;
+  $("photo-box").hidden = false;
 }
 
 function onStatus(status) {
@@ -99,8 +134,12 @@ async function start() {
   state.site = site;
   $("title").textContent = `tourbot: ${site.name}`;
   for (const r of site.robots) $("robot").append(el("option", { value: r }, r));
-  const robot = new URLSearchParams(location.search).get("robot") || site.robots[0];
+  const asked = new URLSearchParams(location.search).get("robot");
+  const robot = site.robots.includes(asked) ? asked : site.robots[0];
+  state.robot = robot;
   $("robot").value = robot;
+  listRobots().catch(() => {});
+  setInterval(() => listRobots().catch(() => {}), 5000);
   $("robot").addEventListener("change", () => { location.search = `?robot=${encodeURIComponent($("robot").value)}`; });
   for (const t of site.tours) {
     $("tours").append(el("li", {}, el("button", { "data-tour": t.slug, onclick: () => command({ type: "tour", tour: t.slug }) }, t.name)));
@@ -127,12 +166,20 @@ async function start() {
     onStatus,
     onPath: (points) => { map.path = points; },
     onSay: (say) => message(`Robot says: ${say.text}`),
+    onChat: (line) => chatLine($("chat-log"), line, "visitor"),
     onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
     onOpen: () => message(`Connected to ${robot}.`),
   });
   $("book").addEventListener("click", () => state.live.send({ type: "book" }));
   $("leave").addEventListener("click", () => state.live.send({ type: "leave" }));
   $("stop").addEventListener("click", () => command({ type: "stop" }));
+  $("photo-button").addEventListener("click", () => takePhoto().catch((e) => message(`No picture: ${e.message}`)));
+  $("chat").addEventListener("submit", (event) => {
+    event.preventDefault();
+    const text = $("chat-text").value.trim();
+    if (text) state.live.send({ type: "chat", text });
+    $("chat-text").value = "";
+  });
   // No leave at pagehide: a reload or a second tab keeps the slot (the server holds it for a
   // grace time after the last page closes); "Leave" gives it up.
   if (site.three) {
