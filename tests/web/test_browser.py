@@ -573,3 +573,29 @@ def test_the_holder_takes_a_picture_and_moves_around_an_exhibit(
     for page in (watcher, visitor):
         assert page.outside == []
         assert page.errors == []
+
+
+def test_vision_obstacles_are_drawn_in_their_own_colour(server: tuple[str, FakeRobot], browser: Any) -> None:
+    """A table the laser does not see, found by the robot's forward camera: orange cells on the map
+    where it stands, and nothing orange elsewhere."""
+    url, robot = server
+    table = tuple((6.0 + 0.1 * i, 3.0 + 0.1 * j) for i in range(6) for j in range(4))
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function("() => window.tourbot && window.tourbot.map && window.tourbot.live")
+    colour = """([x, y]) => {
+        const map = window.tourbot.map;
+        const [px, py] = map.toCanvas(x, y);
+        const [r, g, b] = map.canvas.getContext('2d').getImageData(Math.round(px), Math.round(py), 1, 1).data;
+        return [r, g, b];
+    }"""
+    before = visitor.page.evaluate(colour, [6.25, 3.15])
+    robot.obstacles = table
+    visitor.page.wait_for_function("() => window.tourbot.map.obstacles.length === 24", timeout=15000)
+    visitor.page.wait_for_timeout(500)  # a frame drawn since
+    r, g, b = visitor.page.evaluate(colour, [6.25, 3.15])
+    assert r > 200, (r, g, b)  # orange (#f60 at 80 % over the floor)
+    assert r - g > 60, (r, g, b)
+    assert r - b > 120, (r, g, b)
+    assert before != [r, g, b]
+    assert visitor.page.evaluate(colour, [9.0, 6.5])[2] > 150  # floor far from the table: not orange
+    assert not visitor.errors

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 from tests.web.fakes import FakeRobot
@@ -41,3 +42,26 @@ def test_moving_and_blocked_flips_are_published_once_steady(db: Database) -> Non
     assert hub.nav_status["state"] == "arrived"
     hub.nav_status = hub._steady(_status("moving", exhibit="loom"), t)  # a new task at once
     assert hub.nav_status["exhibit"] == "loom"
+
+
+def test_vision_obstacles_are_published_as_cells_on_change(db: Database) -> None:
+    robot = FakeRobot()
+    hub = RobotHub("lefkos", robot, db, db.robot_id("lefkos"))
+    robot.obstacles = ((3.02, 4.01), (3.04, 3.98), (3.31, 4.0))  # two cells of 10 cm
+    hub._publish_obstacles(robot.view(), 10.0)
+    assert hub.obstacles_message is not None
+    message = json.loads(hub.obstacles_message)
+    assert message == {"type": "obstacles", "cell": 0.1, "points": [[3.0, 4.0], [3.3, 4.0]]}
+    first = hub.obstacles_message
+    robot.obstacles = ((3.03, 4.0), (3.29, 4.02))  # the same cells
+    hub._publish_obstacles(robot.view(), 12.0)
+    assert hub.obstacles_message is first  # unchanged: no new message for the viewers
+    robot.obstacles = ((3.03, 4.0),)
+    hub._publish_obstacles(robot.view(), 12.5)
+    assert json.loads(hub.obstacles_message or "")["points"] == [[3.0, 4.0]]
+    second = hub.obstacles_message
+    robot.obstacles = ()
+    hub._publish_obstacles(robot.view(), 13.0)  # changed, but within the period of the last message
+    assert hub.obstacles_message is second
+    hub._publish_obstacles(robot.view(), 13.6)
+    assert json.loads(hub.obstacles_message or "")["points"] == []

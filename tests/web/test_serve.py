@@ -215,3 +215,34 @@ def test_served_robots_in_their_processes_share_one_crowd() -> None:
             close = getattr(link, "close", None)
             if callable(close):
                 close()
+
+
+@pytest.mark.slow
+def test_a_robot_served_with_its_forward_camera_shows_the_table_it_found(tmp_path: Path) -> None:
+    """`serve --camera forward`: the robot's own detector finds a table its laser does not see, and
+    the web's view of the robot carries those cells (drawn orange on the pages' map)."""
+    import numpy as np
+    import yaml
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.web.serve import SimulatedRobotFactory
+
+    room = {
+        "name": "room",
+        "map": {"walls": [[[0, 0], [10, 0], [10, 6], [0, 6]]], "resolution": 0.05},
+        "invisible_obstacles": [
+            {"name": "table", "outline": [[5, 2.2], [6, 2.2], [6, 2.8], [5, 2.8]], "height": [0, 0.75],
+             "kind": "table"}
+        ],
+    }  # fmt: skip
+    path = tmp_path / "room.yaml"
+    path.write_text(yaml.safe_dump(room))
+    mcl = MCLConfig().with_samples(200)
+    link = SimulatedRobotFactory(str(path), "empty", 0, mcl, start=(2.4, 2.5, 0.0), cameras=("forward",))()
+    link.send_goal(4.2, 2.5)  # straight at the table, stopping short of it
+    for _ in range(60):
+        link.step()
+    cells = np.asarray(link.view().obstacles)
+    assert len(cells) >= 5, "no vision obstacle in the view"
+    near = (cells[:, 0] > 4.85) & (cells[:, 0] < 6.15) & (cells[:, 1] > 2.05) & (cells[:, 1] < 2.95)
+    assert near.mean() >= 0.8

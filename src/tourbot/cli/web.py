@@ -138,6 +138,13 @@ def register(app: typer.Typer) -> None:
                 "for follower servers"
             ),
         ] = None,
+        camera: Annotated[
+            list[str] | None,
+            typer.Option(
+                help="cameras the simulated robots carry and use (repeat or comma list): 'ceiling' (fused "
+                "into MCL), 'forward' (its vision obstacles in the navigator's costmap and on the map)",
+            ),
+        ] = None,
         follow: Annotated[
             str | None,
             typer.Option(
@@ -166,6 +173,9 @@ def register(app: typer.Typer) -> None:
         if foxglove is not None and not 0 < foxglove <= 65535 - robots:
             raise InputError(f"must be a TCP port (1-{65535 - robots}), got {foxglove}", field="--foxglove")
         crowd_config(crowd)
+        from tourbot.cli.sim import _cameras
+
+        cameras = tuple(_cameras(camera))
         if broker and follow:
             raise InputError(
                 "give --broker (publish) or --follow (show another server's), not both", field="--follow"
@@ -187,7 +197,7 @@ def register(app: typer.Typer) -> None:
             slot_minutes=slot_minutes, staff_password=staff_password, robot_process=robot_process,
             mcl=LocalizationProfile.for_site(site_path(site), config)[0].mcl,
             certfile=certfile, keyfile=keyfile, trusted_proxies=proxies, foxglove=foxglove,
-            broker=broker, follow=follow,
+            broker=broker, follow=follow, cameras=cameras,
         )  # fmt: skip
         web, _ = build_site_app(settings)
         run(web, host, port, certfile=certfile, keyfile=keyfile, trusted_proxies=proxies)

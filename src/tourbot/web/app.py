@@ -771,6 +771,7 @@ async def _send_loop(
     last_status: dict[str, Any] | None = None
     status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
+    sent_obstacles: str | None = None
     sent_truth: str | None = None
     said = hub.announcements[-1].seq if hub.announcements else 0
     chat_seen = 0  # this visitor's conversation is sent from its start (a reload keeps it)
@@ -800,6 +801,10 @@ async def _send_loop(
         if path is not None and path is not sent_path:
             await ws.send_text(path)
             sent_path = path
+        obstacles = hub.obstacles_message  # the forward camera's obstacles, only when they changed
+        if obstacles is not None and obstacles is not sent_obstacles:
+            await ws.send_text(obstacles)
+            sent_obstacles = obstacles
         truth = hub.truth_message
         if debug and truth is not None and truth is not sent_truth:
             await ws.send_text(truth)

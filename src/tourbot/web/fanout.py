@@ -79,6 +79,7 @@ def encode_view(view: RobotView, sent: float | None = None) -> bytes:
         data[key] = round(data[key], 4)
     for key in ("people", "truth"):
         data[key] = [[p["id"], *(round(p[k], 3) for k in ("x", "y", "vx", "vy"))] for p in data[key]]
+    data["obstacles"] = [[round(x, 2), round(y, 2)] for x, y in data["obstacles"]]
     return json.dumps(data, separators=(",", ":")).encode()
 
 
@@ -113,6 +114,7 @@ def decode_view(message: bytes) -> RobotView:
             people=_people(data["people"]),
             nav=status,
             truth=_people(data["truth"]),
+            obstacles=tuple((float(x), float(y)) for x, y in data.get("obstacles", ())),
         )
     except (ValueError, KeyError, TypeError, IndexError) as exc:
         raise BrokerError(f"not a robot view on the broker ({type(exc).__name__}: {exc})") from None

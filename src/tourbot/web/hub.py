@@ -123,6 +123,8 @@ class RobotHub:
     # moving <-> blocked (and the navigator's text with them) published once steady this long (s):
     # in a crowd the robot is slowed and freed every second, and every viewer would get each flip
     steady_time: float = 1.5
+    obstacle_cell: float = 0.1  # m: the vision map's resolution
+    obstacle_period: float = 1.0  # s: vision obstacles republished at most this often
 
     def __post_init__(self) -> None:
         self.lock = threading.Lock()
@@ -134,6 +136,10 @@ class RobotHub:
         self.status_version = 0  # changes when the navigation status or the slots changed
         self._status_key: object = None
         self.path_message: str | None = None  # the path as the pages get it (JSON), shared
+        # the forward camera's obstacles (JSON, on change), drawn in their own colour on the map
+        self.obstacles_message: str | None = None
+        self._obstacle_cells: list[tuple[int, int]] = []
+        self._obstacles_at = -math.inf
         # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
         self.truth_message: str | None = None
         self.debug_viewers = 0
@@ -219,6 +225,7 @@ class RobotHub:
         self.stream.push(self.scene)
         self.nav_status = self._steady(nav_status(view), now)
         self._publish_path(view, now)
+        self._publish_obstacles(view, now)
         if self.debug_viewers > 0 and now - self._truth_at >= 1.0:
             self._truth_at = now
             points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]
@@ -259,6 +266,20 @@ class RobotHub:
         if goal != self._path_goal or path_moved(points, self._path):
             self._path_goal, self._path = goal, points
             self.path_message = json.dumps({"type": "path", "points": points}, separators=(",", ":"))
+
+    def _publish_obstacles(self, view: RobotView, now: float) -> None:
+        """The vision obstacles as cells of ``obstacle_cell`` metres: a message when the set of
+        cells changed, at most every ``obstacle_period`` seconds (the map grows slowly)."""
+        if now - self._obstacles_at < self.obstacle_period:
+            return
+        size = self.obstacle_cell
+        cells = sorted({(round(x / size), round(y / size)) for x, y in view.obstacles})
+        if cells == self._obstacle_cells:
+            return
+        self._obstacles_at, self._obstacle_cells = now, cells
+        points = [[round(i * size, 2), round(j * size, 2)] for i, j in cells]
+        message = {"type": "obstacles", "cell": size, "points": points}
+        self.obstacles_message = json.dumps(message, separators=(",", ":"))
 
     async def notify(self) -> None:
         self.version += 1

@@ -60,6 +60,8 @@ class RobotView:
     people: tuple[PersonView, ...] = ()
     nav: NavStatus = field(default_factory=NavStatus)
     truth: tuple[PersonView, ...] = ()  # a simulator's true people: debug overlay only, never acted on
+    # obstacles the forward camera found where the laser sees none (tourbot.vision), world points (m)
+    obstacles: tuple[tuple[float, float], ...] = ()
 
 
 @runtime_checkable

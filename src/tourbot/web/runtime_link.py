@@ -178,4 +178,7 @@ def view_of(
         people=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in snapshot.people if p.confirmed),
         nav=status,
         truth=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in truth),
+        obstacles=tuple(
+            (float(x), float(y)) for x, y in snapshot.estimators.get("vision", {}).get("obstacles", ())
+        ),
     )

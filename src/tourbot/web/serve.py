@@ -59,6 +59,7 @@ class ServeSettings:
     foxglove: int | None = None  # a live Foxglove server per robot on this port (+1, +2 for the others)
     broker: str | None = None  # publish the robots' views on this Redis broker (web.fanout)
     follow: str | None = None  # show the robots a controlling server publishes on this broker
+    cameras: tuple[str, ...] = ()  # the cameras the simulated robots carry and use (SimulatedRobotFactory)
 
 
 def _robot_names(n: int) -> list[str]:
@@ -119,6 +120,8 @@ class SimulatedRobotFactory:
     foxglove_host: str = "127.0.0.1"  # ... on this address (the web server's)
     # several robots in one museum: (shared-memory name, robots, this robot's index), sim.fleet
     fleet: tuple[str, int, int] | None = None
+    # the cameras the robot carries and uses: "ceiling" (fused into MCL), "forward" (vision obstacles)
+    cameras: tuple[str, ...] = ()
 
     def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
         """The same robot standing at ``pose`` (its last estimate, when its process restarts)."""
@@ -134,7 +137,13 @@ class SimulatedRobotFactory:
         from tourbot.web.runtime_link import RuntimeLink
 
         site = load_site(site_path(self.site))
-        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
+        sim_settings = SimulationSettings(
+            crowd=self.crowd,
+            seed=self.seed,
+            mcl=self.mcl,
+            ceiling="ceiling" in self.cameras,
+            vision="forward" in self.cameras,
+        )
         fleet = None
         start = self.start
         if self.fleet is not None:
@@ -201,6 +210,7 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
                 foxglove=fox,
                 foxglove_host=settings.host,
                 fleet=share,
+                cameras=settings.cameras,
             )
             links[name] = ProcessLink(factory, speedup=settings.speedup, name=name)
         else:
@@ -213,6 +223,7 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
                 foxglove=fox,
                 foxglove_host=settings.host,
                 fleet=share,
+                cameras=settings.cameras,
             )
             links[name] = factory()
     for link in links.values():

@@ -8,6 +8,8 @@ export class MapView {
     this.image = null;
     this.path = [];
     this.marker = null;
+    this.obstacles = []; // the forward camera's obstacles [[x, y], ...] (cell centres), drawn orange
+    this.obstacleCell = 0.1;
     this.truth = null; // debug overlay: the simulator's true people [[x, y], ...], drawn hollow
     this.turned = false;
     this.pixel = 1;
@@ -189,6 +191,20 @@ export class MapView {
       ctx.fillText(b.text, b.x + pad, b.y + b.h / 2);
     }
     this.labels = placed.map(({ x, y, w, h, text }) => ({ x, y, w, h, text }));
+    if (this.obstacles.length) {
+      // what the robot's forward camera found where its laser sees nothing (glass, tables)
+      ctx.fillStyle = "#f60c";
+      const side = Math.max(2 * px1, (this.obstacleCell / this.map.resolution) * k);
+      for (const [x, y] of this.obstacles) {
+        const [px, py] = this.toCanvas(x, y);
+        ctx.fillRect(px - side / 2, py - side / 2, side, side);
+      }
+      ctx.fillStyle = "#fffd";
+      ctx.fillRect(0, this.canvas.height - 18 * px1, 190 * px1, 18 * px1);
+      ctx.fillStyle = "#c40";
+      ctx.textBaseline = "middle";
+      ctx.fillText("orange: obstacles the camera found", 4 * px1, this.canvas.height - 9 * px1);
+    }
     if (this.path.length > 1) {
       ctx.strokeStyle = "#08f";
       ctx.lineWidth = 2.5 * px1;

@@ -165,6 +165,7 @@ async function start() {
     onTruth: (points) => { map.truth = points; },
     onStatus,
     onPath: (points) => { map.path = points; },
+    onObstacles: (m) => { map.obstacles = m.points; map.obstacleCell = m.cell; },
     onSay: (say) => message(`Robot says: ${say.text}`),
     onChat: (line) => chatLine($("chat-log"), line, "visitor"),
     onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
