@@ -5,7 +5,9 @@
 from the same reading). ``tourbot bench objects`` measures both: with every scan the doors' mean
 error is 0.8 deg against 1.1 deg alternating (docs/results/objects.md), so every scan is the
 default. Its snapshot contribution is the
-doors and furniture in their estimated states, with how well each was observed.
+doors and furniture in their estimated states, with how well each was observed. With an
+:class:`~tourbot.objects.world.ObjectWorld` it closes the loop: every update goes to the world,
+which hands the map with the objects drawn in to its users (MCL, the navigator) when a state moved.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from typing import Any
 
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.objects.estimator import ObjectEstimate, ObjectStateEstimator
+from tourbot.objects.world import ObjectWorld
 from tourbot.records import Odometry, Scan
 from tourbot.snapshot import DoorState, FurnitureState
 
@@ -55,10 +58,12 @@ class ObjectsEstimator:
         estimator: ObjectStateEstimator,
         opening_angles: dict[str, float],
         scan_share: ScanShare = ScanShare.ALL,
+        world: ObjectWorld | None = None,
     ) -> None:
         self.estimator = estimator
         self.opening_angles = opening_angles
         self.scan_share = scan_share
+        self.world = world
         self.history: list[list[ObjectEstimate]] = []
 
     def on_odometry(self, odom: Odometry) -> None:  # noqa: ARG002 - the objects need no odometry
@@ -68,6 +73,8 @@ class ObjectsEstimator:
         updated = self.estimator.update(scan, belief.samples, belief.weights)
         if updated:
             self.history.append(updated)
+            if self.world is not None:
+                self.world.update(updated)
 
     def state(self) -> EstimatorOutput:
         estimates = self.estimator.estimates()
