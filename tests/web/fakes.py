@@ -7,7 +7,7 @@ import threading
 import time
 from dataclasses import dataclass, replace
 
-from tourbot.web.link import NavStatus, PersonView, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotView
 
 
 class FakeRobot:
@@ -26,6 +26,7 @@ class FakeRobot:
         self.tour_name: str | None = None
         self.done = 0
         self.commands: list[tuple[str, object]] = []
+        self.objects: tuple[ObjectView, ...] = ()  # doors and furniture "estimated" (set by a test)
         self._last = time.monotonic()
         self._lock = threading.Lock()
 
@@ -71,7 +72,9 @@ class FakeRobot:
                 state=self.state, exhibit=self.exhibit, goal=self.goal, path=path, tour=self.tour_name,
                 tour_progress=(self.done, len(self.tour)),
             )  # fmt: skip
-            return RobotView(t, self.x, self.y, self.theta, self.v, 0.0, people=people, nav=nav)
+            return RobotView(
+                t, self.x, self.y, self.theta, self.v, 0.0, people=people, nav=nav, objects=self.objects
+            )
 
     def send_goal(self, x: float, y: float, theta: float | None = None, exhibit: str | None = None) -> None:
         with self._lock:

@@ -280,3 +280,31 @@ def test_standing_visitors_with_jittering_velocities_cost_only_refreshes() -> No
         shown = {p.id: (p.x, p.y) for p in decoder.scene(t).people}
         assert max(math.hypot(*(np.array(shown[i + 1]) - home[i])) for i in range(len(home))) < 0.2
     assert 8 * total / 60.0 < 400  # bits per second; velocities extrapolated: about 3 kbit/s
+
+
+def test_the_objects_message_is_sent_on_change_only() -> None:
+    import json
+
+    from tourbot.web.link import ObjectView
+    from tourbot.web.stream import ObjectsPayload
+
+    def door(dy: float, observed: bool = True) -> ObjectView:
+        return ObjectView("d", "door", ((7.0, 6.0), (7.9, 6.0 + dy), (7.9, 6.04 + dy)), observed)
+
+    payload = ObjectsPayload(tolerance=0.03)
+    first = payload.update([door(0.0)])
+    assert first is not None
+    assert payload.message == first
+    message = json.loads(first)
+    assert message["type"] == "objects"
+    assert message["objects"][0]["outline"][1] == [7.9, 6.0]
+    assert message["objects"][0]["kind"] == "door"
+    assert payload.update([door(0.02)]) is None  # within the tolerance: the viewers keep theirs
+    assert payload.message == first
+    moved = payload.update([door(0.5)])
+    assert moved is not None
+    assert json.loads(moved)["objects"][0]["outline"][1] == [7.9, 6.5]
+    assert payload.update([door(0.5, observed=False)]) is not None  # its quality changed
+    assert payload.update([door(0.5, observed=False)]) is None
+    assert payload.update([]) is not None  # gone
+    assert len(payload.update([door(0.0)]) or "") < 200  # a door costs a hundred bytes, once

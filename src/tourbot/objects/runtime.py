@@ -14,7 +14,10 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
+from tourbot.maps.objects import ObjectShape
 from tourbot.objects.estimator import ObjectEstimate, ObjectStateEstimator
 from tourbot.objects.world import ObjectWorld
 from tourbot.records import Odometry, Scan
@@ -34,11 +37,14 @@ def furniture_state(estimate: ObjectEstimate) -> FurnitureState:
     return FurnitureState(estimate.name, float(x), float(y), float(th))
 
 
-def quality_dict(estimate: ObjectEstimate) -> dict[str, Any]:
-    """How well an estimate was observed, as plain data (the snapshot's ``extra``, the CSV)."""
+def quality_dict(estimate: ObjectEstimate, shape: ObjectShape | None = None) -> dict[str, Any]:
+    """How well an estimate was observed, as plain data (the snapshot's ``extra``, the CSV); with
+    its ``shape``, also the ``outline`` in the estimated state (world, cm precision: what the web
+    draws)."""
     q = estimate.quality
-    return {
+    out: dict[str, Any] = {
         "name": estimate.name,
+        "kind": estimate.kind,
         "status": str(q.status),
         "beams": q.beams,
         "explained": q.explained,
@@ -46,6 +52,10 @@ def quality_dict(estimate: ObjectEstimate) -> dict[str, Any]:
         "std": [round(v, 5) for v in estimate.std],
         "time": estimate.time,
     }
+    if shape is not None:
+        outline = shape.polygons(np.asarray(estimate.state, dtype=np.float64))[0]
+        out["outline"] = [[round(float(x), 2), round(float(y), 2)] for x, y in outline]
+    return out
 
 
 class ObjectsEstimator:
@@ -82,6 +92,6 @@ class ObjectsEstimator:
             door_state(e, self.opening_angles.get(e.name, 0.0)) for e in estimates if e.kind == "door"
         )
         furniture = tuple(furniture_state(e) for e in estimates if e.kind != "door")
-        return EstimatorOutput(
-            doors=doors, furniture=furniture, extra={"objects": [quality_dict(e) for e in estimates]}
-        )
+        shapes = self.estimator.shapes
+        extra = {"objects": [quality_dict(e, s) for e, s in zip(estimates, shapes, strict=True)]}
+        return EstimatorOutput(doors=doors, furniture=furniture, extra=extra)

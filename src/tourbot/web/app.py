@@ -677,6 +677,7 @@ async def _send_loop(
     last_status: dict[str, Any] | None = None
     status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
+    sent_objects: str | None = None
     sent_truth: str | None = None
     said = len(hub.announcements)
     while ws.application_state == WebSocketState.CONNECTED:
@@ -705,6 +706,10 @@ async def _send_loop(
         if path is not None and path is not sent_path:
             await ws.send_text(path)
             sent_path = path
+        objects = hub.objects.message  # doors and furniture as estimated, only when they changed
+        if objects is not None and objects is not sent_objects:
+            await ws.send_text(objects)
+            sent_objects = objects
         truth = hub.truth_message
         if debug and truth is not None and truth is not sent_truth:
             await ws.send_text(truth)

@@ -26,7 +26,7 @@ from tourbot.web.db import Database, DatabaseError
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
-from tourbot.web.stream import MAX_BODIES, Body, Scene, StreamBroadcast, StreamConfig
+from tourbot.web.stream import MAX_BODIES, Body, ObjectsPayload, Scene, StreamBroadcast, StreamConfig
 
 __all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
 
@@ -133,6 +133,7 @@ class RobotHub:
         self.status_version = 0  # changes when the navigation status or the slots changed
         self._status_key: object = None
         self.path_message: str | None = None  # the path as the pages get it (JSON), shared
+        self.objects = ObjectsPayload()  # doors and furniture (JSON in .message), made on change
         # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
         self.truth_message: str | None = None
         self.debug_viewers = 0
@@ -214,6 +215,7 @@ class RobotHub:
         self.stream.push(self.scene)
         self.nav_status = self._steady(nav_status(view), now)
         self._publish_path(view, now)
+        self.objects.update(view.objects)  # doors and furniture as estimated: a message on change
         if self.debug_viewers > 0 and now - self._truth_at >= 1.0:
             self._truth_at = now
             points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]

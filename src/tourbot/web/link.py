@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-__all__ = ["NavStatus", "PersonView", "RobotLink", "RobotView"]
+__all__ = ["NavStatus", "ObjectView", "PersonView", "RobotLink", "RobotView"]
 
 
 @dataclass(frozen=True)
@@ -23,6 +23,17 @@ class PersonView:
     y: float
     vx: float = 0.0
     vy: float = 0.0
+
+
+@dataclass(frozen=True)
+class ObjectView:
+    """A door or piece of furniture in its *estimated* state: its outline (world, m) as placed by
+    that state, and whether the estimate is well observed (else the page draws it faintly)."""
+
+    name: str
+    kind: str
+    outline: tuple[tuple[float, float], ...]
+    observed: bool = True
 
 
 @dataclass(frozen=True)
@@ -59,6 +70,7 @@ class RobotView:
     people: tuple[PersonView, ...] = ()
     nav: NavStatus = field(default_factory=NavStatus)
     truth: tuple[PersonView, ...] = ()  # a simulator's true people: debug overlay only, never acted on
+    objects: tuple[ObjectView, ...] = ()  # doors and furniture as estimated (tourbot.objects)
 
 
 @runtime_checkable

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from tourbot.errors import TourbotError
 from tourbot.runtime.loop import Runtime
 from tourbot.snapshot import NavMode, StateSnapshot
-from tourbot.web.link import NavStatus, PersonView, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotView
 
 __all__ = ["RuntimeLink"]
 
@@ -147,4 +147,22 @@ def view_of(
         people=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in snapshot.people if p.confirmed),
         nav=status,
         truth=tuple(PersonView(p.id, p.x, p.y, p.vx, p.vy) for p in truth),
+        objects=objects_of(snapshot),
+    )
+
+
+def objects_of(snapshot: StateSnapshot) -> tuple[ObjectView, ...]:
+    """The doors and furniture of the object estimator's snapshot entry in their estimated states
+    (those never seen are left out: their "state" is only the prior)."""
+    entry = (snapshot.estimators or {}).get("objects")
+    items = entry.get("objects", ()) if isinstance(entry, dict) else ()
+    return tuple(
+        ObjectView(
+            str(o["name"]),
+            str(o.get("kind", "furniture")),
+            tuple((float(x), float(y)) for x, y in o["outline"]),
+            o.get("status") == "observed",
+        )
+        for o in items
+        if o.get("outline") and o.get("status") != "unseen"
     )

@@ -1,4 +1,5 @@
-// The 2D floor plan: the site map, exhibits, the planned path, the robot and the people.
+// The 2D floor plan: the site map, exhibits, doors and furniture as the robot estimates them, the
+// planned path, the robot and the people.
 export class MapView {
   constructor(canvas, site, { onClick } = {}) {
     this.canvas = canvas;
@@ -7,6 +8,8 @@ export class MapView {
     this.exhibits = site.exhibits;
     this.image = null;
     this.path = [];
+    // doors and furniture in their estimated states: [{name, kind, outline: [[x, y], ...], observed}]
+    this.objects = [];
     this.marker = null;
     this.truth = null; // debug overlay: the simulator's true people [[x, y], ...], drawn hollow
     this.turned = false;
@@ -124,6 +127,28 @@ export class MapView {
     return { x: ox + c * gx - s * gy, y: oy + s * gx + c * gy };
   }
 
+  // Doors and furniture where the robot believes they are: solid when well observed, faint when
+  // the estimate is poor (occluded, too few beams). A door leaf is drawn at least 4 px thick.
+  drawObjects(ctx, px1) {
+    for (const o of this.objects) {
+      if (o.outline.length < 2) continue;
+      ctx.beginPath();
+      o.outline.forEach(([x, y], i) => {
+        const [px, py] = this.toCanvas(x, y);
+        if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
+      });
+      ctx.closePath();
+      const color = o.kind === "door" ? "#7a3b0c" : "#2b6e3f";
+      ctx.globalAlpha = o.observed ? 1.0 : 0.45;
+      ctx.fillStyle = color;
+      ctx.strokeStyle = color;
+      ctx.lineWidth = (o.kind === "door" ? 4 : 1.5) * px1;
+      ctx.fill();
+      ctx.stroke();
+      ctx.globalAlpha = 1.0;
+    }
+  }
+
   draw(bodies) {
     const ctx = this.ctx;
     ctx.fillStyle = "#ddd";
@@ -189,6 +214,7 @@ export class MapView {
       ctx.fillText(b.text, b.x + pad, b.y + b.h / 2);
     }
     this.labels = placed.map(({ x, y, w, h, text }) => ({ x, y, w, h, text }));
+    this.drawObjects(ctx, px1);
     if (this.path.length > 1) {
       ctx.strokeStyle = "#08f";
       ctx.lineWidth = 2.5 * px1;

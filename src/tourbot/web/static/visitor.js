@@ -126,6 +126,7 @@ async function start() {
     onTruth: (points) => { map.truth = points; },
     onStatus,
     onPath: (points) => { map.path = points; },
+    onObjects: (objects) => { map.objects = objects; if (state.view3d) state.view3d.setObjects(objects); },
     onSay: (say) => message(`Robot says: ${say.text}`),
     onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
     onOpen: () => message(`Connected to ${robot}.`),
@@ -139,6 +140,7 @@ async function start() {
     try {
       const { View3D } = await import("./view3d.js");
       state.view3d = new View3D($("view3d"), site, { screenUp: () => map.screenUp });
+      state.view3d.setObjects(map.objects);
       for (const b of document.querySelectorAll("[data-preset]")) {
         b.addEventListener("click", () => state.view3d.setPreset(b.dataset.preset));
       }
