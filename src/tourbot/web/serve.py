@@ -97,7 +97,8 @@ class SimulatedRobotFactory:
         from tourbot.web.runtime_link import RuntimeLink
 
         site = load_site(site_path(self.site))
-        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl)
+        # the robot estimates its doors and furniture: the pages draw them, MCL and the navigator use them
+        sim_settings = SimulationSettings(crowd=self.crowd, seed=self.seed, mcl=self.mcl, objects=True)
         fleet = None
         start = self.start
         if self.fleet is not None:
