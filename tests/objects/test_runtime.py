@@ -109,7 +109,6 @@ def test_the_estimates_reach_the_world_and_the_snapshot_carries_the_drawn_outlin
     view = view_of(runtime.snapshot())
     (door,) = view.objects
     assert door.kind == "door"
-    assert door.observed
     # the leaf closed: along the wall from the hinge (3.0, 3.975) to 3.9
     xs = [x for x, _ in door.outline]
     ys = [y for _, y in door.outline]

@@ -407,7 +407,7 @@ def test_status_messages_are_not_repeated(server: tuple[str, FakeRobot], browser
     assert "×10" in lines[1] or "×10" in lines[2]
 
 
-def _leaf(angle: float, observed: bool = True) -> Any:
+def _leaf(angle: float) -> Any:
     """A 0.9 m door leaf hinged at (7, 6), ``angle`` from closed (along +x), as the web gets it."""
     import math
 
@@ -416,7 +416,7 @@ def _leaf(angle: float, observed: bool = True) -> Any:
     c, s = math.cos(angle), math.sin(angle)
     local = [(0.0, -0.02), (0.9, -0.02), (0.9, 0.02), (0.0, 0.02)]
     outline = tuple((7.0 + c * x - s * y, 6.0 + s * x + c * y) for x, y in local)
-    return ObjectView("office-door", "door", outline, observed)
+    return ObjectView("office-door", "door", outline)
 
 
 _DOOR_PIXELS = """([points]) => {

@@ -288,8 +288,8 @@ def test_the_objects_message_is_sent_on_change_only() -> None:
     from tourbot.web.link import ObjectView
     from tourbot.web.stream import ObjectsPayload
 
-    def door(dy: float, observed: bool = True) -> ObjectView:
-        return ObjectView("d", "door", ((7.0, 6.0), (7.9, 6.0 + dy), (7.9, 6.04 + dy)), observed)
+    def door(dy: float) -> ObjectView:
+        return ObjectView("d", "door", ((7.0, 6.0), (7.9, 6.0 + dy), (7.9, 6.04 + dy)))
 
     payload = ObjectsPayload(tolerance=0.03)
     first = payload.update([door(0.0)])
@@ -304,7 +304,6 @@ def test_the_objects_message_is_sent_on_change_only() -> None:
     moved = payload.update([door(0.5)])
     assert moved is not None
     assert json.loads(moved)["objects"][0]["outline"][1] == [7.9, 6.5]
-    assert payload.update([door(0.5, observed=False)]) is not None  # its quality changed
-    assert payload.update([door(0.5, observed=False)]) is None
+    assert payload.update([door(0.5)]) is None
     assert payload.update([]) is not None  # gone
     assert len(payload.update([door(0.0)]) or "") < 200  # a door costs a hundred bytes, once

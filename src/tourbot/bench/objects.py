@@ -248,6 +248,34 @@ def _run_changed(seed: int) -> Trial:
     return Trial(figures, time.perf_counter() - t0)
 
 
+class _ObjectsWire:
+    """A sink: the web's objects message (:class:`tourbot.web.stream.ObjectsPayload`) made from the
+    snapshots at the stream's 5 Hz, its bytes and messages counted (what every viewer gets)."""
+
+    def __init__(self, rate_hz: float = 5.0) -> None:
+        from tourbot.web.stream import ObjectsPayload
+
+        self.payload = ObjectsPayload()
+        self.period = 1.0 / rate_hz
+        self.next = 0.0
+        self.bytes = 0
+        self.messages = 0
+
+    def on_snapshot(self, snapshot: Any) -> None:
+        from tourbot.web.runtime_link import objects_of
+
+        if snapshot.time < self.next:
+            return
+        self.next = snapshot.time + self.period
+        message = self.payload.update(objects_of(snapshot))
+        if message is not None:
+            self.bytes += len(message)
+            self.messages += 1
+
+    def close(self) -> None:
+        pass
+
+
 def _run_tours(seed: int) -> Trial:
     """The ``crossings`` tour of :func:`door_tour_site`: doors open, closing with the static map,
     closing with the estimated states. Completed: every exhibit visited within ``TOUR_LIMIT``;
@@ -274,7 +302,8 @@ def _run_tours(seed: int) -> Trial:
         ("static", base),
         ("estimated", replace(base, objects=True)),
     ):
-        robot = simulated_runtime(site, settings, record=False)
+        web = _ObjectsWire()  # what the web's objects message would cost, sent on change at 5 Hz
+        robot = simulated_runtime(site, settings, record=False, sinks=(web,))
         robot.runtime.start_tour("crossings")
         robot.runtime.run(max_time=TOUR_LIMIT, until=lambda snap: snap.navigation.mode in done)
         m = robot.metrics.metrics
@@ -290,6 +319,8 @@ def _run_tours(seed: int) -> Trial:
             figures[f"{name}_lost_s"] = figures[f"{name}_duration_s"] - figures["open_duration_s"]
         if robot.objects is not None:
             figures["redraws"] = float(robot.objects.redraws)
+            figures["web_objects_bps"] = 8 * web.bytes / max(m.duration, 1e-9)
+            figures["web_objects_messages"] = float(web.messages)
     return Trial(figures, time.perf_counter() - t0)
 
 

@@ -37,10 +37,12 @@ def furniture_state(estimate: ObjectEstimate) -> FurnitureState:
     return FurnitureState(estimate.name, float(x), float(y), float(th))
 
 
-def quality_dict(estimate: ObjectEstimate, shape: ObjectShape | None = None) -> dict[str, Any]:
+def quality_dict(
+    estimate: ObjectEstimate, shape: ObjectShape | None = None, held: tuple[float, ...] | None = None
+) -> dict[str, Any]:
     """How well an estimate was observed, as plain data (the snapshot's ``extra``, the CSV); with
-    its ``shape``, also the ``outline`` in the estimated state (world, cm precision: what the web
-    draws)."""
+    its ``shape`` and the state the world model ``held`` (the latest well-observed one), also the
+    ``outline`` in that state (world, cm precision: what the web draws)."""
     q = estimate.quality
     out: dict[str, Any] = {
         "name": estimate.name,
@@ -52,8 +54,8 @@ def quality_dict(estimate: ObjectEstimate, shape: ObjectShape | None = None) -> 
         "std": [round(v, 5) for v in estimate.std],
         "time": estimate.time,
     }
-    if shape is not None:
-        outline = shape.polygons(np.asarray(estimate.state, dtype=np.float64))[0]
+    if shape is not None and held is not None:
+        outline = shape.polygons(np.asarray(held, dtype=np.float64))[0]
         out["outline"] = [[round(float(x), 2), round(float(y), 2)] for x, y in outline]
     return out
 
@@ -93,5 +95,8 @@ class ObjectsEstimator:
         )
         furniture = tuple(furniture_state(e) for e in estimates if e.kind != "door")
         shapes = self.estimator.shapes
-        extra = {"objects": [quality_dict(e, s) for e, s in zip(estimates, shapes, strict=True)]}
+        held = self.world.drawn if self.world is not None else {}
+        extra = {
+            "objects": [quality_dict(e, s, held.get(e.name)) for e, s in zip(estimates, shapes, strict=True)]
+        }
         return EstimatorOutput(doors=doors, furniture=furniture, extra=extra)

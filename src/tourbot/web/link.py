@@ -27,13 +27,13 @@ class PersonView:
 
 @dataclass(frozen=True)
 class ObjectView:
-    """A door or piece of furniture in its *estimated* state: its outline (world, m) as placed by
-    that state, and whether the estimate is well observed (else the page draws it faintly)."""
+    """A door or piece of furniture in its *estimated* state: its outline (world, m) in the state
+    the robot's world model holds (the latest well-observed estimate, what MCL and the navigator
+    use: :class:`tourbot.objects.world.ObjectWorld`)."""
 
     name: str
     kind: str
     outline: tuple[tuple[float, float], ...]
-    observed: bool = True
 
 
 @dataclass(frozen=True)

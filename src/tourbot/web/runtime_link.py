@@ -152,8 +152,8 @@ def view_of(
 
 
 def objects_of(snapshot: StateSnapshot) -> tuple[ObjectView, ...]:
-    """The doors and furniture of the object estimator's snapshot entry in their estimated states
-    (those never seen are left out: their "state" is only the prior)."""
+    """The doors and furniture of the object estimator's snapshot entry in the states the world
+    model holds (those never well observed have none and are left out)."""
     entry = (snapshot.estimators or {}).get("objects")
     items = entry.get("objects", ()) if isinstance(entry, dict) else ()
     return tuple(
@@ -161,8 +161,7 @@ def objects_of(snapshot: StateSnapshot) -> tuple[ObjectView, ...]:
             str(o["name"]),
             str(o.get("kind", "furniture")),
             tuple((float(x), float(y)) for x, y in o["outline"]),
-            o.get("status") == "observed",
         )
         for o in items
-        if o.get("outline") and o.get("status") != "unseen"
+        if o.get("outline")
     )

@@ -24,8 +24,9 @@ Message layout (little-endian)::
 messages far closer than the 655 s wrap). The browser's decoder is ``static/stream.js``.
 
 Doors and furniture in their estimated states travel beside the stream as a JSON text message
-(:class:`ObjectsPayload`), sent only when an outline moved by more than ``object_tolerance`` or
-an estimate's quality changed: a door that swings costs one message, a standing world nothing.
+(:class:`ObjectsPayload`), sent only when an outline moved by more than ``OBJECT_TOLERANCE``:
+the states the robot's world model holds change only with a well-observed estimate that moved
+(5 degrees, 5 cm), so a standing world costs nothing.
 """
 
 from __future__ import annotations
@@ -80,8 +81,6 @@ class _Object(Protocol):
     def kind(self) -> str: ...
     @property
     def outline(self) -> tuple[tuple[float, float], ...]: ...
-    @property
-    def observed(self) -> bool: ...
 
 
 class ObjectsPayload:
@@ -89,21 +88,21 @@ class ObjectsPayload:
 
     :meth:`update` takes the objects of the latest view and returns the new JSON message (also
     kept in :attr:`message`) when one changed enough to be sent, else ``None``. The message is
-    ``{"type": "objects", "objects": [{"name", "kind", "outline": [[x, y], ...], "observed"}]}``
+    ``{"type": "objects", "objects": [{"name", "kind", "outline": [[x, y], ...]}]}``
     with outlines in centimetres' precision (metres, two decimals).
     """
 
     def __init__(self, tolerance: float = OBJECT_TOLERANCE) -> None:
         self.tolerance = tolerance
         self.message: str | None = None
-        self._sent: dict[str, tuple[tuple[tuple[float, float], ...], bool]] = {}
+        self._sent: dict[str, tuple[tuple[float, float], ...]] = {}
 
     def _changed(self, objects: Sequence[_Object]) -> bool:
         if {o.name for o in objects} != set(self._sent):
             return True
         for o in objects:
-            outline, observed = self._sent[o.name]
-            if observed != o.observed or len(outline) != len(o.outline):
+            outline = self._sent[o.name]
+            if len(outline) != len(o.outline):
                 return True
             pairs = zip(outline, o.outline, strict=True)
             if any(math.hypot(x - u, y - v) > self.tolerance for (x, y), (u, v) in pairs):
@@ -113,13 +112,12 @@ class ObjectsPayload:
     def update(self, objects: Sequence[_Object]) -> str | None:
         if not self._changed(objects):
             return None
-        self._sent = {o.name: (tuple(o.outline), o.observed) for o in objects}
+        self._sent = {o.name: tuple(o.outline) for o in objects}
         items = [
             {
                 "name": o.name,
                 "kind": o.kind,
                 "outline": [[round(x, 2), round(y, 2)] for x, y in o.outline],
-                "observed": o.observed,
             }
             for o in objects
         ]

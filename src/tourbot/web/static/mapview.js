@@ -8,7 +8,7 @@ export class MapView {
     this.exhibits = site.exhibits;
     this.image = null;
     this.path = [];
-    // doors and furniture in their estimated states: [{name, kind, outline: [[x, y], ...], observed}]
+    // doors and furniture in their estimated states: [{name, kind, outline: [[x, y], ...]}]
     this.objects = [];
     this.marker = null;
     this.truth = null; // debug overlay: the simulator's true people [[x, y], ...], drawn hollow
@@ -127,8 +127,8 @@ export class MapView {
     return { x: ox + c * gx - s * gy, y: oy + s * gx + c * gy };
   }
 
-  // Doors and furniture where the robot believes they are: solid when well observed, faint when
-  // the estimate is poor (occluded, too few beams). A door leaf is drawn at least 4 px thick.
+  // Doors and furniture where the robot believes they are (the states its world model holds: the
+  // latest well-observed estimates). A door leaf is drawn at least 4 px thick.
   drawObjects(ctx, px1) {
     for (const o of this.objects) {
       if (o.outline.length < 2) continue;
@@ -139,13 +139,11 @@ export class MapView {
       });
       ctx.closePath();
       const color = o.kind === "door" ? "#7a3b0c" : "#2b6e3f";
-      ctx.globalAlpha = o.observed ? 1.0 : 0.45;
       ctx.fillStyle = color;
       ctx.strokeStyle = color;
       ctx.lineWidth = (o.kind === "door" ? 4 : 1.5) * px1;
       ctx.fill();
       ctx.stroke();
-      ctx.globalAlpha = 1.0;
     }
   }
 

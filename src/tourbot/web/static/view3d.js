@@ -161,7 +161,7 @@ export class View3D {
   }
 
   // Doors and furniture as the robot estimates them: each outline extruded (a door to 2 m, a
-  // piece of furniture to 0.5 m), translucent when the estimate is poor. Rebuilt per message:
+  // piece of furniture to 0.5 m). Rebuilt per message:
   // messages come only when something moved.
   setObjects(objects) {
     for (const mesh of this.objects.children) { mesh.geometry.dispose(); mesh.material.dispose(); }
@@ -171,9 +171,7 @@ export class View3D {
       const shape = new THREE.Shape(o.outline.map(([x, y]) => new THREE.Vector2(x, y)));
       const door = o.kind === "door";
       const geometry = new THREE.ExtrudeGeometry(shape, { depth: door ? DOOR_HEIGHT : FURNITURE_HEIGHT, bevelEnabled: false });
-      const material = new THREE.MeshLambertMaterial({
-        color: door ? 0x7a3b0c : 0x2b6e3f, transparent: !o.observed, opacity: o.observed ? 1.0 : 0.45,
-      });
+      const material = new THREE.MeshLambertMaterial({ color: door ? 0x7a3b0c : 0x2b6e3f });
       const mesh = new THREE.Mesh(geometry, material);
       mesh.name = o.name;
       this.objects.add(mesh);
