@@ -147,3 +147,38 @@ def test_the_ceiling_camera_finds_a_robot_carried_off_in_a_crowd() -> None:
         simulated_runtime(
             site_from_dict(HALL, base_dir=Path(".")), SimulationSettings(crowd=0, ceiling=True), record=False
         )
+
+
+def test_with_the_object_estimator_a_door_found_closed_is_planned_around(tmp_path: Path) -> None:
+    """The loop closed: the robot sees the south door closed (its estimate, not the truth), the
+    navigator's map gets the door and the plan goes the long way round; the recorder keeps the
+    estimated doors."""
+    import numpy as np
+
+    from tourbot.sim.object_scenes import door_tour_site
+
+    site = door_tour_site()
+    settings = SimulationSettings(crowd="empty", seed=3, mcl=MCLConfig().with_samples(300), objects=True)
+    settings = replace(settings, sim=replace(settings.sim, dynamic_objects=False))
+    robot = simulated_runtime(site, settings, start=(8.0, 2.6, 0.0))
+    assert robot.objects is not None
+    robot.simulator.objects.set_states({0: 0.0, 1: 0.0})  # both doors shut
+    rt = robot.runtime
+    rt.send_goal(17.0, 2.6, 0.0)
+    rt.run(max_time=8.0)
+    assert robot.navigator.map_changes >= 1
+    assert abs(robot.objects.drawn["south-door"][0]) < math.radians(5.0)
+    path = robot.navigator.path
+    assert path is not None
+    assert path[:, 1].max() > 10.0  # by the open passage at the far end
+    snap = rt.snapshot()
+    assert snap.truth is not None
+    estimated = {d.name: d.angle for d in snap.doors}
+    assert abs(estimated["south-door"]) < math.radians(5.0)
+    assert robot.recorder is not None
+    file = tmp_path / "run.jsonl.gz"
+    robot.recorder.path = file
+    robot.recorder.close()
+    last = Recorder.read(file)[-1]
+    assert [d.name for d in last.doors] == ["south-door", "north-door"]
+    assert np.isclose(last.doors[0].angle, snap.doors[0].angle, atol=0.05)

@@ -63,3 +63,60 @@ def test_published_obstacles_enter_the_plan_and_the_hand_drawn_map_is_optional()
     assert without.path is not None
     d = np.hypot(*(without.path[:, None, :] - wall[None, :, :]).transpose(2, 0, 1)).min()
     assert d > 0.3  # not through the published obstacles
+
+
+def test_a_door_found_closed_is_planned_around_and_the_static_map_is_the_fallback() -> None:
+    """set_map (the world with the doors as estimated): the plan takes the other doorway; with
+    every way shut on the estimated map, the static map's plan (go and look) instead of giving up."""
+    import math
+
+    import numpy as np
+
+    from tourbot.maps.grid import OccupancyGrid
+    from tourbot.maps.objects import shapes_of_site
+    from tourbot.navigation.navigator import SiteNavigator
+    from tourbot.objects.estimator import ObjectEstimate, Observation, Quality
+    from tourbot.objects.world import ObjectWorld
+    from tourbot.sim.object_scenes import door_tour_site
+    from tourbot.snapshot import PoseEstimate
+
+    site = door_tour_site()
+    nav = SiteNavigator(site)
+    world = ObjectWorld(site.grid, shapes_of_site(site.doors, site.furniture), [nav])
+    start, goal = (3.0, 2.6, 0.0), (17.0, 2.6, 0.0)
+    snap = StateSnapshot(time=0.0, step=0, source="test", pose=PoseEstimate(*start))
+
+    def crossing() -> float:
+        """Where the plan crosses the dividing wall (y at x = 10)."""
+        assert nav.path is not None
+        i = int(np.argmin(np.abs(nav.path[:, 0] - 10.0)))
+        return float(nav.path[i, 1])
+
+    nav.send_goal(goal)
+    nav.control(snap, None, 0.1)
+    assert 2.0 < crossing() < 3.3  # the south door: the short way
+
+    def seen(name: str, angle: float) -> ObjectEstimate:
+        return ObjectEstimate(
+            name, "door", 0.0, (angle,), (0.01,), Quality(Observation.OBSERVED, 20, 20, 0), 1
+        )
+
+    assert world.update([seen("south-door", 0.0), seen("north-door", -math.pi / 2)])
+    assert nav.map_changes == 1
+    assert nav.path is None  # replans at the next cycle
+    nav.control(snap, None, 0.1)
+    assert 5.0 < crossing() < 6.3  # the north door
+    # the north door closed too: the long way round, by the open passage
+    world.update([seen("north-door", 0.0)])
+    nav.control(snap, None, 0.1)
+    assert crossing() > 10.4
+    # every way shut on the estimated map (a wall across the passage as well): the static plan
+    blocked = world.grid.prob.copy()
+    rc = site.grid.world_to_cell(np.array([[10.02, y] for y in np.arange(10.3, 11.8, 0.02)]))
+    blocked[rc[:, 0], rc[:, 1]] = 1.0
+
+    g = world.grid
+    nav.set_map(OccupancyGrid(blocked, g.resolution, g.origin, g.occupied_thresh, g.free_thresh))
+    nav.control(snap, None, 0.1)
+    assert nav.mode != NavMode.FAILED
+    assert 2.0 < crossing() < 3.3

@@ -27,3 +27,18 @@ def test_replay_with_the_reference_and_with_mcl() -> None:
     # the estimated path follows the corridor
     path = np.array(alternate.path)
     assert np.abs(path[:, 2]).max() < 0.1
+
+
+def test_the_loop_closed_hands_mcl_the_doors_as_estimated() -> None:
+    scene = corridor_scene(states_deg=(0, 90, 0, 90))
+    run = run_scene(replace(scene, drive=[(0.5, 0.0, 0.0), (9.0, 0.7, 0.0)]), seed=2)
+    shapes = shapes_of_site(scene.model.doors, scene.model.furniture)
+    static = estimate_log(run.log, shapes, scene.model.grid, seed=2)
+    closed = estimate_log(run.log, shapes, scene.model.grid, seed=2, world=True)
+    assert static.redraws == 0
+    # the doors were drawn once observed, and not redrawn at every scan
+    assert 1 <= closed.redraws < len(closed.updates) / 4
+    ref = run.log.reference_poses
+    for result in (static, closed):
+        path = np.array(result.path)
+        assert np.hypot(*(path[-1, 1:3] - ref[-1, :2])) < 0.1

@@ -40,3 +40,22 @@ def test_desks_are_shifted_twenty_centimetres_from_the_model() -> None:
         assert math.isclose(d, 0.2, abs_tol=1e-9)
     # the chair is only in the world
     assert scene.world.grid.occupied().sum() > scene.model.grid.occupied().sum()
+
+
+def test_the_door_halls_join_by_two_doors_and_the_long_way_round() -> None:
+    from tourbot.maps.objects import shapes_of_site
+    from tourbot.navigation.planner import CostMap
+    from tourbot.objects.world import ObjectWorld
+    from tourbot.sim.object_scenes import door_tour_site
+
+    site = door_tour_site(period=20.0)
+    assert [d.name for d in site.doors] == ["south-door", "north-door"]
+    assert all(d.schedule.random and d.schedule.period == 20.0 for d in site.doors)
+    assert len(site.tour("crossings").exhibits) == 8
+    open_plan = CostMap(site.grid).plan((3.0, 2.6), (17.0, 2.6))
+    assert len(open_plan) * 0.1 < 16.0  # straight through the south doorway
+    # both doors drawn shut: the only way left is the far passage
+    world = ObjectWorld(site.grid, shapes_of_site(site.doors, site.furniture))
+    world.drawn = {"south-door": (0.0,), "north-door": (0.0,)}
+    shut = CostMap(world.draw()).plan((3.0, 2.6), (17.0, 2.6))
+    assert shut[:, 1].max() > 10.4

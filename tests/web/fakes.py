@@ -7,7 +7,7 @@ import threading
 import time
 from dataclasses import dataclass, replace
 
-from tourbot.web.link import NavStatus, PersonView, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotView
 
 
 class FakeRobot:
@@ -27,6 +27,7 @@ class FakeRobot:
         self.done = 0
         self.commands: list[tuple[str, object]] = []
         self.obstacles: tuple[tuple[float, float], ...] = ()  # what a forward camera would have found
+        self.objects: tuple[ObjectView, ...] = ()  # doors and furniture "estimated" (set by a test)
         self._last = time.monotonic()
         self._lock = threading.Lock()
 
@@ -73,7 +74,16 @@ class FakeRobot:
                 tour_progress=(self.done, len(self.tour)),
             )  # fmt: skip
             return RobotView(
-                t, self.x, self.y, self.theta, self.v, 0.0, people=people, nav=nav, obstacles=self.obstacles
+                t,
+                self.x,
+                self.y,
+                self.theta,
+                self.v,
+                0.0,
+                people=people,
+                nav=nav,
+                obstacles=self.obstacles,
+                objects=self.objects,
             )
 
     def send_goal(self, x: float, y: float, theta: float | None = None, exhibit: str | None = None) -> None:

@@ -599,3 +599,78 @@ def test_vision_obstacles_are_drawn_in_their_own_colour(server: tuple[str, FakeR
     assert before != [r, g, b]
     assert visitor.page.evaluate(colour, [9.0, 6.5])[2] > 150  # floor far from the table: not orange
     assert not visitor.errors
+
+
+def _leaf(angle: float) -> Any:
+    """A 0.9 m door leaf hinged at (7, 6), ``angle`` from closed (along +x), as the web gets it."""
+    import math
+
+    from tourbot.web.link import ObjectView
+
+    c, s = math.cos(angle), math.sin(angle)
+    local = [(0.0, -0.02), (0.9, -0.02), (0.9, 0.02), (0.0, 0.02)]
+    outline = tuple((7.0 + c * x - s * y, 6.0 + s * x + c * y) for x, y in local)
+    return ObjectView("office-door", "door", outline)
+
+
+_DOOR_PIXELS = """([points]) => {
+    const map = window.tourbot.map, ctx = document.getElementById('map').getContext('2d');
+    return points.map(([x, y]) => {
+        const [px, py] = map.toCanvas(x, y);
+        return Array.from(ctx.getImageData(Math.round(px), Math.round(py), 1, 1).data.slice(0, 3));
+    });
+}"""
+
+
+def test_a_door_drawn_in_the_page_follows_its_estimated_state(
+    server: tuple[str, FakeRobot], browser: Any
+) -> None:
+    """The door is drawn where the robot estimates it (2D map and 3D view), and redrawn when the
+    estimate changes; an unchanged estimate sends nothing more."""
+    import math
+
+    url, robot = server
+    robot.objects = (_leaf(0.0),)
+    visitor = _Visitor(browser, url)
+    visitor.page.wait_for_function(
+        "() => window.tourbot && window.tourbot.map.objects.length === 1", timeout=20000
+    )
+    visitor.page.wait_for_timeout(300)
+    closed_mid, open_mid = [7.45, 6.0], [7.0, 6.45]
+    door = [0x7A, 0x3B, 0x0C]
+
+    def near(rgb: list[int]) -> bool:
+        return max(abs(a - b) for a, b in zip(rgb, door, strict=True)) < 30
+
+    at_closed, at_open = visitor.page.evaluate(_DOOR_PIXELS, [[closed_mid, open_mid]])
+    assert near(at_closed), at_closed
+    assert not near(at_open), at_open
+    counted = """() => {
+        const h = window.tourbot.live.handlers, draw = h.onObjects;
+        window.objectMessages = 0;
+        h.onObjects = (objects) => { window.objectMessages += 1; draw(objects); };
+    }"""
+    visitor.page.evaluate(counted)
+    visitor.page.wait_for_timeout(1000)
+    assert visitor.page.evaluate("() => window.objectMessages") == 0  # the same estimate: nothing sent
+    robot.objects = (_leaf(math.pi / 2),)
+    visitor.page.wait_for_function(
+        "() => Math.abs(window.tourbot.map.objects[0].outline[1][1] - 6.9) < 0.05", timeout=10000
+    )
+    visitor.page.wait_for_timeout(300)
+    at_closed, at_open = visitor.page.evaluate(_DOOR_PIXELS, [[closed_mid, open_mid]])
+    assert near(at_open), at_open
+    assert not near(at_closed), at_closed
+    assert visitor.page.evaluate("() => window.objectMessages") == 1
+    if visitor.page.evaluate("() => window.tourbot.view3d !== null"):
+        box = visitor.page.evaluate(
+            """() => {
+                const mesh = window.tourbot.view3d.objects.children[0];
+                mesh.geometry.computeBoundingBox();
+                const b = mesh.geometry.boundingBox;
+                return [b.min.x, b.min.y, b.max.x, b.max.y];
+            }"""
+        )
+        assert box[3] - box[1] > 0.8  # the leaf stands along +y now in the 3D view too
+        assert box[2] - box[0] < 0.1
+    assert visitor.errors == []

@@ -21,7 +21,7 @@ from tourbot.web.app import WebConfig, create_app
 from tourbot.web.db import Database, open_database
 from tourbot.web.fanout import BrokerError, FollowerLink, PublishingLink, channel, decode_view, encode_view
 from tourbot.web.fanout import connect as broker_connect
-from tourbot.web.link import NavStatus, PersonView, RobotLink, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotLink, RobotView
 from tourbot.web.serve import ServeSettings, followed_links, published_links
 from tourbot.web.stream import StreamDecoder
 
@@ -83,9 +83,14 @@ def test_a_view_survives_the_wire(
 ) -> None:
     nav = NavStatus(state, exhibit, (1.0, 2.0), tuple(path), 3.5, "highlights", (1, 4), "on the way")
     x, y, theta, v, omega = pose
-    view = RobotView(100.25, x, y, theta, v, omega, (0.01, 0.02, 0.003), tuple(tracked), nav, tuple(truth))
+    view = RobotView(
+        100.25, x, y, theta, v, omega, (0.01, 0.02, 0.003), tuple(tracked), nav, tuple(truth),
+        obstacles=((1.5, 2.25),), objects=(ObjectView("door-1", "door", ((0.0, 0.0), (0.9, 0.05))),),
+    )  # fmt: skip
     back = decode_view(encode_view(view))
     assert back.nav == nav
+    assert back.obstacles == view.obstacles
+    assert back.objects == view.objects
     assert back.x == pytest.approx(view.x, abs=1e-4)
     assert back.theta == pytest.approx(view.theta, abs=1e-4)
     assert [p.id for p in back.people] == [p.id for p in tracked]

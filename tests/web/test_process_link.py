@@ -110,7 +110,7 @@ def test_a_robot_that_cannot_start_says_why() -> None:
 def test_a_robot_process_that_dies_is_restarted_where_it_was() -> None:
     """kill -9 of the robot's process: within seconds a new one runs, from the last estimated pose,
     and takes commands again."""
-    link = ProcessLink(FakeFactory(), name="phoenix")
+    link = ProcessLink(FakeFactory(restart_time=2.0), name="phoenix")  # a real robot takes seconds
     try:
         link.wait_ready(60)
         link.send_goal(9.0, 2.0)

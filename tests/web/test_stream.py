@@ -360,3 +360,30 @@ def test_fidelity_quantiles() -> None:
     assert fidelity.quantile(1.0) == 2.0
     assert fidelity.worst == 5.0
     assert fidelity.mean == pytest.approx(5.404 / 5)
+
+
+def test_the_objects_message_is_sent_on_change_only() -> None:
+    import json
+
+    from tourbot.web.link import ObjectView
+    from tourbot.web.stream import ObjectsPayload
+
+    def door(dy: float) -> ObjectView:
+        return ObjectView("d", "door", ((7.0, 6.0), (7.9, 6.0 + dy), (7.9, 6.04 + dy)))
+
+    payload = ObjectsPayload(tolerance=0.03)
+    first = payload.update([door(0.0)])
+    assert first is not None
+    assert payload.message == first
+    message = json.loads(first)
+    assert message["type"] == "objects"
+    assert message["objects"][0]["outline"][1] == [7.9, 6.0]
+    assert message["objects"][0]["kind"] == "door"
+    assert payload.update([door(0.02)]) is None  # within the tolerance: the viewers keep theirs
+    assert payload.message == first
+    moved = payload.update([door(0.5)])
+    assert moved is not None
+    assert json.loads(moved)["objects"][0]["outline"][1] == [7.9, 6.5]
+    assert payload.update([door(0.5)]) is None
+    assert payload.update([]) is not None  # gone
+    assert len(payload.update([door(0.0)]) or "") < 200  # a door costs a hundred bytes, once

@@ -100,7 +100,7 @@ def run_tour(
     console = console or Console()
     the_site = load_site(site_path(site))
     the_site.tour(tour)  # a clear error before anything starts
-    settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, speedup=speedup or None)
+    settings = SimulationSettings(crowd=crowd, seed=seed, mcl=mcl, speedup=speedup or None, objects=True)
     settings = replace(settings, navigation=replace(settings.navigation, dwell_scale=dwell_scale))
     t0 = time.perf_counter()
     with console.status("building the simulated museum (first run compiles the kernels)..."):

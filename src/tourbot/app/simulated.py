@@ -5,7 +5,10 @@ the robot localizes with Monte Carlo localization on the site's static map (whic
 the people, the doors' states or where the benches are now) and navigates on that estimate. With
 ``ceiling=True`` the robot also carries the upward camera of Gamallo et al.: the simulator renders
 its images from the site's ceiling lights at 1 Hz and MCL weighs its samples with them
-(:class:`tourbot.ceiling.likelihood.CeilingSensor`).
+(:class:`tourbot.ceiling.likelihood.CeilingSensor`). With ``objects=True`` the robot estimates its
+site's doors and furniture (Schulz and Burgard 2001, :mod:`tourbot.objects`) from every scan and
+MCL's samples, and both MCL and the navigator use the map with them drawn in their estimated states
+(:class:`tourbot.objects.world.ObjectWorld`): a door found closed is planned around.
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ from tourbot.sim.simulator import SimConfig, Simulator
 from tourbot.site.model import Site
 
 if TYPE_CHECKING:
+    from tourbot.localization.mcl import MonteCarloLocalization
+    from tourbot.objects.world import ObjectWorld
     from tourbot.sim.camera import SimCamera
 
 __all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime", "time_to_recover"]
@@ -65,6 +70,8 @@ class SimulationSettings:
     ceiling: bool = False
     # the forward camera and its obstacle detector (tourbot.runtime.vision) feeding the navigator
     vision: bool = False
+    # the doors' and furniture's states estimated and fed back to MCL's and the navigator's map
+    objects: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
@@ -77,6 +84,7 @@ class SimulatedRobot:
     navigator: SiteNavigator
     metrics: MetricsSink
     recorder: Recorder | None
+    objects: ObjectWorld | None = None
 
 
 def simulated_runtime(
@@ -90,8 +98,6 @@ def simulated_runtime(
 ) -> SimulatedRobot:
     """Wire simulator -> MCL -> navigator -> sinks on ``site``; ``fleet``: the shared poses of the
     museum's robots and this one's index (``tourbot.sim.fleet``)."""
-    from tourbot.localization.mcl import MonteCarloLocalization
-
     s = settings or SimulationSettings()
     sim_cfg = replace(s.sim, crowd=crowd_config(s.crowd), robot=s.navigation.robot)
     ceiling = None
@@ -115,11 +121,16 @@ def simulated_runtime(
         forward = ForwardCameraSim(site, seed=s.seed)
         cameras.append(forward)
         estimators.append(VisionObstacleEstimator(site.grid, forward.camera))
+    from tourbot.localization.mcl import MonteCarloLocalization
+
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras, fleet=fleet)
     mcl = MonteCarloLocalization(site.grid, s.mcl, seed=s.seed)
     # the robot starts at a known place (its docking station), as in the paper's tracking runs
     mcl.reset_tracking(simulator.robot.pose)
     navigator = SiteNavigator(site, s.navigation)
+    world = None
+    if s.objects and (site.doors or site.furniture):
+        world = _object_estimator(site, sim_cfg.laser.max_range, mcl, navigator, estimators, s.seed)
     metrics = MetricsSink()
     recorder = Recorder(every=s.record_every) if record else None
     all_sinks: list[Sink] = [metrics, *sinks]
@@ -134,7 +145,30 @@ def simulated_runtime(
         site=site.name,
         config=RuntimeConfig(speedup=s.speedup),
     )
-    return SimulatedRobot(runtime, simulator, navigator, metrics, recorder)
+    return SimulatedRobot(runtime, simulator, navigator, metrics, recorder, world)
+
+
+def _object_estimator(
+    site: Site,
+    max_range: float,
+    mcl: MonteCarloLocalization,
+    navigator: SiteNavigator,
+    estimators: list[Estimator],
+    seed: int,
+) -> ObjectWorld:
+    """The object state estimator on every scan, its world feeding MCL's and the navigator's map."""
+    from tourbot.maps.objects import shapes_of_site
+    from tourbot.maps.raycast import DistanceCaster
+    from tourbot.objects.estimator import ObjectStateEstimator
+    from tourbot.objects.runtime import ObjectsEstimator
+    from tourbot.objects.world import ObjectWorld
+
+    shapes = shapes_of_site(site.doors, site.furniture)
+    estimator = ObjectStateEstimator(shapes, DistanceCaster(site.grid, max_range), seed=seed)
+    world = ObjectWorld(site.grid, shapes, [mcl, navigator])
+    angles = {d.name: d.opening_angle for d in site.doors}
+    estimators.append(ObjectsEstimator(estimator, angles, world=world))
+    return world
 
 
 def time_to_recover(

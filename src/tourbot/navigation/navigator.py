@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import transform_points
+from tourbot.maps.grid import OccupancyGrid
 from tourbot.navigation.avoidance import DWAConfig, DynamicWindow
 from tourbot.navigation.planner import CostMap, NoPathError, PlannerConfig
 from tourbot.navigation.tour import TourExecutor
@@ -70,8 +71,12 @@ class SiteNavigator:
             from dataclasses import replace
 
             planner_cfg = replace(planner_cfg, robot_radius=cfg.robot.radius)
-        hand = site.invisible_mask() if cfg.hand_drawn else None
+        self._planner_config = planner_cfg
+        self._hand = hand = site.invisible_mask() if cfg.hand_drawn else None
         self.costmap = CostMap(site.grid, planner_cfg, invisible=hand)
+        # the static map's plan: the fallback when the world as estimated has no way through
+        self._static_costmap = self.costmap
+        self.map_changes = 0
         self._invisible_points = _outline_points(site, spacing=0.05) if cfg.hand_drawn else np.zeros((0, 2))
         self._published: FloatArray = np.zeros((0, 2))
         self._published_planned = 0
@@ -143,6 +148,15 @@ class SiteNavigator:
     def control(self, snapshot: StateSnapshot, scan: Scan | None, dt: float) -> tuple[float, float]:
         self._cmd = self._control(snapshot, scan, dt)
         return self._cmd
+
+    def set_map(self, grid: OccupancyGrid) -> None:
+        """Plan on ``grid`` from now on (the site with its doors and furniture in their estimated
+        states, :class:`tourbot.objects.world.ObjectWorld`) and replan at the next cycle: a door
+        found closed on the path, or a bench moved into a passage, is planned around at once."""
+        self.costmap = CostMap(grid, self._planner_config, invisible=self._hand)
+        self.map_changes += 1
+        if self.goal is not None:
+            self.path = None
 
     # -- internals --------------------------------------------------------------------------------
 
@@ -290,10 +304,22 @@ class SiteNavigator:
             self.path = costmap.plan(pose[:2], self.goal[:2])
         except NoPathError:
             if extra is None:
+                if self.costmap is not self._static_costmap and self._plan_static(pose):
+                    return True
                 self.path = None
                 self._give_up("no path")
                 return False
             return self.path is not None  # keep the old path if going around the crowd fails
+        return True
+
+    def _plan_static(self, pose: tuple[float, float, float]) -> bool:
+        """A path on the static map, when the estimated world (a door found closed some time ago)
+        leaves none: the door may have been opened since, so go and look."""
+        assert self.goal is not None
+        try:
+            self.path = self._static_costmap.plan(pose[:2], self.goal[:2])
+        except NoPathError:
+            return False
         return True
 
     def _mapped(self, pose: tuple[float, float, float], points: FloatArray) -> FloatArray:

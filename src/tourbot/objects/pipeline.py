@@ -7,7 +7,10 @@ scan ``k`` goes to localization when ``k`` is even and to the objects when it is
 The object estimator integrates over MCL's pose samples (the belief, Eq. 8), carried from the
 last localization update to the object scan by the odometry in between (the prediction of Eq. 7
 without its noise: one scan period of motion). With a given
-trajectory instead (``trajectory``), each scan's pose is one sample of weight one.
+trajectory instead (``trajectory``), each scan's pose is one sample of weight one. With
+``world=True`` the loop is closed: MCL localizes on the map with the objects drawn in their
+latest well-observed states (:class:`~tourbot.objects.world.ObjectWorld`, MCL's ``set_map``),
+each for ``HOLD`` seconds after it was last well observed.
 """
 
 from __future__ import annotations
@@ -26,10 +29,15 @@ from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.objects import ObjectShape
 from tourbot.maps.raycast import DistanceCaster
 from tourbot.objects.estimator import ObjectEstimate, ObjectEstimatorConfig, ObjectStateEstimator
+from tourbot.objects.world import ObjectWorld
 from tourbot.records import RobotLog
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 
-__all__ = ["ObjectRun", "estimate_log"]
+__all__ = ["HOLD", "ObjectRun", "estimate_log"]
+
+# s: how long localization keeps an object drawn after its last well-observed estimate (a stale
+# one makes readings longer than expected, evidence against the pose; ObjectWorld)
+HOLD = 30.0
 
 FloatArray = NDArray[np.float64]
 
@@ -42,6 +50,7 @@ class ObjectRun:
     path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (t, x, y, theta)
     update_seconds: list[float] = field(default_factory=list)
     final: list[ObjectEstimate] = field(default_factory=list)
+    redraws: int = 0  # how often the world handed MCL a new map (``world=True``)
 
 
 def estimate_log(
@@ -55,6 +64,7 @@ def estimate_log(
     start: Sequence[float] | None = None,
     mcl_config: MCLConfig | None = None,
     seed: int = 0,
+    world: bool = False,
     progress: Callable[[int, int], None] | None = None,
 ) -> ObjectRun:
     """Replay ``log``; ``trajectory`` ``(S, 3)`` (one pose per scan) replaces localization.
@@ -70,6 +80,7 @@ def estimate_log(
     estimator = ObjectStateEstimator(shapes, caster, config, seed=seed)
     run = ObjectRun()
     localizer: MCLLocalizer | None = None
+    objects: ObjectWorld | None = None
     if trajectory is None:
         if start is None:
             start = log.scans[0].reference
@@ -83,6 +94,8 @@ def estimate_log(
         )
         policy = UpdatePolicy(beam_step=1, min_travel=0.0, min_turn=0.0, max_interval=0.0)
         localizer = MCLLocalizer(mcl, policy, seed=seed)
+        if world:
+            objects = ObjectWorld(grid, shapes, [mcl], hold=HOLD)
     samples: FloatArray | None = None
     weights: FloatArray | None = None
     belief_odom: FloatArray | None = None
@@ -105,12 +118,15 @@ def estimate_log(
         run.path.append((scan.timestamp, *mean))
         if for_objects:
             before = len(estimator.update_seconds)
-            for est in estimator.update(scan, here, weights):
-                run.updates.append((k, est))
+            updated = estimator.update(scan, here, weights)
+            run.updates.extend((k, est) for est in updated)
             run.update_seconds.extend(estimator.update_seconds[before:])
+            if objects is not None and updated:
+                objects.update(updated)
         if progress is not None:
             progress(k + 1, n)
     run.final = estimator.estimates()
+    run.redraws = objects.redraws if objects is not None else 0
     return run
 
 

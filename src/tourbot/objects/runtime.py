@@ -5,15 +5,21 @@
 from the same reading). ``tourbot bench objects`` measures both: with every scan the doors' mean
 error is 0.8 deg against 1.1 deg alternating (docs/results/objects.md), so every scan is the
 default. Its snapshot contribution is the
-doors and furniture in their estimated states, with how well each was observed.
+doors and furniture in their estimated states, with how well each was observed. With an
+:class:`~tourbot.objects.world.ObjectWorld` it closes the loop: every update goes to the world,
+which hands the map with the objects drawn in to its users (MCL, the navigator) when a state moved.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
+from tourbot.maps.objects import ObjectShape
 from tourbot.objects.estimator import ObjectEstimate, ObjectStateEstimator
+from tourbot.objects.world import ObjectWorld
 from tourbot.records import Odometry, Scan
 from tourbot.snapshot import DoorState, FurnitureState
 
@@ -31,11 +37,16 @@ def furniture_state(estimate: ObjectEstimate) -> FurnitureState:
     return FurnitureState(estimate.name, float(x), float(y), float(th))
 
 
-def quality_dict(estimate: ObjectEstimate) -> dict[str, Any]:
-    """How well an estimate was observed, as plain data (the snapshot's ``extra``, the CSV)."""
+def quality_dict(
+    estimate: ObjectEstimate, shape: ObjectShape | None = None, held: tuple[float, ...] | None = None
+) -> dict[str, Any]:
+    """How well an estimate was observed, as plain data (the snapshot's ``extra``, the CSV); with
+    its ``shape`` and the state the world model ``held`` (the latest well-observed one), also the
+    ``outline`` in that state (world, cm precision: what the web draws)."""
     q = estimate.quality
-    return {
+    out: dict[str, Any] = {
         "name": estimate.name,
+        "kind": estimate.kind,
         "status": str(q.status),
         "beams": q.beams,
         "explained": q.explained,
@@ -43,6 +54,10 @@ def quality_dict(estimate: ObjectEstimate) -> dict[str, Any]:
         "std": [round(v, 5) for v in estimate.std],
         "time": estimate.time,
     }
+    if shape is not None and held is not None:
+        outline = shape.polygons(np.asarray(held, dtype=np.float64))[0]
+        out["outline"] = [[round(float(x), 2), round(float(y), 2)] for x, y in outline]
+    return out
 
 
 class ObjectsEstimator:
@@ -55,10 +70,12 @@ class ObjectsEstimator:
         estimator: ObjectStateEstimator,
         opening_angles: dict[str, float],
         scan_share: ScanShare = ScanShare.ALL,
+        world: ObjectWorld | None = None,
     ) -> None:
         self.estimator = estimator
         self.opening_angles = opening_angles
         self.scan_share = scan_share
+        self.world = world
         self.history: list[list[ObjectEstimate]] = []
 
     def on_odometry(self, odom: Odometry) -> None:  # noqa: ARG002 - the objects need no odometry
@@ -68,6 +85,8 @@ class ObjectsEstimator:
         updated = self.estimator.update(scan, belief.samples, belief.weights)
         if updated:
             self.history.append(updated)
+            if self.world is not None:
+                self.world.update(updated)
 
     def state(self) -> EstimatorOutput:
         estimates = self.estimator.estimates()
@@ -75,6 +94,9 @@ class ObjectsEstimator:
             door_state(e, self.opening_angles.get(e.name, 0.0)) for e in estimates if e.kind == "door"
         )
         furniture = tuple(furniture_state(e) for e in estimates if e.kind != "door")
-        return EstimatorOutput(
-            doors=doors, furniture=furniture, extra={"objects": [quality_dict(e) for e in estimates]}
-        )
+        shapes = self.estimator.shapes
+        held = self.world.drawn if self.world is not None else {}
+        extra = {
+            "objects": [quality_dict(e, s, held.get(e.name)) for e, s in zip(estimates, shapes, strict=True)]
+        }
+        return EstimatorOutput(doors=doors, furniture=furniture, extra=extra)

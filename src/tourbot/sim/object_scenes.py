@@ -5,6 +5,8 @@
   passed at 0.7 m/s.
 - :func:`ushape_scene`: a 37 x 37 cm U-shaped object in a corridor (Sec. 4.2, Fig. 6-7), passed
   twice, then turned by 30 degrees and passed again.
+- :func:`door_tour_site`: beyond the paper, two exhibition halls joined by two doorways with
+  doors that open and close at random and a long way round; a tour crosses between the halls.
 - :func:`desk_scene`: two offices with four desks shifted 20 cm towards the rooms' centres from
   where the model has them (Sec. 4.3, Fig. 8); desk-3 stands behind a small square table that
   the model knows and a chair that it does not (only the simulated world has it).
@@ -35,6 +37,7 @@ __all__ = [
     "SceneRun",
     "corridor_scene",
     "desk_scene",
+    "door_tour_site",
     "run_scene",
     "ushape_scene",
 ]
@@ -200,6 +203,60 @@ def desk_scene(shift: float = 0.2) -> Scene:
 
     drive = [(1.0, 0.0, 0.0), (8.6 / 0.4, 0.4, 0.0), *_turnaround(), (8.6 / 0.4, 0.4, 0.0)]
     return Scene("desks", site(true_poses, [chair]), site(model_poses, []), (0.7, 1.6, 0.0), drive)
+
+
+def door_tour_site(period: float = 30.0) -> Site:
+    """Two 10 x 12 m halls side by side, joined by two doorways (1.3 m) with doors that open and
+    close at random (mean ``period`` seconds between changes, both open at the start) and by an
+    open passage at the far end (the long way round: about 17 m more). The tour ``crossings``
+    goes between exhibits of both halls seven times."""
+    walls: list[Any] = [
+        _box(0.0, 0.0, 20.0, 0.05),
+        _box(0.0, 11.95, 20.0, 12.0),
+        _box(0.0, 0.0, 0.05, 12.0),
+        _box(19.95, 0.0, 20.0, 12.0),
+    ]
+    gaps = [(2.0, 3.3), (5.0, 6.3), (10.4, 11.7)]  # south door, north door, the open passage
+    y = 0.0
+    for a, b in gaps:
+        walls.append(_box(10.0, y, 10.05, a))
+        y = b
+    walls.append(_box(10.0, y, 10.05, 12.0))
+    schedule = {"period": period, "random": True, "start_open": True}
+    doors = [
+        {
+            "name": name,
+            "hinge": [10.025, a],
+            "leaf_length": 1.25,
+            "closed_direction": math.pi / 2,
+            "opening_angle": -math.pi / 2,
+            "thickness": 0.04,
+            "schedule": schedule,
+        }
+        for name, (a, _) in (("south-door", gaps[0]), ("north-door", gaps[1]))
+    ]
+    exhibits = []
+    for name, x, vx, yy, th in (
+        ("west-south", 0.6, 3.0, 2.6, math.pi),
+        ("east-south", 19.4, 17.0, 2.6, 0.0),
+        ("west-north", 0.6, 3.0, 5.6, math.pi),
+        ("east-north", 19.4, 17.0, 5.6, 0.0),
+    ):
+        exhibits.append(
+            {"name": name, "position": [x, yy], "viewing_pose": [vx, yy, th], "text": name, "dwell": 4.0}
+        )
+    order = ["west-south", "east-south", "west-north", "east-north", "west-south", "east-north"]
+    order += ["west-north", "east-south"]
+    return site_from_dict(
+        {
+            "name": "door-halls",
+            "map": {"walls": walls, "resolution": 0.05},
+            "doors": doors,
+            "exhibits": exhibits,
+            "tours": [{"name": "crossings", "exhibits": order}],
+        },
+        base_dir=_here(),
+    )
 
 
 def _here() -> Any:

@@ -772,6 +772,7 @@ async def _send_loop(
     status_key: tuple[int, bool] | None = None  # what the last status was made from
     sent_path: str | None = None
     sent_obstacles: str | None = None
+    sent_objects: str | None = None
     sent_truth: str | None = None
     said = hub.announcements[-1].seq if hub.announcements else 0
     chat_seen = 0  # this visitor's conversation is sent from its start (a reload keeps it)
@@ -805,6 +806,10 @@ async def _send_loop(
         if obstacles is not None and obstacles is not sent_obstacles:
             await ws.send_text(obstacles)
             sent_obstacles = obstacles
+        objects = hub.objects.message  # doors and furniture as estimated, only when they changed
+        if objects is not None and objects is not sent_objects:
+            await ws.send_text(objects)
+            sent_objects = objects
         truth = hub.truth_message
         if debug and truth is not None and truth is not sent_truth:
             await ws.send_text(truth)

@@ -27,7 +27,7 @@ from dataclasses import asdict, replace
 from typing import TYPE_CHECKING, Any
 
 from tourbot.errors import TourbotError
-from tourbot.web.link import NavStatus, PersonView, RobotLink, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotLink, RobotView
 
 if TYPE_CHECKING:
     import redis
@@ -115,6 +115,12 @@ def decode_view(message: bytes) -> RobotView:
             nav=status,
             truth=_people(data["truth"]),
             obstacles=tuple((float(x), float(y)) for x, y in data.get("obstacles", ())),
+            objects=tuple(
+                ObjectView(
+                    str(o["name"]), str(o["kind"]), tuple((float(x), float(y)) for x, y in o["outline"])
+                )
+                for o in data.get("objects", ())
+            ),
         )
     except (ValueError, KeyError, TypeError, IndexError) as exc:
         raise BrokerError(f"not a robot view on the broker ({type(exc).__name__}: {exc})") from None

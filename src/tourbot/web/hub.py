@@ -26,7 +26,7 @@ from tourbot.web.db import Database, DatabaseError, MessageData
 from tourbot.web.face import FaceConfig, face_for
 from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
-from tourbot.web.stream import MAX_BODIES, Body, Scene, StreamBroadcast, StreamConfig
+from tourbot.web.stream import MAX_BODIES, Body, ObjectsPayload, Scene, StreamBroadcast, StreamConfig
 
 __all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
 
@@ -140,6 +140,7 @@ class RobotHub:
         self.obstacles_message: str | None = None
         self._obstacle_cells: list[tuple[int, int]] = []
         self._obstacles_at = -math.inf
+        self.objects = ObjectsPayload()  # doors and furniture (JSON in .message), made on change
         # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
         self.truth_message: str | None = None
         self.debug_viewers = 0
@@ -226,6 +227,7 @@ class RobotHub:
         self.nav_status = self._steady(nav_status(view), now)
         self._publish_path(view, now)
         self._publish_obstacles(view, now)
+        self.objects.update(view.objects)  # doors and furniture as estimated: a message on change
         if self.debug_viewers > 0 and now - self._truth_at >= 1.0:
             self._truth_at = now
             points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]

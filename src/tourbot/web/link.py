@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
-__all__ = ["NavStatus", "PersonView", "RobotLink", "RobotView"]
+__all__ = ["NavStatus", "ObjectView", "PersonView", "RobotLink", "RobotView"]
 
 
 @dataclass(frozen=True)
@@ -24,6 +24,17 @@ class PersonView:
     y: float
     vx: float = 0.0
     vy: float = 0.0
+
+
+@dataclass(frozen=True)
+class ObjectView:
+    """A door or piece of furniture in its *estimated* state: its outline (world, m) in the state
+    the robot's world model holds (the latest well-observed estimate, what MCL and the navigator
+    use: :class:`tourbot.objects.world.ObjectWorld`)."""
+
+    name: str
+    kind: str
+    outline: tuple[tuple[float, float], ...]
 
 
 @dataclass(frozen=True)
@@ -62,6 +73,7 @@ class RobotView:
     truth: tuple[PersonView, ...] = ()  # a simulator's true people: debug overlay only, never acted on
     # obstacles the forward camera found where the laser sees none (tourbot.vision), world points (m)
     obstacles: tuple[tuple[float, float], ...] = ()
+    objects: tuple[ObjectView, ...] = ()  # doors and furniture as estimated (tourbot.objects)
 
 
 @runtime_checkable

@@ -25,7 +25,7 @@ from tourbot.navigation.around import AroundConfig, viewpoints_around
 from tourbot.navigation.navigator import SiteNavigator
 from tourbot.runtime.loop import Runtime
 from tourbot.snapshot import NavMode, StateSnapshot
-from tourbot.web.link import NavStatus, PersonView, RobotView
+from tourbot.web.link import NavStatus, ObjectView, PersonView, RobotView
 
 __all__ = ["RuntimeLink"]
 
@@ -181,4 +181,21 @@ def view_of(
         obstacles=tuple(
             (float(x), float(y)) for x, y in snapshot.estimators.get("vision", {}).get("obstacles", ())
         ),
+        objects=objects_of(snapshot),
+    )
+
+
+def objects_of(snapshot: StateSnapshot) -> tuple[ObjectView, ...]:
+    """The doors and furniture of the object estimator's snapshot entry in the states the world
+    model holds (those never well observed have none and are left out)."""
+    entry = (snapshot.estimators or {}).get("objects")
+    items = entry.get("objects", ()) if isinstance(entry, dict) else ()
+    return tuple(
+        ObjectView(
+            str(o["name"]),
+            str(o.get("kind", "furniture")),
+            tuple((float(x), float(y)) for x, y in o["outline"]),
+        )
+        for o in items
+        if o.get("outline")
     )

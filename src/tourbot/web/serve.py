@@ -137,10 +137,12 @@ class SimulatedRobotFactory:
         from tourbot.web.runtime_link import RuntimeLink
 
         site = load_site(site_path(self.site))
+        # the robot estimates its doors and furniture: the pages draw them, MCL and the navigator use them
         sim_settings = SimulationSettings(
             crowd=self.crowd,
             seed=self.seed,
             mcl=self.mcl,
+            objects=True,
             ceiling="ceiling" in self.cameras,
             vision="forward" in self.cameras,
         )

@@ -26,13 +26,21 @@ Message layout (little-endian)::
 
 ``t`` counts ``time_quantum`` (10 ms) since the epoch, modulo 65536 (the refresh period keeps
 messages far closer than the 655 s wrap). The browser's decoder is ``static/stream.js``.
+
+Doors and furniture in their estimated states travel beside the stream as a JSON text message
+(:class:`ObjectsPayload`), sent only when an outline moved by more than ``OBJECT_TOLERANCE``:
+the states the robot's world model holds change only with a well-observed estimate that moved
+(5 degrees, 5 cm), so a standing world costs nothing.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import struct
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from tourbot.errors import TourbotError
 from tourbot.geometry import wrap_angle
@@ -40,8 +48,10 @@ from tourbot.geometry import wrap_angle
 __all__ = [
     "KEYFRAME",
     "MAX_BODIES",
+    "OBJECT_TOLERANCE",
     "ROBOT_ID",
     "Body",
+    "ObjectsPayload",
     "Scene",
     "StreamBroadcast",
     "StreamConfig",
@@ -62,6 +72,62 @@ _ROBOT_EXTRA = struct.Struct("<Hb")
 _ID = struct.Struct("<H")
 _TWO_PI = 2.0 * math.pi
 MAX_BODIES = 255  # bodies in one message (the count is a byte)
+
+
+OBJECT_TOLERANCE = 0.03  # m: an outline vertex moved this far is sent again
+
+
+class _Object(Protocol):
+    """What the payload reads of an object (:class:`tourbot.web.link.ObjectView`)."""
+
+    @property
+    def name(self) -> str: ...
+    @property
+    def kind(self) -> str: ...
+    @property
+    def outline(self) -> tuple[tuple[float, float], ...]: ...
+
+
+class ObjectsPayload:
+    """The doors and furniture message, made once for every viewer and only on change.
+
+    :meth:`update` takes the objects of the latest view and returns the new JSON message (also
+    kept in :attr:`message`) when one changed enough to be sent, else ``None``. The message is
+    ``{"type": "objects", "objects": [{"name", "kind", "outline": [[x, y], ...]}]}``
+    with outlines in centimetres' precision (metres, two decimals).
+    """
+
+    def __init__(self, tolerance: float = OBJECT_TOLERANCE) -> None:
+        self.tolerance = tolerance
+        self.message: str | None = None
+        self._sent: dict[str, tuple[tuple[float, float], ...]] = {}
+
+    def _changed(self, objects: Sequence[_Object]) -> bool:
+        if {o.name for o in objects} != set(self._sent):
+            return True
+        for o in objects:
+            outline = self._sent[o.name]
+            if len(outline) != len(o.outline):
+                return True
+            pairs = zip(outline, o.outline, strict=True)
+            if any(math.hypot(x - u, y - v) > self.tolerance for (x, y), (u, v) in pairs):
+                return True
+        return False
+
+    def update(self, objects: Sequence[_Object]) -> str | None:
+        if not self._changed(objects):
+            return None
+        self._sent = {o.name: tuple(o.outline) for o in objects}
+        items = [
+            {
+                "name": o.name,
+                "kind": o.kind,
+                "outline": [[round(x, 2), round(y, 2)] for x, y in o.outline],
+            }
+            for o in objects
+        ]
+        self.message = json.dumps({"type": "objects", "objects": items}, separators=(",", ":"))
+        return self.message
 
 
 class StreamError(TourbotError):

@@ -1,4 +1,5 @@
-// The 2D floor plan: the site map, exhibits, the planned path, the robot and the people.
+// The 2D floor plan: the site map, exhibits, doors and furniture as the robot estimates them, the
+// planned path, the robot and the people.
 export class MapView {
   constructor(canvas, site, { onClick } = {}) {
     this.canvas = canvas;
@@ -7,6 +8,8 @@ export class MapView {
     this.exhibits = site.exhibits;
     this.image = null;
     this.path = [];
+    // doors and furniture in their estimated states: [{name, kind, outline: [[x, y], ...]}]
+    this.objects = [];
     this.marker = null;
     this.obstacles = []; // the forward camera's obstacles [[x, y], ...] (cell centres), drawn orange
     this.obstacleCell = 0.1;
@@ -126,6 +129,26 @@ export class MapView {
     return { x: ox + c * gx - s * gy, y: oy + s * gx + c * gy };
   }
 
+  // Doors and furniture where the robot believes they are (the states its world model holds: the
+  // latest well-observed estimates). A door leaf is drawn at least 4 px thick.
+  drawObjects(ctx, px1) {
+    for (const o of this.objects) {
+      if (o.outline.length < 2) continue;
+      ctx.beginPath();
+      o.outline.forEach(([x, y], i) => {
+        const [px, py] = this.toCanvas(x, y);
+        if (i === 0) ctx.moveTo(px, py); else ctx.lineTo(px, py);
+      });
+      ctx.closePath();
+      const color = o.kind === "door" ? "#7a3b0c" : "#2b6e3f";
+      ctx.fillStyle = color;
+      ctx.strokeStyle = color;
+      ctx.lineWidth = (o.kind === "door" ? 4 : 1.5) * px1;
+      ctx.fill();
+      ctx.stroke();
+    }
+  }
+
   draw(bodies) {
     const ctx = this.ctx;
     ctx.fillStyle = "#ddd";
@@ -205,6 +228,7 @@ export class MapView {
       ctx.textBaseline = "middle";
       ctx.fillText("orange: obstacles the camera found", 4 * px1, this.canvas.height - 9 * px1);
     }
+    this.drawObjects(ctx, px1);
     if (this.path.length > 1) {
       ctx.strokeStyle = "#08f";
       ctx.lineWidth = 2.5 * px1;

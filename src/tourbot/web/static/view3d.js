@@ -4,6 +4,8 @@ import * as THREE from "three";
 import { OrbitControls } from "three/addons/controls/OrbitControls.js";
 
 const WALL_HEIGHT = 1.2;
+const DOOR_HEIGHT = 2.0;
+const FURNITURE_HEIGHT = 0.5;
 
 export class View3D {
   // screenUp(): the world direction shown up on the 2D map; the bird's-eye views look the same way.
@@ -23,6 +25,8 @@ export class View3D {
     sun.position.set(20, -10, 30);
     this.scene.add(sun);
     this.avatars = new Map();
+    this.objects = new THREE.Group(); // doors and furniture in their estimated states
+    this.scene.add(this.objects);
     this.robot = this.makeRobot();
     this.scene.add(this.robot);
     this.center = new THREE.Vector3(0, 0, 0);
@@ -153,6 +157,24 @@ export class View3D {
       const fit = (0.55 * d) / Math.tan((this.camera.fov * Math.PI) / 360) / Math.min(1, this.camera.aspect);
       this.lookDown(this.center.x, this.center.y, fit * 0.95, fit * 0.3);
       this.controls.update();
+    }
+  }
+
+  // Doors and furniture as the robot estimates them: each outline extruded (a door to 2 m, a
+  // piece of furniture to 0.5 m). Rebuilt per message:
+  // messages come only when something moved.
+  setObjects(objects) {
+    for (const mesh of this.objects.children) { mesh.geometry.dispose(); mesh.material.dispose(); }
+    this.objects.clear();
+    for (const o of objects) {
+      if (o.outline.length < 3) continue;
+      const shape = new THREE.Shape(o.outline.map(([x, y]) => new THREE.Vector2(x, y)));
+      const door = o.kind === "door";
+      const geometry = new THREE.ExtrudeGeometry(shape, { depth: door ? DOOR_HEIGHT : FURNITURE_HEIGHT, bevelEnabled: false });
+      const material = new THREE.MeshLambertMaterial({ color: door ? 0x7a3b0c : 0x2b6e3f });
+      const mesh = new THREE.Mesh(geometry, material);
+      mesh.name = o.name;
+      this.objects.add(mesh);
     }
   }
 

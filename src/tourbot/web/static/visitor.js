@@ -166,6 +166,7 @@ async function start() {
     onStatus,
     onPath: (points) => { map.path = points; },
     onObstacles: (m) => { map.obstacles = m.points; map.obstacleCell = m.cell; },
+    onObjects: (objects) => { map.objects = objects; if (state.view3d) state.view3d.setObjects(objects); },
     onSay: (say) => message(`Robot says: ${say.text}`),
     onChat: (line) => chatLine($("chat-log"), line, "visitor"),
     onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
@@ -187,6 +188,7 @@ async function start() {
     try {
       const { View3D } = await import("./view3d.js");
       state.view3d = new View3D($("view3d"), site, { screenUp: () => map.screenUp });
+      state.view3d.setObjects(map.objects);
       for (const b of document.querySelectorAll("[data-preset]")) {
         b.addEventListener("click", () => state.view3d.setPreset(b.dataset.preset));
       }
