@@ -46,6 +46,7 @@ __all__ = [
     "cast_start",
     "cast_step",
     "leave",
+    "snap",
     "trace_ray",
 ]
 
@@ -73,6 +74,12 @@ def axis(d: float) -> tuple[int, int, float]:
     if d <= -AXIS:
         return -1, 0, 1.0 / d
     return 0, 1, _HUGE
+
+
+@numba.njit(cache=True, inline="always")
+def snap(d: float) -> float:
+    """A direction component as the walk takes it: 0 under ``AXIS``, as in :func:`axis`."""
+    return 0.0 if -AXIS < d < AXIS else d
 
 
 @numba.njit(cache=True, inline="always")
@@ -203,6 +210,8 @@ def cast_start(
     The ray starts in padded cell ``(cx, cy)``, of table value ``v``, at ``t``. ``range``
     counts only once ``done``.
     """
+    dx = snap(dx)
+    dy = snap(dy)
     t, status = _entry(ox, oy, dx, dy, cols, rows, outside_blocks)
     done = status != 0 or t >= max_cells
     res = 0.0 if status == 1 else max_cells
@@ -245,6 +254,9 @@ def cast_step(
     in turn. Their table reads do not depend on each other, so the CPU overlaps them.
     """
     if 0 < v < OUTSIDE:  # a safe jump, in fixed point
+        # the snapped direction: a jump along a grid line stays on the side the steps take
+        dx = snap(dx)
+        dy = snap(dy)
         if not fixed:  # padded coordinates: positive, so >> 32 is floor
             fx = np.int64((ox + 1.0 + t * dx) * _FIX)
             fy = np.int64((oy + 1.0 + t * dy) * _FIX)
