@@ -46,7 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.grid import MapError, OccupancyGrid
-from tourbot.maps.traversal import BLOCKED, MAX_JUMP, OUTSIDE, cast_ray, cast_start, cast_step
+from tourbot.maps.traversal import BLOCKED, MAX_JUMP, OUTSIDE, cast_ray, cast_start, cast_step, snap
 
 __all__ = [
     "DDACaster",
@@ -236,10 +236,10 @@ def cast_rays_kernel(
         x0 = ox[i]
         y0 = oy[i]
         for b in range(0, nb - 1, 2):
-            dxa = ct * ca[b] - st * sa[b]
-            dya = st * ca[b] + ct * sa[b]
-            dxb = ct * ca[b + 1] - st * sa[b + 1]
-            dyb = st * ca[b + 1] + ct * sa[b + 1]
+            dxa = snap(ct * ca[b] - st * sa[b])
+            dya = snap(st * ca[b] + ct * sa[b])
+            dxb = snap(ct * ca[b + 1] - st * sa[b + 1])
+            dyb = snap(st * ca[b + 1] + ct * sa[b + 1])
             da, ra, ta, cxa, cya, va = cast_start(
                 table, width, rows, cols, x0, y0, dxa, dya, max_cells, outside_blocks
             )

@@ -246,17 +246,15 @@ def cast_step(
 
     The ray is in padded cell ``(cx, cy)`` at ``t`` (where it entered the cell, or where a jump
     landed) and ``v`` is the cell's table value. Along a run of jumps (``fixed``), ``(fx, fy)``
-    is the ray's position in fixed point. Returns the next state, with ``done`` and the range once the cast
-    ends. A blocking cell that the ray only clips at a corner (for less than ``EPS``) is stepped
-    through, as in trace mode.
+    is the ray's position in fixed point. ``(dx, dy)`` is the direction as :func:`snap` gives it,
+    so that a jump along a grid line stays on the side the steps take. Returns the next state,
+    with ``done`` and the range once the cast ends. A blocking cell that the ray only clips at a
+    corner (for less than ``EPS``) is stepped through, as in trace mode.
 
     Because the step is pure, :func:`tourbot.maps.raycast.cast_rays_kernel` can advance two rays
     in turn. Their table reads do not depend on each other, so the CPU overlaps them.
     """
     if 0 < v < OUTSIDE:  # a safe jump, in fixed point
-        # the snapped direction: a jump along a grid line stays on the side the steps take
-        dx = snap(dx)
-        dy = snap(dy)
         if not fixed:  # padded coordinates: positive, so >> 32 is floor
             fx = np.int64((ox + 1.0 + t * dx) * _FIX)
             fy = np.int64((oy + 1.0 + t * dy) * _FIX)
@@ -302,6 +300,8 @@ def cast_ray(
     ``max_cells`` if nothing blocks before ``max_cells``. Off the grid counts as blocking if
     ``outside_blocks``, else as empty.
     """
+    dx = snap(dx)
+    dy = snap(dy)
     done, res, t, cx, cy, v = cast_start(table, width, rows, cols, ox, oy, dx, dy, max_cells, outside_blocks)
     fx = np.int64(0)
     fy = np.int64(0)
