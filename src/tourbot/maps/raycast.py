@@ -329,9 +329,11 @@ def circle_ranges(
 
 class RangeCaster(Protocol):
     """The one caster interface: world laser poses ``(N, 3)`` and beam angles ``(B,)`` (laser
-    frame) in, float32 ranges ``(N, B)`` in metres out. Every caster of the project
-    (:class:`RayCaster` and its kinds) and the peers' adapters in ``tourbot.bench`` satisfy it;
-    what needs ranges (the grid localizer's expected-range table, the beam model) asks for it."""
+    frame) in, float32 ranges ``(N, B)`` in metres out, up to ``max_range``. Every caster of the
+    project (:class:`RayCaster` and its kinds) satisfies it; what needs only ranges (the
+    expected-range table, the grid localizer) asks for it."""
+
+    max_range: float
 
     def cast(self, poses: ArrayLike, angles: ArrayLike) -> Float32Array: ...
 
