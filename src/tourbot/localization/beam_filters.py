@@ -27,7 +27,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.beam_model import _FAR, shorter_than_expected_one
-from tourbot.maps.raycast import RayCaster, _angles, _cast_one, _rays_in_cells
+from tourbot.maps.raycast import RayCaster, _angles, _rays_in_cells
+from tourbot.maps.traversal import cast_ray
 
 __all__ = [
     "BeamFilter",
@@ -312,7 +313,6 @@ def novelty_filter_cast(
         caster.max_cells,
         float(caster.grid.resolution),
         caster.unknown_blocks,
-        caster.jump,
         float(sigma_hit),
         float(max_range),
         float(theta),
@@ -337,7 +337,6 @@ def _novelty_cast_kernel(
     max_cells: float,
     scale: float,
     outside_blocks: bool,
-    jump: bool,
     sigma_hit: float,
     max_range: float,
     theta: float,
@@ -361,7 +360,7 @@ def _novelty_cast_kernel(
             # the ray of tourbot.maps.raycast.cast_rays_kernel, rounded to float32 metres as it is
             dx = ct[i] * ca[b] - st[i] * sa[b]
             dy = st[i] * ca[b] + ct[i] * sa[b]
-            r = _cast_one(table, width, rows, cols, ox[i], oy[i], dx, dy, reach, outside_blocks, jump)
+            r = cast_ray(table, width, rows, cols, ox[i], oy[i], dx, dy, reach, outside_blocks)
             if r >= reach and reach < max_cells:
                 p = 1.0
             else:

@@ -61,7 +61,7 @@ from tourbot.localization.motion_model import OdometryMotionModel, decompose
 from tourbot.localization.range_table import ExpectedRangeTable
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.maps.raycast import RayCaster
+from tourbot.maps.raycast import RangeCaster
 from tourbot.records import LaserGeometry, Scan
 
 __all__ = [
@@ -83,7 +83,7 @@ class GridMarkovError(LocalizationError):
     """A grid localizer used before it has a map, or given a map with no free space."""
 
 
-def _default_caster(grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> RayCaster:
+def _default_caster(grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> RangeCaster:
     """The project's fastest exact caster."""
     from tourbot.maps.raycast import DistanceCaster
 
@@ -262,7 +262,7 @@ class PoseLattice:
 
 def _cast_table(
     lattice: PoseLattice,
-    caster: RayCaster,
+    caster: RangeCaster,
     max_range: float,
     angle_step: float,
     range_bin: float,
@@ -325,7 +325,7 @@ class GridMarkovLocalization:
         config: GridMarkovConfig | None = None,
         motion_model: OdometryMotionModel | None = None,
         sensor_model: BeamModel | None = None,
-        caster_factory: Callable[[OccupancyGrid, float], RayCaster] | None = None,
+        caster_factory: Callable[[OccupancyGrid, float], RangeCaster] | None = None,
         table: ExpectedRangeTable | None = None,
     ) -> None:
         self.config = config or GridMarkovConfig()

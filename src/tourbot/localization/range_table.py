@@ -26,7 +26,7 @@ from tourbot.geometry import wrap_angle
 from tourbot.localization.errors import LocalizationError
 from tourbot.maps.beam_model import BeamModel
 from tourbot.maps.grid import OccupancyGrid
-from tourbot.maps.raycast import RayCaster
+from tourbot.maps.raycast import RangeCaster
 
 __all__ = ["ExpectedRangeTable", "best_headings", "best_headings_reference"]
 
@@ -125,7 +125,7 @@ class ExpectedRangeTable:
         cls,
         poses: FloatArray,
         angles: FloatArray,
-        caster: RayCaster,
+        caster: RangeCaster,
         max_range: float,
         range_bin: float,
         progress: Progress | None = None,
@@ -149,7 +149,12 @@ class ExpectedRangeTable:
 
     @classmethod
     def on_lattice(
-        cls, grid: OccupancyGrid, caster: RayCaster, spacing: float, directions: int, range_bin: float = 0.05
+        cls,
+        grid: OccupancyGrid,
+        caster: RangeCaster,
+        spacing: float,
+        directions: int,
+        range_bin: float = 0.05,
     ) -> ExpectedRangeTable:
         """Cast ``directions`` world-frame beams from the centre of every free cell of a lattice of
         ``spacing`` metres (every ``round(spacing / resolution)``-th cell in both axes)."""

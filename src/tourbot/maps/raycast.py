@@ -13,7 +13,8 @@ What blocks a ray
 
 What a range is
     The distance from the laser to where the ray *enters* the first blocking cell (cells are
-    squares, the exact Amanatides & Woo traversal), ``max_range`` where nothing blocks within
+    squares, the exact Amanatides & Woo traversal of :mod:`tourbot.maps.traversal`, its cast
+    mode), ``max_range`` where nothing blocks within
     ``max_range``. Ranges are float32 metres, ``(N, B)`` for ``N`` laser poses and ``B`` beam
     angles.
 
@@ -45,6 +46,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.grid import MapError, OccupancyGrid
+from tourbot.maps.traversal import BLOCKED, MAX_JUMP, OUTSIDE, cast_ray, cast_start, cast_step, snap
 
 __all__ = [
     "DDACaster",
@@ -190,235 +192,10 @@ def cast_circles_reference(
 # numba kernels
 # --------------------------------------------------------------------------------------------
 #
-# The kernels read a flat, row-major uint8 *padded* table: the grid's cells shifted by one inside
-# a ring of ``OUTSIDE`` cells. ``BLOCKED`` marks blocking cells; in free cells the value is how
-# many whole cells a ray may jump from there (0 for the plain DDA). A ray always stops on a
-# ``BLOCKED`` or ``OUTSIDE`` cell, so the inner loops need no bounds checks; positions in padded
-# cell units are positive, so ``int()`` is ``floor``.
-
-BLOCKED = 255
-OUTSIDE = 254
-MAX_JUMP = 253
-_FIX = 4294967296.0  # 2**32: 32.32 fixed point for the jumps
-
-
-@numba.njit(cache=True, inline="always")
-def _start(
-    x0: float, y0: float, dx: float, dy: float, cols: int, rows: int, outside_blocks: bool
-) -> tuple[float, int]:
-    """Where the ray starts walking in the grid, ``(t0, status)``, unpadded cell units.
-
-    ``status`` 0: walk from ``t0``; 1: range 0 (origin outside and outside blocks); 2: no hit.
-    """
-    if 0.0 <= x0 < cols and 0.0 <= y0 < rows:
-        return 0.0, 0
-    if outside_blocks:
-        return 0.0, 1
-    # outside is empty: clip the ray to the box [0, cols] x [0, rows] (slab method)
-    t0 = 0.0
-    t1 = np.inf
-    if dx != 0.0:
-        a = (0.0 - x0) / dx
-        b = (cols - x0) / dx
-        t0 = max(t0, min(a, b))
-        t1 = min(t1, max(a, b))
-    elif not 0.0 <= x0 < cols:
-        return 0.0, 2
-    if dy != 0.0:
-        a = (0.0 - y0) / dy
-        b = (rows - y0) / dy
-        t0 = max(t0, min(a, b))
-        t1 = min(t1, max(a, b))
-    elif not 0.0 <= y0 < rows:
-        return 0.0, 2
-    if t0 >= t1:
-        return 0.0, 2
-    return t0, 0
-
-
-@numba.njit(cache=True, inline="always")
-def _axis(d: float) -> tuple[int, float, float]:
-    """DDA constants along one axis: step sign, whether the next line is above, 1/d.
-
-    A ray parallel to the axis gets a huge finite 1/d rather than inf, so that the branch-free
-    step never computes ``inf * 0``.
-    """
-    if d > 0.0:
-        return 1, 1.0, 1.0 / d
-    if d < 0.0:
-        return -1, 0.0, 1.0 / d
-    return 0, 1.0, 1e300
-
-
-@numba.njit(cache=True, inline="always")
-def _cast_one(
-    table: NDArray[np.uint8],
-    width: int,
-    rows: int,
-    cols: int,
-    x0: float,
-    y0: float,
-    dx: float,
-    dy: float,
-    max_cells: float,
-    outside_blocks: bool,
-    jump: bool,
-) -> float:
-    """Range in cells of one ray from ``(x0, y0)`` (unpadded cell units) along unit ``(dx, dy)``.
-
-    Amanatides & Woo DDA steps; with ``jump``, runs of safe jumps wherever the table allows them.
-    """
-    t, status = _start(x0, y0, dx, dy, cols, rows, outside_blocks)
-    if status == 1:
-        return 0.0
-    if status == 2 or t >= max_cells:
-        return max_cells
-    px0 = x0 + 1.0  # padded coordinates
-    py0 = y0 + 1.0
-    cx = np.int64(min(max(int(px0 + t * dx), 1), cols))
-    cy = np.int64(min(max(int(py0 + t * dy), 1), rows))
-    sx, bx, ix = _axis(dx)
-    sy, by, iy = _axis(dy)
-    tdx = abs(ix)
-    tdy = abs(iy)
-    tmx = (cx + bx - px0) * ix  # t of the next vertical / horizontal grid line
-    tmy = (cy + by - py0) * iy
-    fdx = np.int64(dx * _FIX)
-    fdy = np.int64(dy * _FIX)
-    v = np.int64(table[cy * width + cx])
-    while True:
-        if v >= OUTSIDE:
-            if v == BLOCKED or outside_blocks:
-                return t
-            return max_cells
-        if jump and v > 0:
-            # a run of jumps in fixed point: only integer maths between two table reads
-            fx = np.int64((px0 + t * dx) * _FIX)
-            fy = np.int64((py0 + t * dy) * _FIX)
-            run = np.int64(0)
-            room = np.int64(max_cells - t) + 1
-            while 0 < v < OUTSIDE and run < room:
-                run += v
-                fx += v * fdx
-                fy += v * fdy
-                cx = fx >> 32
-                cy = fy >> 32
-                v = np.int64(table[cy * width + cx])
-            t += run
-            if t >= max_cells:
-                return max_cells
-            tmx = (cx + bx - px0) * ix
-            tmy = (cy + by - py0) * iy
-            continue
-        # one DDA step, branch-free: the nearer grid line is crossed
-        mi = np.int64(tmx < tmy)
-        mf = float(mi)
-        t = min(tmx, tmy)
-        tmx += tdx * mf
-        tmy += tdy * (1.0 - mf)
-        cx += sx * mi
-        cy += sy * (1 - mi)
-        if t >= max_cells:
-            return max_cells
-        v = np.int64(table[cy * width + cx])
-
-
-@numba.njit(cache=True, inline="always")
-def _march_init(
-    table: NDArray[np.uint8],
-    width: int,
-    rows: int,
-    cols: int,
-    x0: float,
-    y0: float,
-    dx: float,
-    dy: float,
-    max_cells: float,
-    outside_blocks: bool,
-) -> tuple[bool, float, float, np.int64, np.int64, np.int64]:
-    """Start of one ray for :func:`_march_step`: ``(done, range, t, cx, cy, table value)``."""
-    t, status = _start(x0, y0, dx, dy, cols, rows, outside_blocks)
-    done = status != 0 or t >= max_cells
-    res = 0.0 if status == 1 else max_cells
-    cx = np.int64(min(max(int(x0 + 1.0 + t * dx), 1), cols))
-    cy = np.int64(min(max(int(y0 + 1.0 + t * dy), 1), rows))
-    return done, res, t, cx, cy, np.int64(table[cy * width + cx])
-
-
-@numba.njit(cache=True, inline="always")
-def _march_step(
-    table: NDArray[np.uint8],
-    width: int,
-    px0: float,
-    py0: float,
-    dx: float,
-    dy: float,
-    max_cells: float,
-    outside_blocks: bool,
-    done: bool,
-    res: float,
-    t: float,
-    cx: np.int64,
-    cy: np.int64,
-    v: np.int64,
-    fx: np.int64,
-    fy: np.int64,
-    tmx: float,
-    tmy: float,
-    fresh_f: bool,
-    fresh_tm: bool,
-) -> tuple[bool, float, float, np.int64, np.int64, np.int64, np.int64, np.int64, float, float, bool, bool]:
-    """One table read of one ray (a jump or a DDA step), as a pure function of the ray's state.
-
-    The same walk as :func:`_cast_one`, cut into single steps so that :func:`cast_rays_kernel`
-    can advance two rays in turn: their table reads do not depend on each other, so the CPU
-    overlaps them (measured 1.1-1.4x over one ray at a time on the FHW map).
-    """
-    if v >= OUTSIDE:
-        return (
-            True,
-            (t if (v == BLOCKED or outside_blocks) else max_cells),
-            t,
-            cx,
-            cy,
-            v,
-            fx,
-            fy,
-            tmx,
-            tmy,
-            fresh_f,
-            fresh_tm,
-        )
-    if v > 0:  # safe jump, in fixed point
-        if not fresh_f:
-            fx = np.int64((px0 + t * dx) * _FIX)
-            fy = np.int64((py0 + t * dy) * _FIX)
-            fresh_f = True
-        t += v
-        fx += v * np.int64(dx * _FIX)
-        fy += v * np.int64(dy * _FIX)
-        cx = fx >> 32
-        cy = fy >> 32
-        fresh_tm = False
-    else:  # DDA step, branch-free
-        sx, bx, ix = _axis(dx)
-        sy, by, iy = _axis(dy)
-        if not fresh_tm:
-            tmx = (cx + bx - px0) * ix
-            tmy = (cy + by - py0) * iy
-            fresh_tm = True
-        mi = np.int64(tmx < tmy)
-        mf = float(mi)
-        t = min(tmx, tmy)
-        tmx += abs(ix) * mf
-        tmy += abs(iy) * (1.0 - mf)
-        cx += sx * mi
-        cy += sy * (1 - mi)
-        fresh_f = False
-    if t >= max_cells:
-        return True, max_cells, t, cx, cy, v, fx, fy, tmx, tmy, fresh_f, fresh_tm
-    v = np.int64(table[cy * width + cx])
-    return done, res, t, cx, cy, v, fx, fy, tmx, tmy, fresh_f, fresh_tm
+# The casts are the cast mode of the grid traversal (tourbot.maps.traversal). They read a flat,
+# row-major uint8 *padded* table (:func:`padded_table`): the grid's cells shifted by one inside a
+# ring of ``OUTSIDE`` cells. ``BLOCKED`` marks blocking cells; in free cells the value is how many
+# whole cells a ray may jump from there (0 for the plain DDA).
 
 
 @numba.njit(cache=True)
@@ -434,16 +211,19 @@ def cast_rays_kernel(
     max_cells: float,
     scale: float,
     outside_blocks: bool,
-    jump: bool,
     out: Float32Array,
 ) -> None:
     """Fill ``out[i, b]`` with ``scale *`` the range in cells of beam ``b`` from pose ``i``.
 
     ``table`` is the flat padded table (see :func:`padded_table`, row length ``width = cols +
     2``) of a ``rows x cols`` grid; origins ``(ox, oy)`` in unpadded cell units, headings
-    ``oth``. Without ``jump`` this is the plain Amanatides & Woo DDA (Amanatides & Woo 1987,
-    "A fast voxel traversal algorithm for ray tracing"); with it, the distance-transform
-    accelerated DDA of :class:`DistanceCaster`. Not parallel: one core, by design.
+    ``oth``. Each ray is the cast mode of the grid traversal
+    (:mod:`tourbot.maps.traversal`): the plain Amanatides & Woo DDA on a table without jumps
+    (Amanatides & Woo 1987, "A fast voxel traversal algorithm for ray tracing"), the
+    distance-transform accelerated DDA of :class:`DistanceCaster` on one with jumps. Beams
+    ``b`` and ``b + 1`` are cast side by side, one table read each in turn
+    (:func:`tourbot.maps.traversal.cast_step`): their reads do not depend on each other, so
+    the CPU overlaps them. Not parallel: one core, by design.
     """
     n = ox.shape[0]
     nb = angles.shape[0]
@@ -455,43 +235,38 @@ def cast_rays_kernel(
         st = math.sin(oth[i])
         x0 = ox[i]
         y0 = oy[i]
-        first = 0
-        if jump:  # beams b and b + 1 side by side (see _march_step)
-            px0 = x0 + 1.0
-            py0 = y0 + 1.0
-            for b in range(0, nb - 1, 2):
-                dxa = ct * ca[b] - st * sa[b]
-                dya = st * ca[b] + ct * sa[b]
-                dxb = ct * ca[b + 1] - st * sa[b + 1]
-                dyb = st * ca[b + 1] + ct * sa[b + 1]
-                da, ra, ta, cxa, cya, va = _march_init(
-                    table, width, rows, cols, x0, y0, dxa, dya, max_cells, outside_blocks
-                )
-                db, rb, tb, cxb, cyb, vb = _march_init(
-                    table, width, rows, cols, x0, y0, dxb, dyb, max_cells, outside_blocks
-                )
-                fxa, fya, fxb, fyb = zero, zero, zero, zero
-                tmxa, tmya, tmxb, tmyb = 0.0, 0.0, 0.0, 0.0
-                ffa, fta, ffb, ftb = False, False, False, False
-                while not (da and db):
-                    if not da:
-                        da, ra, ta, cxa, cya, va, fxa, fya, tmxa, tmya, ffa, fta = _march_step(
-                            table, width, px0, py0, dxa, dya, max_cells, outside_blocks,
-                            da, ra, ta, cxa, cya, va, fxa, fya, tmxa, tmya, ffa, fta,
-                        )  # fmt: skip
-                    if not db:
-                        db, rb, tb, cxb, cyb, vb, fxb, fyb, tmxb, tmyb, ffb, ftb = _march_step(
-                            table, width, px0, py0, dxb, dyb, max_cells, outside_blocks,
-                            db, rb, tb, cxb, cyb, vb, fxb, fyb, tmxb, tmyb, ffb, ftb,
-                        )  # fmt: skip
-                out[i, b] = scale * ra
-                out[i, b + 1] = scale * rb
-            first = nb - nb % 2
-        for b in range(first, nb):
-            dx = ct * ca[b] - st * sa[b]
-            dy = st * ca[b] + ct * sa[b]
-            r = _cast_one(table, width, rows, cols, x0, y0, dx, dy, max_cells, outside_blocks, jump)
-            out[i, b] = scale * r
+        for b in range(0, nb - 1, 2):
+            dxa = snap(ct * ca[b] - st * sa[b])
+            dya = snap(st * ca[b] + ct * sa[b])
+            dxb = snap(ct * ca[b + 1] - st * sa[b + 1])
+            dyb = snap(st * ca[b + 1] + ct * sa[b + 1])
+            da, ra, ta, cxa, cya, va = cast_start(
+                table, width, rows, cols, x0, y0, dxa, dya, max_cells, outside_blocks
+            )
+            db, rb, tb, cxb, cyb, vb = cast_start(
+                table, width, rows, cols, x0, y0, dxb, dyb, max_cells, outside_blocks
+            )
+            fxa, fya, fxb, fyb = zero, zero, zero, zero
+            ffa, ffb = False, False
+            while not (da and db):
+                if not da:
+                    da, ra, ta, cxa, cya, va, fxa, fya, ffa = cast_step(
+                        table, width, x0, y0, dxa, dya, max_cells, outside_blocks,
+                        da, ra, ta, cxa, cya, va, fxa, fya, ffa,
+                    )  # fmt: skip
+                if not db:
+                    db, rb, tb, cxb, cyb, vb, fxb, fyb, ffb = cast_step(
+                        table, width, x0, y0, dxb, dyb, max_cells, outside_blocks,
+                        db, rb, tb, cxb, cyb, vb, fxb, fyb, ffb,
+                    )  # fmt: skip
+            out[i, b] = scale * ra
+            out[i, b + 1] = scale * rb
+        if nb % 2:
+            dx = ct * ca[nb - 1] - st * sa[nb - 1]
+            dy = st * ca[nb - 1] + ct * sa[nb - 1]
+            out[i, nb - 1] = scale * cast_ray(
+                table, width, rows, cols, x0, y0, dx, dy, max_cells, outside_blocks
+            )
 
 
 def padded_table(blocked: NDArray[np.bool_], jumps: NDArray[np.uint8] | None = None) -> NDArray[np.uint8]:
@@ -554,9 +329,11 @@ def circle_ranges(
 
 class RangeCaster(Protocol):
     """The one caster interface: world laser poses ``(N, 3)`` and beam angles ``(B,)`` (laser
-    frame) in, float32 ranges ``(N, B)`` in metres out. Every caster of the project
-    (:class:`RayCaster` and its kinds) and the peers' adapters in ``tourbot.bench`` satisfy it;
-    what needs ranges (the grid localizer's expected-range table, the beam model) asks for it."""
+    frame) in, float32 ranges ``(N, B)`` in metres out, up to ``max_range``. Every caster of the
+    project (:class:`RayCaster` and its kinds) satisfies it; what needs only ranges (the
+    expected-range table, the grid localizer) asks for it."""
+
+    max_range: float
 
     def cast(self, poses: ArrayLike, angles: ArrayLike) -> Float32Array: ...
 
@@ -573,7 +350,6 @@ class RayCaster:
     """
 
     table: NDArray[np.uint8]
-    jump: bool = False
 
     def __init__(self, grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> None:
         if not max_range > 0:
@@ -608,7 +384,6 @@ class RayCaster:
                 self.max_cells,
                 self.grid.resolution,
                 self.unknown_blocks,
-                self.jump,
                 out,
             )
         return out
@@ -680,8 +455,6 @@ class DistanceCaster(RayCaster):
     the ranges are the DDA's ones, not a within-epsilon approximation. The ring around the grid
     counts as blocking for the jumps, so a jump never leaves the table.
     """
-
-    jump = True
 
     def __init__(self, grid: OccupancyGrid, max_range: float, unknown_blocks: bool = True) -> None:
         from scipy import ndimage

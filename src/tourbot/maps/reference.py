@@ -17,7 +17,8 @@ Which cell a beam hits
     half a cell crossing. ``hit="endpoint"`` marks the endpoint's own cell (the textbook model;
     better for likelihood fields, which measure distances to cell centres).
 
-:func:`trace_beams` is the numba kernel (one pass over all beams, Amanatides and Woo traversal);
+:func:`trace_beams` is the numba kernel: one pass over all beams, each walked by the trace mode of
+the grid traversal (:func:`tourbot.maps.traversal.trace_ray`, Amanatides and Woo).
 :func:`trace_beams_reference` is its plain-numpy twin, compared by property tests.
 """
 
@@ -33,6 +34,7 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose
 from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
+from tourbot.maps.traversal import AXIS, EPS, trace_ray
 from tourbot.records import LaserGeometry, RobotLog, Scan
 
 __all__ = [
@@ -76,71 +78,6 @@ class ReferenceMapParams:
 # Beam tracing: numba kernel and numpy reference
 
 
-_EPS = 1e-12  # pieces of a beam shorter than this (through a cell corner) visit no cell
-_AXIS = 1e-12  # direction components smaller than this are zero
-
-
-@numba.njit(cache=True)
-def _trace_one(
-    ox: float,
-    oy: float,
-    dx: float,
-    dy: float,
-    length: float,
-    is_hit: bool,
-    crossing: bool,
-    rows: int,
-    cols: int,
-    hits: np.ndarray,
-    misses: np.ndarray,
-) -> None:
-    """Walk one beam cell by cell (Amanatides & Woo 1987), counting its misses and its hit.
-
-    Crossing parameters are computed directly from the grid line they cross (not accumulated), so
-    they are the same floats as in :func:`trace_beams_reference`.
-    """
-    if not is_hit and length <= 0.0:
-        return  # an empty beam crosses no cell
-    # a direction a hair off a grid axis is taken as along it (else which side of a grid line the
-    # beam runs on would be decided by rounding)
-    if abs(dx) < _AXIS:
-        dx = 0.0
-    if abs(dy) < _AXIS:
-        dy = 0.0
-    cx = math.floor(ox)
-    cy = math.floor(oy)
-    step_x = 1 if dx > 0 else -1
-    step_y = 1 if dy > 0 else -1
-    bx = cx + 1 if dx > 0 else cx  # the next vertical grid line the beam crosses
-    by = cy + 1 if dy > 0 else cy
-    next_x = (bx - ox) / dx if dx != 0.0 else math.inf
-    next_y = (by - oy) / dy if dy != 0.0 else math.inf
-    t_enter = 0.0  # where the beam entered the current cell (cx, cy)
-    while True:
-        t_next = min(next_x, next_y)  # where it leaves the current cell
-        if t_next - t_enter > _EPS:
-            inside = 0 <= cx < cols and 0 <= cy < rows
-            # past the endpoint: the current cell holds it; with ``crossing`` it is the hit cell
-            # only if the beam entered it nearer to the endpoint than where it leaves it
-            if is_hit and t_next > length and (not crossing or length - t_enter <= t_next - length):
-                if inside:
-                    hits[cy, cx] += 1
-                return
-            if inside:
-                misses[cy, cx] += 1
-            if not is_hit and t_next >= length:
-                return
-            t_enter = t_next
-        if next_x < next_y:
-            cx += step_x
-            bx += step_x
-            next_x = (bx - ox) / dx
-        else:
-            cy += step_y
-            by += step_y
-            next_y = (by - oy) / dy
-
-
 @numba.njit(cache=True)
 def _trace_all(
     ox: np.ndarray,
@@ -154,7 +91,7 @@ def _trace_all(
 ) -> None:
     rows, cols = hits.shape
     for i in range(ox.shape[0]):
-        _trace_one(
+        trace_ray(
             ox[i], oy[i], math.cos(theta[i]), math.sin(theta[i]), length[i], is_hit[i], crossing,
             rows, cols, hits, misses,
         )  # fmt: skip
@@ -219,8 +156,8 @@ def trace_beams_reference(
     if m == 0:
         return hits, misses
     dx, dy = np.cos(th), np.sin(th)
-    dx[np.abs(dx) < _AXIS] = 0.0
-    dy[np.abs(dy) < _AXIS] = 0.0
+    dx[np.abs(dx) < AXIS] = 0.0
+    dy[np.abs(dy) < AXIS] = 0.0
     # look beyond the endpoint: the nearest crossing and the piece after it may lie past it
     reach = ln + 3.0
 
@@ -230,7 +167,7 @@ def trace_beams_reference(
         n = int(np.max(np.ceil(np.maximum(a0, a1)) - lo)) + 2
         k = lo[:, None] + np.arange(n)[None, :]
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            t = (k - a0[:, None]) / d[:, None]
+            t = (k - a0[:, None]) * (1.0 / d[:, None])  # the kernel's floats: times 1 / d
         ok = np.isfinite(t) & (t > 0.0) & (t <= reach[:, None])
         return np.where(ok, t, np.inf)
 
@@ -238,7 +175,7 @@ def trace_beams_reference(
     t.sort(axis=1)
     # a crossing through a cell corner appears twice (or almost): keep one
     with np.errstate(invalid="ignore"):  # inf - inf past the last crossing
-        dup = np.diff(t, axis=1) <= _EPS
+        dup = np.diff(t, axis=1) <= EPS
     t[:, 1:][dup] = np.inf
     t.sort(axis=1)
     start = t[:, :-1]
