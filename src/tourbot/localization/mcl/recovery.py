@@ -7,6 +7,14 @@ injected. A second sign of a wrong track is the one Fox et al. 1998 point to: re
 for the map (visitors only ever shorten a beam). Injected samples are *guesses* (fresh) until one
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
+
+A guess never replaces a track that explains the scan (passes the too-long test): a crowd only
+shortens beams, so such a track is consistent with the scan, and a jump away from it would be a
+jump the odometry does not show. While the track is contradicted, a guess must also be consistent
+with the odometry since the last scan the track explained (the *agreement*): within
+``verify_distance`` plus ``odometry_drift`` of the odometry's path since then. Only a track
+contradicted on ``global_after`` judged scans in a row (the robot was carried, or the odometry
+failed) may be replaced by a guess anywhere.
 """
 
 from __future__ import annotations
@@ -46,6 +54,8 @@ class RecoveryState:
     - ``next_verify``: scan time of the next periodic verification.
     - ``verify_until``: until this scan time every scan is verified (after a recovery).
     - ``guess_wins``: consecutive scans on which the held guess beat the track.
+    - ``odom_path``, ``odom_turn``: the odometry's travel (m) and turning (rad) since the last
+      judged scan whose track passed the too-long test (the last agreement).
     """
 
     w_slow: float = 0.0
@@ -59,6 +69,8 @@ class RecoveryState:
     next_verify: float = -math.inf
     verify_until: float = -math.inf
     guess_wins: int = 0
+    odom_path: float = 0.0
+    odom_turn: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -142,6 +154,26 @@ class Recovery:
             s.lost_scans = 0
             s.passed += 1
             s.unconfirmed = s.unconfirmed and s.passed < cfg.global_after
+            s.odom_path = s.odom_turn = 0.0  # the track and the odometry agree here
+
+    def moved(self, trans: float, turn: float) -> None:
+        """The odometry moved by ``trans`` metres and turned by ``turn`` radians since the last scan."""
+        self.state.odom_path += abs(trans)
+        self.state.odom_turn += abs(turn)
+
+    @property
+    def bound(self) -> tuple[float, float] | None:
+        """How far (m, rad) from the track a guess may be and still be consistent with the
+        odometry since the last agreement; None: anywhere (global localization, a track not yet
+        confirmed, a failed verification, or one contradicted on ``global_after`` scans in a row)."""
+        cfg, s = self.config, self.state
+        if s.global_phase or s.unconfirmed or s.suspect or s.lost_scans >= cfg.global_after:
+            return None
+        drift_m, drift_rad = cfg.odometry_drift
+        return (
+            cfg.verify_distance[0] + drift_m * s.odom_path,
+            cfg.verify_distance[1] + drift_rad * s.odom_turn,
+        )
 
     # ------------------------------------------------------------------ verification
 
@@ -187,9 +219,9 @@ class Recovery:
         scan that is no evidence (``too_long`` NaN and no failed verification) no guess is judged.
         Otherwise the best guess (:meth:`best_guess`; during global localization
         :meth:`heaviest_guess`) wins the scan; when the same guess has won ``fresh_wins`` scans
-        in a row its cluster becomes the belief (the other samples lose their weight, every
-        sample is established); a guess that won fewer is held (the other guesses lose their
-        weight)."""
+        in a row and is :meth:`consistent` with the odometry, its cluster becomes the belief
+        (the other samples lose their weight, every sample is established); a guess that won
+        fewer, or is not yet consistent, is held (the other guesses lose their weight)."""
         cfg, s = self.config, self.state
         contradicted = self.contradicted
         if self.fresh.any() and not contradicted:
@@ -210,7 +242,11 @@ class Recovery:
         else:
             s.guess_wins = 0
         self.held = np.zeros(self.fresh.shape, dtype=bool)
-        if guess is not None and s.guess_wins >= cfg.fresh_wins:
+        if (
+            guess is not None
+            and s.guess_wins >= cfg.fresh_wins
+            and self.consistent(samples, weights, guess, track)
+        ):
             mine_mask = labels == int(labels[np.flatnonzero(guess)[0]])
             w = np.where(mine_mask, weights, 0.0)
             new = w / w.sum() if w.sum() > 0 else mine_mask / mine_mask.sum()
@@ -226,6 +262,22 @@ class Recovery:
             self.held = guess
             return Arbitration(w / w.sum(), False)
         return Arbitration(None, False)
+
+    def consistent(
+        self, samples: FloatArray, weights: FloatArray, guess: BoolArray, track: FloatArray
+    ) -> bool:
+        """Whether the ``guess`` samples' weighted mean lies within the odometry's :attr:`bound`
+        of the ``track``: a guess that is not may win scans (it is held) but replaces the track
+        only once the track has been contradicted on ``global_after`` scans in a row."""
+        bound = self.bound
+        if bound is None:
+            return True
+        w = weights[guess]
+        mean = weighted_mean_cov(samples[guess], w if w.sum() > 0 else np.ones(w.size))[0]
+        return bool(
+            math.hypot(mean[0] - track[0], mean[1] - track[1]) <= bound[0]
+            and abs(float(wrap_angle(mean[2] - track[2]))) <= bound[1]
+        )
 
     def heaviest_guess(
         self, samples: FloatArray, weights: FloatArray, labels: IntArray, track: FloatArray, score: Score
@@ -263,15 +315,16 @@ class Recovery:
 
         Guesses are the clusters of weighted guesses, judged at their weighted means by ``score``
         (the crowd beam model) beside the track. When the track is ``contradicted`` a guess wins
-        by scoring above it; otherwise only guesses at another place (beyond ``verify_distance``)
-        are judged and one must beat the track by ``verify_margin`` nats per return (of
-        ``n_returns``). A guess that the too-long test (``judge``, at its mean and its
-        ``lost_hypotheses`` heaviest samples) contradicts cannot win unless the track's own
-        fraction ``track_too_long`` is larger still. The held guess stays the guess if it passes
-        and scores within the margin of the best."""
+        by scoring above it. A track that is not contradicted explains the scan and no guess
+        replaces it, unless it comes from global localization and is not yet confirmed: then only
+        guesses at another place (beyond ``verify_distance``) are judged and one must beat the
+        track by ``verify_margin`` nats per return (of ``n_returns``). A guess that the too-long
+        test (``judge``, at its mean and its ``lost_hypotheses`` heaviest samples) contradicts
+        cannot win unless the track's own fraction ``track_too_long`` is larger still. The held
+        guess stays the guess if it passes and scores within the margin of the best."""
         cfg = self.config
         live = self.fresh & (weights > 0)
-        if not live.any():
+        if not live.any() or not (contradicted or self.state.unconfirmed):
             return None
         ids = np.unique(labels[live])
         means = np.empty((ids.size, 3))
@@ -283,8 +336,8 @@ class Recovery:
             judged = (np.hypot(means[:, 0] - track[0], means[:, 1] - track[1]) > cfg.verify_distance[0]) | (
                 np.abs(wrap_angle(means[:, 2] - track[2])) > cfg.verify_distance[1]
             )
-            if not judged.any():
-                return None
+        if not judged.any():
+            return None
         ids, means = ids[judged], means[judged]
         ll = score(np.vstack([means, track[None, :]]))
         margin = cfg.verify_margin * n_returns
