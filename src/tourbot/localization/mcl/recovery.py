@@ -8,7 +8,8 @@ for the map (visitors only ever shorten a beam). Injected samples are *guesses* 
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
 
-A guess never replaces a track that explains the scan (passes the too-long test): a crowd only
+A guess never replaces a good track that explains the scan (passes the too-long test; a track
+is good once it has passed on ``global_after`` scans in a row, from a known start): a crowd only
 shortens beams, so such a track is consistent with the scan, and a jump away from it would be a
 jump the odometry does not show. While the track is contradicted, a guess must also be consistent
 with the odometry since the last scan the track explained (the *agreement*): within
@@ -54,6 +55,8 @@ class RecoveryState:
     - ``next_verify``: scan time of the next periodic verification.
     - ``verify_until``: until this scan time every scan is verified (after a recovery).
     - ``guess_wins``: consecutive scans on which the held guess beat the track.
+    - ``new_track``: a recovery guess became the track and it has not yet passed the too-long
+      test on ``global_after`` judged scans in a row (it is no good track yet).
     - ``odom_path``, ``odom_turn``: the odometry's travel (m) and turning (rad) since the last
       judged scan whose track passed the too-long test (the last agreement).
     """
@@ -69,6 +72,7 @@ class RecoveryState:
     next_verify: float = -math.inf
     verify_until: float = -math.inf
     guess_wins: int = 0
+    new_track: bool = False
     odom_path: float = 0.0
     odom_turn: float = 0.0
 
@@ -154,6 +158,7 @@ class Recovery:
             s.lost_scans = 0
             s.passed += 1
             s.unconfirmed = s.unconfirmed and s.passed < cfg.global_after
+            s.new_track = s.new_track and s.passed < cfg.global_after
             s.odom_path = s.odom_turn = 0.0  # the track and the odometry agree here
 
     def moved(self, trans: float, turn: float) -> None:
@@ -164,10 +169,11 @@ class Recovery:
     @property
     def bound(self) -> tuple[float, float] | None:
         """How far (m, rad) from the track a guess may be and still be consistent with the
-        odometry since the last agreement; None: anywhere (global localization, a track not yet
-        confirmed, a failed verification, or one contradicted on ``global_after`` scans in a row)."""
+        odometry since the last agreement; None: anywhere (global localization, a track from it
+        or from a recovery not yet confirmed, a failed verification, or one contradicted on
+        ``global_after`` scans in a row)."""
         cfg, s = self.config, self.state
-        if s.global_phase or s.unconfirmed or s.suspect or s.lost_scans >= cfg.global_after:
+        if s.global_phase or s.unconfirmed or s.new_track or s.suspect or s.lost_scans >= cfg.global_after:
             return None
         drift_m, drift_rad = cfg.odometry_drift
         return (
@@ -254,6 +260,7 @@ class Recovery:
             s.guess_wins = 0
             s.suspect = cfg.verify_period is not None  # verify the new track on this scan already
             s.recovered = True
+            s.new_track, s.passed = True, 0
             return Arbitration(np.asarray(new, dtype=np.float64), True)
         if guess is not None and not s.global_phase:
             w = np.where(self.fresh & ~guess, 0.0, weights)
@@ -316,15 +323,16 @@ class Recovery:
         Guesses are the clusters of weighted guesses, judged at their weighted means by ``score``
         (the crowd beam model) beside the track. When the track is ``contradicted`` a guess wins
         by scoring above it. A track that is not contradicted explains the scan and no guess
-        replaces it, unless it comes from global localization and is not yet confirmed: then only
-        guesses at another place (beyond ``verify_distance``) are judged and one must beat the
-        track by ``verify_margin`` nats per return (of ``n_returns``). A guess that the too-long
+        replaces it, unless it comes from global localization or a recovery and is not yet
+        confirmed (``global_after`` passes in a row): then only guesses at another place (beyond
+        ``verify_distance``) are judged and one must beat the track by ``verify_margin`` nats
+        per return (of ``n_returns``). A guess that the too-long
         test (``judge``, at its mean and its ``lost_hypotheses`` heaviest samples) contradicts
         cannot win unless the track's own fraction ``track_too_long`` is larger still. The held
         guess stays the guess if it passes and scores within the margin of the best."""
         cfg = self.config
         live = self.fresh & (weights > 0)
-        if not live.any() or not (contradicted or self.state.unconfirmed):
+        if not live.any() or not (contradicted or self.state.unconfirmed or self.state.new_track):
             return None
         ids = np.unique(labels[live])
         means = np.empty((ids.size, 3))
