@@ -241,30 +241,37 @@ def test_a_track_a_recovery_just_made_is_no_good_track_yet(room: OccupancyGrid) 
     assert not sc.recovery.state.new_track  # confirmed: a good track from now on
 
 
-def test_a_guess_far_from_a_track_contradicted_on_a_scan_or_two_is_held_not_taken(
+def test_a_guess_far_from_a_contradicted_track_needs_clear_wins_and_a_lasting_contradiction(
     room: OccupancyGrid,
 ) -> None:
     # The scene's decoy, 2.6 m from the truth, as the only guess beside a track at the truth that
-    # a crowd of glass made fail the too-long test: the guess is further than the odometry can
-    # have drifted since the last agreement, so it may win scans but replaces the track only
-    # once the track has been contradicted on global_after scans in a row.
-    sc = _scene(room, lost_track=True)
-    rec = sc.mcl.config.recovery
-    sc.samples[sc.track] = sc.truth + np.random.default_rng(4).normal(0.0, [0.02, 0.02, 0.01], (200, 3))
-    sc.weights = np.where(sc.far, 1.0, np.where(sc.track, 1e-3, 0.0))
-    sc.weights /= sc.weights.sum()
-    sc.recovery.fresh = sc.far.copy()
+    # glass makes fail the too-long test: the guess is further than the odometry can have drifted
+    # since the last agreement. Winning by a little it is held, never taken; winning by far more
+    # than verify_margin per return it replaces the track once the track has been contradicted
+    # on global_after scans in a row (a robot carried off).
+    rec = RecoveryConfig()
+    for lead, taken_at in ((1.0, None), (1000.0, rec.global_after)):
+        sc = _scene(room, lost_track=True)
+        sc.samples[sc.track] = sc.truth + np.random.default_rng(4).normal(0.0, [0.02, 0.02, 0.01], (200, 3))
+        sc.weights = np.where(sc.far, 1.0, np.where(sc.track, 1e-3, 0.0))
+        sc.weights /= sc.weights.sum()
+        sc.recovery.fresh = sc.far.copy()
+        decoy = sc.samples[260].copy()
 
-    def glass(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
-        return 0.5 if others is None else 0.0  # the track fails the too-long test, the guess passes
+        def glass(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
+            return 0.5 if others is None else 0.0  # the track fails the too-long test, the guess passes
 
-    sc.score = lambda poses: -np.hypot(poses[:, 0] - sc.samples[260, 0], poses[:, 1] - sc.samples[260, 1])  # type: ignore[method-assign]
-    for k in range(1, rec.global_after):
-        pose = sc.step(glass)
-        assert np.hypot(*(pose[:2] - sc.truth[:2])) < 0.1, k
-        assert sc.recovery.state.guess_wins == k
-    pose = sc.step(glass)
-    assert np.hypot(*(pose[:2] - sc.samples[260, :2])) < 0.1  # lost on global_after scans: taken
+        def toward_decoy(poses: np.ndarray, lead: float = lead, decoy: np.ndarray = decoy) -> np.ndarray:
+            return -lead * np.hypot(poses[:, 0] - decoy[0], poses[:, 1] - decoy[1])
+
+        sc.score = toward_decoy  # type: ignore[method-assign]
+        for k in range(1, 2 * rec.global_after):
+            pose = sc.step(glass)
+            taken = taken_at is not None and k >= taken_at
+            assert np.hypot(*(pose[:2] - (decoy if taken else sc.truth)[:2])) < 0.1, (lead, k)
+            if taken:
+                break
+            assert sc.recovery.state.guess_wins == k
 
 
 def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: OccupancyGrid) -> None:

@@ -13,9 +13,10 @@ is good once it has passed on ``global_after`` scans in a row, from a known star
 shortens beams, so such a track is consistent with the scan, and a jump away from it would be a
 jump the odometry does not show. While the track is contradicted, a guess must also be consistent
 with the odometry since the last scan the track explained (the *agreement*): within
-``verify_distance`` plus ``odometry_drift`` of the odometry's path since then. Only a track
-contradicted on ``global_after`` judged scans in a row (the robot was carried, or the odometry
-failed) may be replaced by a guess anywhere.
+``verify_distance`` plus ``odometry_drift`` of the odometry's path since then. A guess anywhere
+else (the robot was carried, or the odometry failed) replaces only a track contradicted on
+``global_after`` judged scans in a row, and only once it has explained the scan better than the
+track by ``verify_margin`` nats per return on ``fresh_wins`` scans in a row.
 """
 
 from __future__ import annotations
@@ -55,6 +56,7 @@ class RecoveryState:
     - ``next_verify``: scan time of the next periodic verification.
     - ``verify_until``: until this scan time every scan is verified (after a recovery).
     - ``guess_wins``: consecutive scans on which the held guess beat the track.
+    - ``clear_wins``: of those, the last consecutive ones it won by ``verify_margin`` per return.
     - ``new_track``: a recovery guess became the track and it has not yet passed the too-long
       test on ``global_after`` judged scans in a row (it is no good track yet).
     - ``odom_path``, ``odom_turn``: the odometry's travel (m) and turning (rad) since the last
@@ -72,6 +74,7 @@ class RecoveryState:
     next_verify: float = -math.inf
     verify_until: float = -math.inf
     guess_wins: int = 0
+    clear_wins: int = 0
     new_track: bool = False
     odom_path: float = 0.0
     odom_turn: float = 0.0
@@ -95,6 +98,7 @@ class Recovery:
         self.state = RecoveryState()
         self.fresh: BoolArray = np.zeros(n, dtype=bool)
         self.held: BoolArray = np.zeros(n, dtype=bool)
+        self._gain = -math.inf  # the last best guess's lead over the track, nats per return
 
     # ------------------------------------------------------------------ state
 
@@ -170,10 +174,9 @@ class Recovery:
     def bound(self) -> tuple[float, float] | None:
         """How far (m, rad) from the track a guess may be and still be consistent with the
         odometry since the last agreement; None: anywhere (global localization, a track from it
-        or from a recovery not yet confirmed, a failed verification, or one contradicted on
-        ``global_after`` scans in a row)."""
+        or from a recovery not yet confirmed, a failed verification)."""
         cfg, s = self.config, self.state
-        if s.global_phase or s.unconfirmed or s.new_track or s.suspect or s.lost_scans >= cfg.global_after:
+        if s.global_phase or s.unconfirmed or s.new_track or s.suspect:
             return None
         drift_m, drift_rad = cfg.odometry_drift
         return (
@@ -225,7 +228,7 @@ class Recovery:
         scan that is no evidence (``too_long`` NaN and no failed verification) no guess is judged.
         Otherwise the best guess (:meth:`best_guess`; during global localization
         :meth:`heaviest_guess`) wins the scan; when the same guess has won ``fresh_wins`` scans
-        in a row and is :meth:`consistent` with the odometry, its cluster becomes the belief
+        in a row and is :meth:`consistent` with the odometry, its samples become the belief
         (the other samples lose their weight, every sample is established); a guess that won
         fewer, or is not yet consistent, is held (the other guesses lose their weight)."""
         cfg, s = self.config, self.state
@@ -245,19 +248,22 @@ class Recovery:
             )
             same = guess is not None and bool((guess & self.held).any())
             s.guess_wins = 0 if guess is None else s.guess_wins + 1 if same else 1
+            clear = guess is not None and self._gain > cfg.verify_margin
+            s.clear_wins = 0 if not clear else s.clear_wins + 1 if same else 1
         else:
-            s.guess_wins = 0
+            s.guess_wins = s.clear_wins = 0
         self.held = np.zeros(self.fresh.shape, dtype=bool)
         if (
             guess is not None
             and s.guess_wins >= cfg.fresh_wins
             and self.consistent(samples, weights, guess, track)
         ):
-            mine_mask = labels == int(labels[np.flatnonzero(guess)[0]])
-            w = np.where(mine_mask, weights, 0.0)
-            new = w / w.sum() if w.sum() > 0 else mine_mask / mine_mask.sum()
+            # The guess's own samples: the track's, when it shares their cluster (a guess near
+            # it, at a better heading), would hold the estimate where the track was.
+            w = np.where(guess, weights, 0.0)
+            new = w / w.sum() if w.sum() > 0 else guess / guess.sum()
             self.fresh[:] = False
-            s.guess_wins = 0
+            s.guess_wins = s.clear_wins = 0
             s.suspect = cfg.verify_period is not None  # verify the new track on this scan already
             s.recovered = True
             s.new_track, s.passed = True, 0
@@ -273,18 +279,22 @@ class Recovery:
     def consistent(
         self, samples: FloatArray, weights: FloatArray, guess: BoolArray, track: FloatArray
     ) -> bool:
-        """Whether the ``guess`` samples' weighted mean lies within the odometry's :attr:`bound`
-        of the ``track``: a guess that is not may win scans (it is held) but replaces the track
-        only once the track has been contradicted on ``global_after`` scans in a row."""
+        """Whether the ``guess`` may replace the ``track`` as far as the odometry goes: its
+        samples' weighted mean lies within the odometry's :attr:`bound` of the track, or the
+        track has been contradicted on ``global_after`` scans in a row and the guess has won the
+        last ``fresh_wins`` of them by ``verify_margin`` nats per return. A guess that is not
+        may still win scans (it is held)."""
+        cfg, s = self.config, self.state
         bound = self.bound
         if bound is None:
             return True
         w = weights[guess]
         mean = weighted_mean_cov(samples[guess], w if w.sum() > 0 else np.ones(w.size))[0]
-        return bool(
+        near = (
             math.hypot(mean[0] - track[0], mean[1] - track[1]) <= bound[0]
             and abs(float(wrap_angle(mean[2] - track[2]))) <= bound[1]
         )
+        return near or (s.lost_scans >= cfg.global_after and s.clear_wins >= cfg.fresh_wins)
 
     def heaviest_guess(
         self, samples: FloatArray, weights: FloatArray, labels: IntArray, track: FloatArray, score: Score
@@ -367,6 +377,7 @@ class Recovery:
                 best = k
                 if not held.any():
                     break
+        self._gain = -math.inf if best is None else float(ll[best] - ll[-1]) / max(n_returns, 1)
         return None if best is None else live & (labels == int(ids[best]))
 
     def wide_search(self) -> tuple[bool, bool]:
