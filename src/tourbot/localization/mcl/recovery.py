@@ -32,7 +32,7 @@ from tourbot.geometry import wrap_angle
 from tourbot.localization.mcl.clustering import best_cluster_estimate, weighted_mean_cov
 from tourbot.localization.mcl.config import RecoveryConfig
 
-__all__ = ["Arbitration", "Recovery", "RecoveryState"]
+__all__ = ["Arbitration", "Recovery", "RecoveryState", "local_lattice"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -89,6 +89,24 @@ class Arbitration:
     became_track: bool
 
 
+def local_lattice(
+    pose: FloatArray, bound: tuple[float, float], step: float = 0.25, turn: float = math.radians(3.0)
+) -> FloatArray:
+    """Poses around ``pose`` ``(3,)``: a ``step`` lattice of positions within ``min(bound[0],
+    0.5)`` metres, each at headings ``turn`` apart within ``bound[1]`` radians."""
+    r = min(bound[0], 0.5)
+    k, m = int(r // step), int(bound[1] // turn)
+    d = np.arange(-k, k + 1) * step
+    dx, dy, dt = np.meshgrid(d, d, np.arange(-m, m + 1) * turn, indexing="ij")
+    keep = np.hypot(dx, dy) <= r + 1e-9
+    c, sn = math.cos(pose[2]), math.sin(pose[2])
+    out = np.empty((int(keep.sum()), 3))
+    out[:, 0] = pose[0] + c * dx[keep] - sn * dy[keep]
+    out[:, 1] = pose[1] + sn * dx[keep] + c * dy[keep]
+    out[:, 2] = wrap_angle(pose[2] + dt[keep])
+    return out
+
+
 class Recovery:
     """The recovery state of one filter and its rules. ``fresh`` and ``held`` ``(N,)`` mark the
     samples that are guesses and the guess that won the last scan; ``state`` is the rest."""
@@ -99,6 +117,7 @@ class Recovery:
         self.fresh: BoolArray = np.zeros(n, dtype=bool)
         self.held: BoolArray = np.zeros(n, dtype=bool)
         self._gain = -math.inf  # the last best guess's lead over the track, nats per return
+        self._margin = math.inf  # the last scan's margin, nats
 
     # ------------------------------------------------------------------ state
 
@@ -256,7 +275,7 @@ class Recovery:
         if (
             guess is not None
             and s.guess_wins >= cfg.fresh_wins
-            and self.consistent(samples, weights, guess, track)
+            and self.consistent(samples, weights, guess, track, score)
         ):
             # The guess's own samples: the track's, when it shares their cluster (a guess near
             # it, at a better heading), would hold the estimate where the track was.
@@ -266,7 +285,8 @@ class Recovery:
             s.guess_wins = s.clear_wins = 0
             s.suspect = cfg.verify_period is not None  # verify the new track on this scan already
             s.recovered = True
-            s.new_track, s.passed = True, 0
+            if not self.within_bound(samples, weights, guess, track):
+                s.new_track, s.passed = True, 0  # a far recovery: no good track until it passes
             return Arbitration(np.asarray(new, dtype=np.float64), True)
         if guess is not None and not s.global_phase:
             w = np.where(self.fresh & ~guess, 0.0, weights)
@@ -277,24 +297,49 @@ class Recovery:
         return Arbitration(None, False)
 
     def consistent(
-        self, samples: FloatArray, weights: FloatArray, guess: BoolArray, track: FloatArray
+        self,
+        samples: FloatArray,
+        weights: FloatArray,
+        guess: BoolArray,
+        track: FloatArray,
+        score: Score | None = None,
     ) -> bool:
         """Whether the ``guess`` may replace the ``track`` as far as the odometry goes: its
         samples' weighted mean lies within the odometry's :attr:`bound` of the track, or the
-        track has been contradicted on ``global_after`` scans in a row and the guess has won the
-        last ``fresh_wins`` of them by ``verify_margin`` nats per return. A guess that is not
-        may still win scans (it is held)."""
+        track has been contradicted on ``global_after`` scans in a row, the guess has won the
+        last ``fresh_wins`` of them by ``verify_margin`` nats per return, and (given ``score``)
+        it beats by that margin every pose of a small lattice within the bound around the track
+        too (:func:`local_lattice`): a far look-alike never wins against a track that a nearby
+        pose would correct. A guess that is not may still win scans (it is held)."""
         cfg, s = self.config, self.state
         bound = self.bound
-        if bound is None:
+        if bound is None or self.within_bound(samples, weights, guess, track):
             return True
-        w = weights[guess]
-        mean = weighted_mean_cov(samples[guess], w if w.sum() > 0 else np.ones(w.size))[0]
-        near = (
+        if s.lost_scans < cfg.global_after or s.clear_wins < cfg.fresh_wins:
+            return False
+        if score is None:
+            return True
+        ll = score(np.vstack([self._mean(samples, weights, guess)[None, :], local_lattice(track, bound)]))
+        return bool(ll[0] - ll[1:].max() > self._margin)
+
+    def within_bound(
+        self, samples: FloatArray, weights: FloatArray, guess: BoolArray, track: FloatArray
+    ) -> bool:
+        """Whether the ``guess`` samples' weighted mean lies within the odometry's :attr:`bound`
+        of the ``track`` (False when there is no bound)."""
+        bound = self.bound
+        if bound is None:
+            return False
+        mean = self._mean(samples, weights, guess)
+        return bool(
             math.hypot(mean[0] - track[0], mean[1] - track[1]) <= bound[0]
             and abs(float(wrap_angle(mean[2] - track[2]))) <= bound[1]
         )
-        return near or (s.lost_scans >= cfg.global_after and s.clear_wins >= cfg.fresh_wins)
+
+    @staticmethod
+    def _mean(samples: FloatArray, weights: FloatArray, mask: BoolArray) -> FloatArray:
+        w = weights[mask]
+        return weighted_mean_cov(samples[mask], w if w.sum() > 0 else np.ones(w.size))[0]
 
     def heaviest_guess(
         self, samples: FloatArray, weights: FloatArray, labels: IntArray, track: FloatArray, score: Score
@@ -378,6 +423,7 @@ class Recovery:
                 if not held.any():
                     break
         self._gain = -math.inf if best is None else float(ll[best] - ll[-1]) / max(n_returns, 1)
+        self._margin = margin
         return None if best is None else live & (labels == int(ids[best]))
 
     def wide_search(self) -> tuple[bool, bool]:
