@@ -9,7 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from tourbot.geometry import compose
+from tourbot.geometry import compose, wrap_angle
 from tourbot.localization.mcl import MonteCarloLocalization, Recovery, RecoveryConfig, RecoveryState
 from tourbot.localization.mcl.clustering import best_cluster_estimate, cluster_bins
 from tourbot.maps.grid import OccupancyGrid
@@ -272,6 +272,40 @@ def test_a_guess_far_from_a_contradicted_track_needs_clear_wins_and_a_lasting_co
             if taken:
                 break
             assert sc.recovery.state.guess_wins == k
+
+
+def test_a_far_look_alike_never_beats_a_track_that_a_nearby_pose_corrects(room: OccupancyGrid) -> None:
+    # issue 22, Freiburg 079: the track's heading drifts 15 deg off, its long beams see through
+    # walls for five scans, and a look-alike 13 m away explains the scan far better than the
+    # track. A pose near the track, at the right heading, explains it better still: the far guess
+    # stays held and the track is corrected where it is.
+    rec = RecoveryConfig()
+    sc = _scene(room, lost_track=True)
+    off = sc.truth + np.array([0.0, 0.0, 0.26])
+    sc.samples[sc.track] = off + np.random.default_rng(5).normal(0.0, [0.02, 0.02, 0.01], (200, 3))
+    sc.weights = np.where(sc.far, 1.0, np.where(sc.track, 1e-3, 0.0))
+    sc.weights /= sc.weights.sum()
+    sc.recovery.fresh = sc.far.copy()
+    decoy, truth = sc.samples[260].copy(), sc.truth.copy()
+
+    def glass(p: np.ndarray, others: np.ndarray | None = None) -> float:  # noqa: ARG001
+        return 0.5 if others is None else 0.0
+
+    def two_places(poses: np.ndarray) -> np.ndarray:
+        def dist(q: np.ndarray) -> np.ndarray:
+            return np.hypot(poses[:, 0] - q[0], poses[:, 1] - q[1]) + np.abs(wrap_angle(poses[:, 2] - q[2]))
+
+        return np.maximum(-1000.0 * dist(truth), -1000.0 * dist(decoy) - 20.0)
+
+    sc.score = two_places  # type: ignore[method-assign]
+    assert two_places(np.stack([decoy]))[0] - two_places(off[None])[0] > 2 * rec.verify_margin * int(
+        sc.valid.sum()
+    )
+    for _ in range(2 * rec.global_after):
+        pose = sc.step(glass)
+        assert np.hypot(*(pose[:2] - truth[:2])) < 0.1
+    assert sc.recovery.state.clear_wins >= rec.fresh_wins  # held, never taken
+    assert sc.recovery.held[sc.far].all()
 
 
 def test_a_guess_may_see_through_fewer_walls_than_the_track_it_replaces(room: OccupancyGrid) -> None:
