@@ -255,6 +255,60 @@ def test_localize_refuses_sparse_odometry_and_no_motion(
     with pytest.raises(SystemExit):
         _localize(tmp_path / "still.log", room, tmp_path / "t.tum")
     assert "the odometry does not move" in capsys.readouterr().err
+    _localize(tmp_path / "sparse.log", room, tmp_path / "t.tum", "--force")  # forced: warned, then run
+    err = " ".join(capsys.readouterr().err.split())
+    assert f"only 1 odometry reading for {len(drive.scans)} scans" in err
+    assert "(going on: --force)" in err
+    assert len(read_tum(tmp_path / "t.tum")[0]) == len(drive.scans)
+
+
+def test_localize_refuses_four_odometry_readings_for_237_scans_of_the_fhw_log(
+    shared_data: Path,
+    files: tuple[Path, Path, np.ndarray],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # issue 22: a log with 4 odometry readings for 237 scans was localized to the end (92 % failures)
+    import gzip
+
+    with gzip.open(shared_data / "carmen" / "fhw-corrected.log.gz", "rt") as f:
+        lines = f.read().splitlines()
+    lasers = [k for k, line in enumerate(lines) if line.startswith("FLASER")]
+    lines = lines[: lasers[236] + 2]  # 237 scans, each with its copy of the corrected pose
+    odom = [k for k, line in enumerate(lines) if line.startswith("ODOM")]
+    real = [k for k in odom if not lines[k - 1].startswith("FLASER")]  # the copies follow a scan
+    keep = set(real[:: len(real) // 4][:4])
+    variant = tmp_path / "sparse.log"
+    variant.write_text("\n".join(x for k, x in enumerate(lines) if k not in set(real) - keep) + "\n")
+    _room_log, room, _truth = files
+    with pytest.raises(SystemExit) as exc:
+        _localize(variant, room, tmp_path / "t.tum")
+    assert exc.value.code == 2
+    (error,) = [line for line in capsys.readouterr().err.splitlines() if line.startswith("error:")]
+    assert "only 4 odometry readings for 237 scans" in error
+    assert not (tmp_path / "t.tum").exists()
+
+
+def test_localize_never_prints_a_real_time_factor_it_cannot_know(
+    files: tuple[Path, Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # issue 22: "0x real time" and "323872908x real time" from zero and wrapped timestamps
+    from dataclasses import replace
+
+    from tourbot.io import read_carmen
+
+    log, room, _truth = files
+    drive = read_carmen(log)
+    unstamped = replace(
+        drive,
+        scans=[replace(s, timestamp=0.0) for s in drive.scans],
+        odometry=[replace(o, timestamp=0.0) for o in drive.odometry],
+    )
+    write_carmen(unstamped, tmp_path / "zero.log")
+    _localize(tmp_path / "zero.log", room, tmp_path / "t.tum")
+    err = " ".join(capsys.readouterr().err.split())
+    assert "real time unknown (the scan timestamps are all zero)" in err
+    assert "x real time" not in err
 
 
 @pytest.fixture(scope="module")

@@ -214,3 +214,33 @@ def test_convert_to_a_ros2_bag_reads_back_the_same_scans_and_odometry(
     plain = tmp_path / "plain"
     plain.mkdir()
     assert _run(["log", "convert", str(fhw_log_path), "-o", str(plain), "--force"]) == 2
+
+
+def _fhw_variant(fhw_log_path: Path, tmp_path: Path, first: str) -> Path:
+    with gzip.open(fhw_log_path, "rt") as f:
+        lines = [first, *f.read().splitlines()]
+    out = tmp_path / "variant.log.gz"
+    with gzip.open(out, "wt", compresslevel=1) as f:
+        f.write("\n".join(lines) + "\n")
+    return out
+
+
+def test_log_info_says_a_radians_field_of_view_was_read_as_radians(
+    fhw_log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # issue 22: "log info" printed "field of view 180.0 deg" for scans rotated by 88 deg
+    variant = _fhw_variant(fhw_log_path, tmp_path, "PARAM laser_front_laser_fov 3.14159 x 0")
+    main(["log", "info", str(variant)])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "field of view │ 179.0 deg" in out  # 180 beams 1 deg apart, the first at -90 deg
+    assert "inferred: beams: -90 to +89 deg (PARAM laser_front_laser_fov 3.14159 read as radians" in out
+    assert "PARAM field of view read as degrees: 57.3 cm" in out  # the reading it turned down, and why
+
+
+def test_log_info_says_a_10_m_range_param_is_a_software_cap(
+    fhw_log_path: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    main(["log", "info", str(_fhw_variant(fhw_log_path, tmp_path, "PARAM robot_front_laser_max 10 x 0"))])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "max range │ 51.05 m" in out
+    assert "read as a software cap" in out

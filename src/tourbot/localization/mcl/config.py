@@ -145,6 +145,10 @@ class RecoveryConfig:
     - ``verify_period`` (seconds of scan time; None: never), ``verify_margin`` (nats per return),
       ``verify_distance`` (m, rad): the track is checked against the best other place the scan
       suggests, a likelihood ratio test (this implementation's; off by default).
+    - ``odometry_drift`` (m per m travelled, rad per rad turned): a guess replacing a contradicted
+      track must lie within ``verify_distance`` plus this much of the odometry's motion since the
+      last scan the track explained (this implementation's 0.1, 0.1); beyond, only after
+      ``global_after`` contradicted scans in a row.
     - ``model``: the crowd beam model (PR Table 6.1) that judges guesses and candidates: ``z_short``
       0.4 for the visitors, ``lambda_short`` 0.2 /m, ``sigma_hit`` 0.2 m (this implementation's).
     - ``search``: the reset search (:class:`SearchConfig`).
@@ -165,6 +169,7 @@ class RecoveryConfig:
     verify_period: float | None = None
     verify_margin: float = 0.5
     verify_distance: tuple[float, float] = (1.0, math.radians(30.0))
+    odometry_drift: tuple[float, float] = (0.1, 0.1)
     model: BeamModel = field(default_factory=_crowd_model)
     search: SearchConfig = field(default_factory=SearchConfig)
 

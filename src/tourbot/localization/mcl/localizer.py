@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.geometry import compose, wrap_angle
+from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.localization.beam_filters import BeamFilter, entropy_filter, novelty_filter_cast
 from tourbot.localization.errors import LocalizationError
 from tourbot.localization.estimate import LocalizationEstimate
@@ -209,6 +209,8 @@ class MonteCarloLocalization:
         """1. Motion (Eq. 1): every sample moves by the odometry, with sampled noise."""
         if self._odom is not None:
             self.samples = self.config.motion.sample(self.samples, self._odom, odom, self.rng)
+            step = relative(self._odom, odom)
+            self.recovery.moved(math.hypot(step[0], step[1]), float(wrap_angle(step[2])))
         self._odom = odom
 
     def _select_beams(self, r: _Reading) -> BoolArray:

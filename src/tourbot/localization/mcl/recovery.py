@@ -7,6 +7,16 @@ injected. A second sign of a wrong track is the one Fox et al. 1998 point to: re
 for the map (visitors only ever shorten a beam). Injected samples are *guesses* (fresh) until one
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
+
+A guess never replaces a good track that explains the scan (passes the too-long test; a track
+is good once it has passed on ``global_after`` scans in a row, from a known start): a crowd only
+shortens beams, so such a track is consistent with the scan, and a jump away from it would be a
+jump the odometry does not show. While the track is contradicted, a guess must also be consistent
+with the odometry since the last scan the track explained (the *agreement*): within
+``verify_distance`` plus ``odometry_drift`` of the odometry's path since then. A guess anywhere
+else (the robot was carried, or the odometry failed) replaces only a track contradicted on
+``global_after`` judged scans in a row, and only once it has explained the scan better than the
+track by ``verify_margin`` nats per return on ``fresh_wins`` scans in a row.
 """
 
 from __future__ import annotations
@@ -22,7 +32,7 @@ from tourbot.geometry import wrap_angle
 from tourbot.localization.mcl.clustering import best_cluster_estimate, weighted_mean_cov
 from tourbot.localization.mcl.config import RecoveryConfig
 
-__all__ = ["Arbitration", "Recovery", "RecoveryState"]
+__all__ = ["Arbitration", "Recovery", "RecoveryState", "local_lattice"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -46,6 +56,11 @@ class RecoveryState:
     - ``next_verify``: scan time of the next periodic verification.
     - ``verify_until``: until this scan time every scan is verified (after a recovery).
     - ``guess_wins``: consecutive scans on which the held guess beat the track.
+    - ``clear_wins``: of those, the last consecutive ones it won by ``verify_margin`` per return.
+    - ``new_track``: a recovery guess became the track and it has not yet passed the too-long
+      test on ``global_after`` judged scans in a row (it is no good track yet).
+    - ``odom_path``, ``odom_turn``: the odometry's travel (m) and turning (rad) since the last
+      judged scan whose track passed the too-long test (the last agreement).
     """
 
     w_slow: float = 0.0
@@ -59,6 +74,10 @@ class RecoveryState:
     next_verify: float = -math.inf
     verify_until: float = -math.inf
     guess_wins: int = 0
+    clear_wins: int = 0
+    new_track: bool = False
+    odom_path: float = 0.0
+    odom_turn: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -70,6 +89,24 @@ class Arbitration:
     became_track: bool
 
 
+def local_lattice(
+    pose: FloatArray, bound: tuple[float, float], step: float = 0.25, turn: float = math.radians(3.0)
+) -> FloatArray:
+    """Poses around ``pose`` ``(3,)``: a ``step`` lattice of positions within ``min(bound[0],
+    0.5)`` metres, each at headings ``turn`` apart within ``bound[1]`` radians."""
+    r = min(bound[0], 0.5)
+    k, m = int(r // step), int(bound[1] // turn)
+    d = np.arange(-k, k + 1) * step
+    dx, dy, dt = np.meshgrid(d, d, np.arange(-m, m + 1) * turn, indexing="ij")
+    keep = np.hypot(dx, dy) <= r + 1e-9
+    c, sn = math.cos(pose[2]), math.sin(pose[2])
+    out = np.empty((int(keep.sum()), 3))
+    out[:, 0] = pose[0] + c * dx[keep] - sn * dy[keep]
+    out[:, 1] = pose[1] + sn * dx[keep] + c * dy[keep]
+    out[:, 2] = wrap_angle(pose[2] + dt[keep])
+    return out
+
+
 class Recovery:
     """The recovery state of one filter and its rules. ``fresh`` and ``held`` ``(N,)`` mark the
     samples that are guesses and the guess that won the last scan; ``state`` is the rest."""
@@ -79,6 +116,8 @@ class Recovery:
         self.state = RecoveryState()
         self.fresh: BoolArray = np.zeros(n, dtype=bool)
         self.held: BoolArray = np.zeros(n, dtype=bool)
+        self._gain = -math.inf  # the last best guess's lead over the track, nats per return
+        self._margin = math.inf  # the last scan's margin, nats
 
     # ------------------------------------------------------------------ state
 
@@ -142,6 +181,27 @@ class Recovery:
             s.lost_scans = 0
             s.passed += 1
             s.unconfirmed = s.unconfirmed and s.passed < cfg.global_after
+            s.new_track = s.new_track and s.passed < cfg.global_after
+            s.odom_path = s.odom_turn = 0.0  # the track and the odometry agree here
+
+    def moved(self, trans: float, turn: float) -> None:
+        """The odometry moved by ``trans`` metres and turned by ``turn`` radians since the last scan."""
+        self.state.odom_path += abs(trans)
+        self.state.odom_turn += abs(turn)
+
+    @property
+    def bound(self) -> tuple[float, float] | None:
+        """How far (m, rad) from the track a guess may be and still be consistent with the
+        odometry since the last agreement; None: anywhere (global localization, a track from it
+        or from a recovery not yet confirmed, a failed verification)."""
+        cfg, s = self.config, self.state
+        if s.global_phase or s.unconfirmed or s.new_track or s.suspect:
+            return None
+        drift_m, drift_rad = cfg.odometry_drift
+        return (
+            cfg.verify_distance[0] + drift_m * s.odom_path,
+            cfg.verify_distance[1] + drift_rad * s.odom_turn,
+        )
 
     # ------------------------------------------------------------------ verification
 
@@ -187,9 +247,9 @@ class Recovery:
         scan that is no evidence (``too_long`` NaN and no failed verification) no guess is judged.
         Otherwise the best guess (:meth:`best_guess`; during global localization
         :meth:`heaviest_guess`) wins the scan; when the same guess has won ``fresh_wins`` scans
-        in a row its cluster becomes the belief (the other samples lose their weight, every
-        sample is established); a guess that won fewer is held (the other guesses lose their
-        weight)."""
+        in a row and is :meth:`consistent` with the odometry, its samples become the belief
+        (the other samples lose their weight, every sample is established); a guess that won
+        fewer, or is not yet consistent, is held (the other guesses lose their weight)."""
         cfg, s = self.config, self.state
         contradicted = self.contradicted
         if self.fresh.any() and not contradicted:
@@ -207,17 +267,26 @@ class Recovery:
             )
             same = guess is not None and bool((guess & self.held).any())
             s.guess_wins = 0 if guess is None else s.guess_wins + 1 if same else 1
+            clear = guess is not None and self._gain > cfg.verify_margin
+            s.clear_wins = 0 if not clear else s.clear_wins + 1 if same else 1
         else:
-            s.guess_wins = 0
+            s.guess_wins = s.clear_wins = 0
         self.held = np.zeros(self.fresh.shape, dtype=bool)
-        if guess is not None and s.guess_wins >= cfg.fresh_wins:
-            mine_mask = labels == int(labels[np.flatnonzero(guess)[0]])
-            w = np.where(mine_mask, weights, 0.0)
-            new = w / w.sum() if w.sum() > 0 else mine_mask / mine_mask.sum()
+        if (
+            guess is not None
+            and s.guess_wins >= cfg.fresh_wins
+            and self.consistent(samples, weights, guess, track, score)
+        ):
+            # The guess's own samples: the track's, when it shares their cluster (a guess near
+            # it, at a better heading), would hold the estimate where the track was.
+            w = np.where(guess, weights, 0.0)
+            new = w / w.sum() if w.sum() > 0 else guess / guess.sum()
             self.fresh[:] = False
-            s.guess_wins = 0
+            s.guess_wins = s.clear_wins = 0
             s.suspect = cfg.verify_period is not None  # verify the new track on this scan already
             s.recovered = True
+            if not self.within_bound(samples, weights, guess, track):
+                s.new_track, s.passed = True, 0  # a far recovery: no good track until it passes
             return Arbitration(np.asarray(new, dtype=np.float64), True)
         if guess is not None and not s.global_phase:
             w = np.where(self.fresh & ~guess, 0.0, weights)
@@ -226,6 +295,51 @@ class Recovery:
             self.held = guess
             return Arbitration(w / w.sum(), False)
         return Arbitration(None, False)
+
+    def consistent(
+        self,
+        samples: FloatArray,
+        weights: FloatArray,
+        guess: BoolArray,
+        track: FloatArray,
+        score: Score | None = None,
+    ) -> bool:
+        """Whether the ``guess`` may replace the ``track`` as far as the odometry goes: its
+        samples' weighted mean lies within the odometry's :attr:`bound` of the track, or the
+        track has been contradicted on ``global_after`` scans in a row, the guess has won the
+        last ``fresh_wins`` of them by ``verify_margin`` nats per return, and (given ``score``)
+        it beats by that margin every pose of a small lattice within the bound around the track
+        too (:func:`local_lattice`): a far look-alike never wins against a track that a nearby
+        pose would correct. A guess that is not may still win scans (it is held)."""
+        cfg, s = self.config, self.state
+        bound = self.bound
+        if bound is None or self.within_bound(samples, weights, guess, track):
+            return True
+        if s.lost_scans < cfg.global_after or s.clear_wins < cfg.fresh_wins:
+            return False
+        if score is None:
+            return True
+        ll = score(np.vstack([self._mean(samples, weights, guess)[None, :], local_lattice(track, bound)]))
+        return bool(ll[0] - ll[1:].max() > self._margin)
+
+    def within_bound(
+        self, samples: FloatArray, weights: FloatArray, guess: BoolArray, track: FloatArray
+    ) -> bool:
+        """Whether the ``guess`` samples' weighted mean lies within the odometry's :attr:`bound`
+        of the ``track`` (False when there is no bound)."""
+        bound = self.bound
+        if bound is None:
+            return False
+        mean = self._mean(samples, weights, guess)
+        return bool(
+            math.hypot(mean[0] - track[0], mean[1] - track[1]) <= bound[0]
+            and abs(float(wrap_angle(mean[2] - track[2]))) <= bound[1]
+        )
+
+    @staticmethod
+    def _mean(samples: FloatArray, weights: FloatArray, mask: BoolArray) -> FloatArray:
+        w = weights[mask]
+        return weighted_mean_cov(samples[mask], w if w.sum() > 0 else np.ones(w.size))[0]
 
     def heaviest_guess(
         self, samples: FloatArray, weights: FloatArray, labels: IntArray, track: FloatArray, score: Score
@@ -263,15 +377,17 @@ class Recovery:
 
         Guesses are the clusters of weighted guesses, judged at their weighted means by ``score``
         (the crowd beam model) beside the track. When the track is ``contradicted`` a guess wins
-        by scoring above it; otherwise only guesses at another place (beyond ``verify_distance``)
-        are judged and one must beat the track by ``verify_margin`` nats per return (of
-        ``n_returns``). A guess that the too-long test (``judge``, at its mean and its
-        ``lost_hypotheses`` heaviest samples) contradicts cannot win unless the track's own
-        fraction ``track_too_long`` is larger still. The held guess stays the guess if it passes
-        and scores within the margin of the best."""
+        by scoring above it. A track that is not contradicted explains the scan and no guess
+        replaces it, unless it comes from global localization or a recovery and is not yet
+        confirmed (``global_after`` passes in a row): then only guesses at another place (beyond
+        ``verify_distance``) are judged and one must beat the track by ``verify_margin`` nats
+        per return (of ``n_returns``). A guess that the too-long
+        test (``judge``, at its mean and its ``lost_hypotheses`` heaviest samples) contradicts
+        cannot win unless the track's own fraction ``track_too_long`` is larger still. The held
+        guess stays the guess if it passes and scores within the margin of the best."""
         cfg = self.config
         live = self.fresh & (weights > 0)
-        if not live.any():
+        if not live.any() or not (contradicted or self.state.unconfirmed or self.state.new_track):
             return None
         ids = np.unique(labels[live])
         means = np.empty((ids.size, 3))
@@ -283,8 +399,8 @@ class Recovery:
             judged = (np.hypot(means[:, 0] - track[0], means[:, 1] - track[1]) > cfg.verify_distance[0]) | (
                 np.abs(wrap_angle(means[:, 2] - track[2])) > cfg.verify_distance[1]
             )
-            if not judged.any():
-                return None
+        if not judged.any():
+            return None
         ids, means = ids[judged], means[judged]
         ll = score(np.vstack([means, track[None, :]]))
         margin = cfg.verify_margin * n_returns
@@ -306,6 +422,8 @@ class Recovery:
                 best = k
                 if not held.any():
                     break
+        self._gain = -math.inf if best is None else float(ll[best] - ll[-1]) / max(n_returns, 1)
+        self._margin = margin
         return None if best is None else live & (labels == int(ids[best]))
 
     def wide_search(self) -> tuple[bool, bool]:
