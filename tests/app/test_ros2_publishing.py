@@ -19,7 +19,12 @@ def test_a_recorded_demo_tour_is_written_as_mcap(tmp_path: Path) -> None:
     args = ["demo", "--record", "--crowd", "empty", "--duration", "6", "--no-animation", "--out", str(out)]
     assert _run([*args, "--mcap", str(mcap)]) == 0
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image", "/people"}  # no camera, no tracker
+    assert set(msgs) == set(TOPICS) - {
+        "/beams",
+        "/ceiling/image",
+        "/people",
+        "/objects",
+    }  # no camera, tracker
     assert len(msgs["/map"]) == 1
     stamps = [s for s, _ in msgs["/scan"]]
     assert len(stamps) > 30  # about 10 scans a simulated second

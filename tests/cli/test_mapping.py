@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import contextlib
+import math
 from pathlib import Path
 
 import numpy as np
@@ -277,3 +278,102 @@ def test_slam_with_and_without_loop_closure(
     assert read_map(out).occupied().sum() > 100
     said = capsys.readouterr().out
     assert ("loop closures:" in said) == (flag == "--loop-closure")
+
+
+def test_slam_writes_the_run_as_mcap(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Every channel decoded back: the scans and odometry of the log, the SLAM pose after each scan
+    as the estimate (the trajectory written), TF composing to it, the map as it grew and finished."""
+    from tests.io.test_mcap_out import _decode, _pose, _tf_pose, _wrap
+    from tourbot.geometry import compose
+    from tourbot.io import load_log
+    from tourbot.io.ros2_messages import grid_cells
+    from tourbot.mapping.incremental import IncrementalMapper
+
+    log = drive(building(), n=25)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    out, traj, mcap = tmp_path / "map.yaml", tmp_path / "path.tum", tmp_path / "run.mcap"
+    args = ["slam", str(path), "-o", str(out), "--trajectory", str(traj), "--no-loop-closure", "--mcap"]
+    main([*args, str(mcap), "--mcap-map-every", "10"])
+    assert str(mcap) in capsys.readouterr().out
+    read = load_log(path)
+    msgs = _decode(mcap)
+    assert set(msgs) == {"/scan", "/odom", "/tf", "/estimate", "/map"}  # no tracker: no /people
+    stamps = [round(s.timestamp * 1e9) for s in read.scans]
+    assert [s for s, _ in msgs["/scan"]] == stamps == [s for s, _ in msgs["/odom"]]
+    for scan, (_, m) in zip(read.scans, msgs["/scan"], strict=True):
+        np.testing.assert_array_equal(m.ranges, scan.ranges.astype(np.float32))
+    odom = np.array([_pose(m.pose.pose) for _, m in msgs["/odom"]])
+    np.testing.assert_allclose(odom[:, :2], read.odom_poses[:, :2], atol=1e-9)
+    # the estimate is the SLAM pose of each scan: the trajectory written (no loops: not changed after)
+    _, poses = read_tum(traj)
+    assert [s for s, _ in msgs["/estimate"]] == stamps
+    est = np.array([_pose(m.pose.pose) for _, m in msgs["/estimate"]])
+    np.testing.assert_allclose(est[:, :2], poses[:, :2], atol=1e-4)
+    np.testing.assert_allclose(_wrap(est[:, 2] - poses[:, 2]), 0.0, atol=1e-4)
+    assert all((m.pose.covariance == 0).all() for _, m in msgs["/estimate"])  # SLAM gives none
+    assert not np.allclose(est[:, :2], odom[:, :2], atol=0.05)  # scan matching corrected the odometry
+    tree: dict[tuple[str, str], list[np.ndarray]] = {}
+    for _, m in msgs["/tf"]:
+        for tf in m.transforms:
+            tree.setdefault((tf.header.frame_id, tf.child_frame_id), []).append(_tf_pose(tf))
+    assert set(tree) == {("map", "odom"), ("odom", "base_link"), ("base_link", "laser")}
+    chain = compose(np.array(tree[("map", "odom")]), np.array(tree[("odom", "base_link")]))
+    np.testing.assert_allclose(chain[:, :2], est[:, :2], atol=1e-9)
+    # the map after scans 10 and 20 (the scan matcher's so far), then the finished one at the end
+    assert [s for s, _ in msgs["/map"]] == [stamps[9], stamps[19], stamps[-1]]
+    mapper = IncrementalMapper()
+    for k, scan in enumerate(read.scans):
+        mapper.add_scan(scan)
+        if k + 1 in (10, 25):
+            m = dict(msgs["/map"])[stamps[k]]
+            grid = mapper.grid()
+            assert (m.info.height, m.info.width) == grid.prob.shape
+            np.testing.assert_allclose(_pose(m.info.origin), grid.origin, atol=1e-12)
+            assert np.array_equal(m.data, grid_cells(grid))
+    written = read_map(out)  # the map file is the finished map of the MCAP file
+    assert np.array_equal(written.occupied(), grid.occupied())
+    assert grid.occupied().sum() > 100
+
+
+def test_slam_with_the_people_filter_writes_the_people_as_mcap(tmp_path: Path) -> None:
+    """A visitor walking past a standing robot: tracked, and on /people near where they walk."""
+    from tests.io.test_mcap_out import _decode
+    from tests.mapping.test_people_filter import _walker_log
+
+    log, people = _walker_log(building())
+    path, mcap = tmp_path / "walker.log", tmp_path / "run.mcap"
+    write_carmen(log, path)
+    args = ["slam", str(path), "-o", str(tmp_path / "m.yaml"), "--people-filter", "--force"]
+    main([*args, "--no-loop-closure", "--mcap", str(mcap), "--mcap-map-every", "0"])
+    msgs = _decode(mcap)
+    assert len(msgs["/people"]) == len(msgs["/scan"]) == len(log.scans)
+    assert len(msgs["/map"]) == 1  # the finished map only
+    seen = 0
+    for k, (_, m) in enumerate(msgs["/people"]):
+        clear, *cylinders = m.markers
+        assert clear.action == 3
+        for c in cylinders:
+            assert c.header.frame_id == "map"
+            assert math.hypot(c.pose.position.x - people[k, 0], c.pose.position.y - people[k, 1]) < 0.5
+        seen += len(cylinders)
+    assert seen > len(log.scans) // 2
+
+
+def test_slam_refuses_an_existing_mcap_before_mapping(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    log = drive(building(), n=5)
+    log.odometry = []
+    path = tmp_path / "hall.log"
+    write_carmen(log, path)
+    (tmp_path / "run.mcap").write_text("kept")
+    for extra in (["--mcap", str(tmp_path / "run.mcap")], ["--mcap-map-every", "-1"]):
+        with pytest.raises(SystemExit) as exc:
+            main(["slam", str(path), "-o", str(tmp_path / "m.yaml"), *extra])
+        assert exc.value.code == 2
+        (error,) = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
+        assert extra[0] in error
+    assert (tmp_path / "run.mcap").read_text() == "kept"
+    assert not (tmp_path / "m.yaml").exists()

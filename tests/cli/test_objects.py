@@ -157,3 +157,86 @@ def test_crowd_with_objects_writes_their_truth(files: dict[str, Any], tmp_path: 
     main(["objects", str(out), "--site", str(files["site"]), "--trajectory", "reference", "-o", str(states)])
     header = states.read_text().splitlines()[0]
     assert header.endswith("true0,true1,true2")
+
+
+def test_objects_writes_the_run_as_mcap(files: dict[str, Any], tmp_path: Path) -> None:
+    """Every channel decoded back: the log's scans and odometry, MCL's estimate with its spread, TF
+    composing to it, the map, and the objects drawn in the states the CSV gives."""
+    import numpy as np
+
+    from tests.io.test_mcap_out import _decode, _pose, _tf_pose
+    from tourbot.cli.objects import site_shapes
+    from tourbot.geometry import compose
+    from tourbot.io import load_log
+    from tourbot.io.ros2_messages import grid_cells
+    from tourbot.site.model import load_site
+
+    out, mcap = tmp_path / "states.csv", tmp_path / "run.mcap"
+    main(["objects", str(files["log"]), "--site", str(files["site"]), "-o", str(out), "--mcap", str(mcap)])
+    log = load_log(files["log"])
+    site = load_site(files["site"])
+    shapes = site_shapes(site, files["site"])
+    msgs = _decode(mcap)
+    assert set(msgs) == {"/map", "/scan", "/odom", "/tf", "/estimate", "/objects"}
+    stamps = [round(s.timestamp * 1e9) for s in log.scans]
+    assert [s for s, _ in msgs["/scan"]] == stamps == [s for s, _ in msgs["/odom"]]
+    ((_, m),) = msgs["/map"]
+    assert np.array_equal(m.data, grid_cells(site.grid))
+    # MCL's estimate: at (nearly) every scan, near the reference, with a spread
+    est_stamps = [s for s, _ in msgs["/estimate"]]
+    assert set(est_stamps) <= set(stamps)
+    assert len(est_stamps) >= len(stamps) - 1
+    est = np.array([_pose(m.pose.pose) for _, m in msgs["/estimate"]])
+    ref = log.reference_poses[[stamps.index(s) for s in est_stamps]]
+    assert np.hypot(*(est[:, :2] - ref[:, :2]).T).max() < 0.3
+    cov = np.array([m.pose.covariance.reshape(6, 6) for _, m in msgs["/estimate"]])
+    assert (cov[:, 0, 0] > 0).all()
+    assert (cov[:, 5, 5] > 0).all()
+    at: dict[tuple[int, str], np.ndarray] = {}
+    for stamp, m in msgs["/tf"]:
+        for tf in m.transforms:
+            at[(stamp, tf.child_frame_id)] = _tf_pose(tf)
+    for stamp, e in zip(est_stamps, est, strict=True):
+        chain = compose(at[(stamp, "odom")], at[(stamp, "base_link")])
+        np.testing.assert_allclose(chain[:2], e[:2], atol=1e-9)
+    # the objects: one set per scan that updated any, each object in its latest state (the CSV's)
+    rows = [r.split(",") for r in out.read_text().splitlines()[1:]]
+    scans = sorted({int(r[1]) for r in rows})
+    assert [s for s, _ in msgs["/objects"]] == [stamps[k] for k in scans]
+    last: dict[str, list[str]] = {}
+    for r in rows:
+        last[r[2]] = r
+    names = [s.name for s in shapes]
+    clear, *markers = msgs["/objects"][-1][1].markers
+    assert clear.action == 3
+    outlines = [mk for mk in markers if mk.ns == "objects"]
+    labels = [mk for mk in markers if mk.ns == "names"]
+    assert sorted(names[mk.id] for mk in outlines) == sorted(last) != names  # D-4 never updated: not drawn
+    for mk, label in zip(outlines, labels, strict=True):
+        shape = shapes[mk.id]
+        row = last[shape.name]
+        state = [float(v) for v in row[4 : 4 + shape.dim]]
+        expected = shape.polygons(np.array([state]))[0]
+        pts = np.array([(p.x, p.y) for p in mk.points])
+        assert mk.type == 4
+        assert mk.header.frame_id == "map"
+        np.testing.assert_allclose(pts, np.vstack([expected, expected[:1]]), atol=1e-4)
+        rgb = (1.0, 0.55) if row[10] == "observed" else (0.6, 0.6)
+        assert (mk.color.r, mk.color.g) == pytest.approx(rgb)
+        assert (label.id, label.type, label.text) == (mk.id, 9, shape.name)
+    assert any(last[n][10] == "observed" for n in last)
+
+
+def test_objects_refuses_an_existing_mcap_before_the_work(
+    files: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mcap, out = tmp_path / "run.mcap", tmp_path / "x.csv"
+    mcap.write_text("kept")
+    err = _error_line(
+        capsys,
+        ["objects", str(files["log"]), "--site", str(files["site"]), "-o", str(out), "--mcap", str(mcap)],
+    )
+    assert "--mcap" in err
+    assert "--force" in err
+    assert mcap.read_text() == "kept"
+    assert not out.exists()

@@ -77,7 +77,7 @@ def test_every_channel_decodes_to_the_run(fhw_run: tuple[Path, Path, Path, Path]
     grid = read_map(map_path)
     times, poses = read_tum(tum)
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/ceiling/image", "/people"}  # no camera, no tracker in this run
+    assert set(msgs) == set(TOPICS) - {"/ceiling/image", "/people", "/objects"}  # no camera, tracker, objects
     stamps = [round(s.timestamp * 1e9) for s in log.scans]
 
     # the map, once, latched at the first time; cells -1 unknown, else 100 * p
@@ -220,7 +220,7 @@ def test_simulate_writes_the_run_as_mcap(tmp_path: Path) -> None:
     main([*args, "--mcap", str(mcap)])
     log = read_carmen(log_path)
     msgs = _decode(mcap)
-    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image", "/people"}
+    assert set(msgs) == set(TOPICS) - {"/beams", "/ceiling/image", "/people", "/objects"}
     scans = [m for _, m in msgs["/scan"]]
     assert len(scans) == len(log.scans) > 0
     for scan, m in zip(log.scans, scans, strict=True):

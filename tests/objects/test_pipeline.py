@@ -27,6 +27,19 @@ def test_replay_with_the_reference_and_with_mcl() -> None:
     # the estimated path follows the corridor
     path = np.array(alternate.path)
     assert np.abs(path[:, 2]).max() < 0.1
+    # each pose of the path names its scan and has the spread of the belief it is the mean of
+    n = len(run.log.scans)
+    assert given.path_scans == list(range(n))
+    assert np.all(np.array(given.path_covariances) == 0.0)  # a given trajectory: one sample
+    for result in (alternate, every):
+        assert result.path_scans == sorted(result.path_scans)
+        assert len(result.path_scans) == len(result.path) == len(result.path_covariances) >= n - 1
+        times = [run.log.scans[k].timestamp for k in result.path_scans]
+        assert times == [p[0] for p in result.path]
+        cov = np.array(result.path_covariances)
+        assert np.all(cov[:, [0, 1, 2], [0, 1, 2]] > 0.0)
+        assert np.allclose(cov, cov.transpose(0, 2, 1))
+        assert np.sqrt(cov[:, 0, 0]).max() < 0.3
 
 
 def test_the_loop_closed_hands_mcl_the_doors_as_estimated() -> None:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -11,6 +12,19 @@ from tourbot.cli._checks import ForceOpt
 from tourbot.cli.logs import OdometryOpt, OdometryStream
 from tourbot.cli.maps import MapModeOpt, check_map_mode
 from tourbot.cli.people import LegModelOpt, tracker_config
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from tourbot.io.mcap_out import McapRun
+    from tourbot.mapping.graph_slam import GraphSlam
+    from tourbot.mapping.incremental import IncrementalMapper
+    from tourbot.mapping.people_filter import PeopleFilteredMapper
+    from tourbot.maps.grid import OccupancyGrid
+    from tourbot.records import Scan
+
+    FloatArray = NDArray[np.float64]
 
 __all__ = ["register"]
 
@@ -54,6 +68,23 @@ def register(app: typer.Typer) -> None:
         map_mode: MapModeOpt = "trinary",
         leg_model: LegModelOpt = None,
         odometry_stream: OdometryOpt = OdometryStream.rebuilt,
+        mcap: Annotated[
+            Path | None,
+            typer.Option(
+                "--mcap",
+                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, the SLAM pose as "
+                "the estimate, the map as it grows (--mcap-map-every) and finished; with --people-filter "
+                "the people tracked) for Foxglove; an existing file is replaced only with --force.",
+            ),
+        ] = None,
+        mcap_map_every: Annotated[
+            int,
+            typer.Option(
+                "--mcap-map-every",
+                help="With --mcap: the scan matcher's map so far every this many scans (0: the finished "
+                "map only).",
+            ),
+        ] = 50,
         force: ForceOpt = False,
         keep_partial: Annotated[
             bool,
@@ -70,8 +101,10 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from tourbot.cli._checks import check_before_work, log_problems
+        from tourbot.errors import InputError
         from tourbot.io import load_log
         from tourbot.io.mapserver import check_map_output, write_map
+        from tourbot.io.mcap_out import McapRun, check_mcap_output
         from tourbot.io.output import check_output
         from tourbot.io.progress import ScanProgress
         from tourbot.io.tum import write_tum
@@ -91,10 +124,14 @@ def register(app: typer.Typer) -> None:
         if leg_model is not None and not people_filter:
             raise MappingError("--leg-model is used only with --people-filter")
         check_map_mode(map_mode)
+        if mcap_map_every < 0:
+            raise InputError(f"must be 0 or more, got {mcap_map_every}", field="--mcap-map-every")
         config = tracker_config(leg_model) if people_filter else None  # a bad model: before mapping
         check_map_output(output)  # before the mapping, which can take minutes
         if trajectory is not None:
             check_output(trajectory, "--trajectory")
+        if mcap is not None:
+            check_mcap_output(mcap, force=force)
         robot_log = load_log(log, lenient=lenient, odometry=odometry_stream.value)
         for warning in robot_log.warnings:
             typer.echo(f"warning: {warning}", err=True)
@@ -125,16 +162,26 @@ def register(app: typer.Typer) -> None:
             mapper = graph.front
         done = 0
         try:
-            with ScanProgress(f"mapping {log.name}", len(robot_log.scans)) as progress:
+            with (
+                ScanProgress(f"mapping {log.name}", len(robot_log.scans)) as progress,
+                McapRun(mcap) if mcap is not None else nullcontext() as run,
+            ):
                 for scan in robot_log.scans:
                     if graph is not None:
-                        graph.add_scan(scan)
+                        pose = graph.add_scan(scan)
                     elif filtered is not None:
-                        filtered.add_scan(scan)
+                        pose = filtered.add_scan(scan)
                     else:
-                        mapper.add_scan(scan)
+                        pose = np.asarray(mapper.add_scan(scan).pose)
                     done += 1
+                    if run is not None:
+                        _record_scan(run, scan, pose, filtered)
+                        if mcap_map_every and done % mcap_map_every == 0:
+                            run.write_map(mapper.grid(), scan.timestamp)
                     progress.advance()
+                poses, grid = _finish(graph, filtered, mapper)
+                if run is not None:
+                    run.write_map(grid, robot_log.scans[-1].timestamp)
         except KeyboardInterrupt:
             if keep_partial and done > 0:
                 # the scan matcher's map and path so far (loops not closed: the graph is not finished)
@@ -145,16 +192,12 @@ def register(app: typer.Typer) -> None:
                     f"interrupted: wrote the map of the {done} scans mapped so far: {output}", err=True
                 )
             raise
-        if graph is not None:
-            poses = graph.finish()
-            grid = graph.grid()
-        else:
-            if filtered is not None:
-                filtered.finish()
-            grid = filtered.grid() if filtered is not None else mapper.grid()
-            poses = np.asarray(mapper.poses)
         write_map(grid, output, mode=map_mode)  # type: ignore[arg-type]
         typer.echo(f"map: {output}")
+        if mcap is not None:
+            typer.echo(
+                f"the run as MCAP (ROS 2 messages; the SLAM pose on /estimate, the map on /map): {mcap}"
+            )
         if graph is not None:
             typer.echo(f"loop closures: {len(graph.closures)} accepted, {graph.rejected} rejected")
         if filtered is not None:
@@ -164,3 +207,36 @@ def register(app: typer.Typer) -> None:
         if trajectory is not None:
             write_tum(trajectory, robot_log.times, poses)
             typer.echo(f"trajectory: {trajectory}")
+
+
+def _finish(
+    graph: GraphSlam | None, filtered: PeopleFilteredMapper | None, mapper: IncrementalMapper
+) -> tuple[FloatArray, OccupancyGrid]:
+    """The finished path (loops closed, with a graph) and map."""
+    import numpy as np
+
+    if graph is not None:
+        poses = graph.finish()
+        return poses, graph.grid()
+    if filtered is not None:
+        filtered.finish()
+        return np.asarray(mapper.poses), filtered.grid()
+    return np.asarray(mapper.poses), mapper.grid()
+
+
+def _record_scan(run: McapRun, scan: Scan, pose: FloatArray, filtered: PeopleFilteredMapper | None) -> None:
+    """One scan into the MCAP file: the scan, its odometry, the SLAM pose after it as the estimate
+    (SLAM gives no covariance: the matrix is zero) and, with the people filter, the confirmed tracks."""
+    import numpy as np
+
+    from tourbot.snapshot import PersonState
+
+    assert scan.odom is not None  # checked before mapping
+    run.write_scan(scan)
+    run.write_odometry(scan.odom, scan.timestamp)
+    run.write_estimate(pose, np.zeros((3, 3)), scan.odom, scan.timestamp)
+    if filtered is not None:
+        tracks = [t for t in filtered.tracker.tracks() if t.confirmed]
+        run.write_people(
+            [PersonState(t.id, *t.position, *t.velocity, t.confirmed) for t in tracks], scan.timestamp
+        )

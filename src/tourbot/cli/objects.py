@@ -10,8 +10,10 @@ import typer
 from tourbot.cli.logs import LenientOpt, LogArg
 
 if TYPE_CHECKING:
+    from tourbot.io.mcap_out import McapRun
     from tourbot.maps.grid import OccupancyGrid
     from tourbot.maps.objects import ObjectShape
+    from tourbot.objects.pipeline import ObjectRun
     from tourbot.records import RobotLog
     from tourbot.site.model import Site
 
@@ -99,6 +101,16 @@ def register(app: typer.Typer) -> None:
         ] = "all",
         seed: Annotated[int, typer.Option(help="Seed of the estimators.")] = 0,
         lenient: LenientOpt = False,
+        mcap: Annotated[
+            Path | None,
+            typer.Option(
+                "--mcap",
+                help="Also write the run as MCAP (ROS 2 messages: scans, odometry, TF, the map, the "
+                "robot's estimate, the objects' outlines in their estimated states on /objects) for "
+                "Foxglove; an existing file is replaced only with --force.",
+            ),
+        ] = None,
+        force: Annotated[bool, typer.Option("--force", help="Replace an existing --mcap file.")] = False,
     ) -> None:
         """Localize along LOG (or take a trajectory) and estimate every door and piece of furniture of
         the site; writes the states over time (CSV) and a picture beside it (same name, .png)."""
@@ -118,6 +130,10 @@ def register(app: typer.Typer) -> None:
         if share not in ("alternate", "all"):
             raise InputError(f"unknown --share {share!r}; choose alternate or all")
         check_output(output)
+        if mcap is not None:
+            from tourbot.io.mcap_out import check_mcap_output
+
+            check_mcap_output(mcap, force=force)
         console = Console()
         site = load_site(site_file)
         if map_yaml is not None:
@@ -189,7 +205,56 @@ def register(app: typer.Typer) -> None:
             title=f"{log.name}: objects",
             reference=robot_log.reference_poses if robot_log.has_reference else None,
         )
+        if mcap is not None:
+            from tourbot.io.mcap_out import McapRun
+
+            with McapRun(mcap) as recording:
+                _record(recording, robot_log, shapes, grid, run)
         for e in run.final:
             state = ", ".join(f"{v:.3f}" for v in e.state)
             console.print(f"{e.name}: {state} ({e.quality.status}, {e.updates} updates)", highlight=False)
         console.print(f"wrote {output} ({len(run.updates)} estimates) and {picture}", highlight=False)
+        if mcap is not None:
+            console.print(
+                f"wrote {mcap}: the run as MCAP (ROS 2 messages; the objects on /objects)", highlight=False
+            )
+
+
+def _record(
+    recording: McapRun, log: RobotLog, shapes: list[ObjectShape], grid: OccupancyGrid, run: ObjectRun
+) -> None:
+    """The replay into the MCAP file: the map, then per scan the scan, its odometry, the robot's
+    estimate (where it has one) and, after a scan that updated objects, every object estimated so
+    far in its latest state."""
+    import numpy as np
+
+    from tourbot.objects.estimator import Observation
+
+    recording.write_map(grid, log.scans[0].timestamp)
+    pose_of = {k: i for i, k in enumerate(run.path_scans)}
+    updates: dict[int, list[int]] = {}
+    for u, (k, _) in enumerate(run.updates):
+        updates.setdefault(k, []).append(u)
+    index = {s.name: i for i, s in enumerate(shapes)}
+    latest: dict[int, tuple[tuple[float, ...], bool]] = {}
+    for k, scan in enumerate(log.scans):
+        recording.write_scan(scan)
+        i = pose_of.get(k)
+        pose = None if i is None else np.asarray(run.path[i][1:], dtype=np.float64)
+        odom = scan.odom if scan.odom is not None else pose  # no odometry: map -> odom the identity
+        if odom is not None:
+            recording.write_odometry(odom, scan.timestamp)
+        if i is not None and pose is not None and odom is not None:
+            recording.write_estimate(pose, run.path_covariances[i], odom, scan.timestamp)
+        if k in updates:
+            for u in updates[k]:
+                est = run.updates[u][1]
+                latest[index[est.name]] = (est.state, est.quality.status == Observation.OBSERVED)
+            shown = sorted(latest)
+            recording.write_objects(
+                [shapes[j] for j in shown],
+                [latest[j][0] for j in shown],
+                [latest[j][1] for j in shown],
+                scan.timestamp,
+                ids=shown,
+            )

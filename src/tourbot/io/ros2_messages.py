@@ -5,10 +5,11 @@ and the live Foxglove server (:class:`tourbot.io.foxglove_live.FoxgloveLive`).
 :class:`Ros2Channels` builds the messages; a subclass says where the serialized bytes go
 (``_emit``). The channels:
 
-- ``/map`` ``nav_msgs/msg/OccupancyGrid``: written once, at the first time of the run, with
-  transient-local durability (latched); cells are ``round(100 * p)`` for a known probability ``p``
-  of occupancy and ``-1`` where the map knows nothing; ``data`` is row-major from the cell at
-  ``origin``, as :class:`tourbot.maps.grid.OccupancyGrid` stores it;
+- ``/map`` ``nav_msgs/msg/OccupancyGrid``, with transient-local durability (latched): the map
+  localized in, once at the first time of the run; a map being built (``tourbot slam``), as it
+  grows and finished at the end, each replacing the last; cells are ``round(100 * p)`` for a
+  known probability ``p`` of occupancy and ``-1`` where the map knows nothing; ``data`` is
+  row-major from the cell at ``origin``, as :class:`tourbot.maps.grid.OccupancyGrid` stores it;
 - ``/scan`` ``sensor_msgs/msg/LaserScan`` in frame ``laser``;
 - ``/odom`` ``nav_msgs/msg/Odometry``: the odometry pose (frame ``odom``, child ``base_link``);
   the log gives no twist or covariance with it, so both are zero;
@@ -23,10 +24,13 @@ and the live Foxglove server (:class:`tourbot.io.foxglove_live.FoxgloveLive`).
   integrated (namespace ``integrated``, green) and of the in-range beams it rejected (namespace
   ``rejected``, red), as ``POINTS`` markers in frame ``laser``;
 - ``/ceiling/image`` ``sensor_msgs/msg/Image`` (``mono8``, frame ``ceiling_camera``): the upward
-  camera's images, where the run has them.
-
+  camera's images, where the run has them;
 - ``/people`` ``visualization_msgs/msg/MarkerArray``: the people the robot tracks, as
-  ``CYLINDER`` markers (namespace ``people``, id = track id, frame ``map``) replacing the last set.
+  ``CYLINDER`` markers (namespace ``people``, id = track id, frame ``map``) replacing the last set;
+- ``/objects`` ``visualization_msgs/msg/MarkerArray``: doors and furniture in their estimated
+  states (``tourbot objects``), each outline a closed ``LINE_STRIP`` (namespace ``objects``, id =
+  the object's index; orange when observed, grey otherwise) and its name a ``TEXT_VIEW_FACING``
+  marker (namespace ``names``, same id), frame ``map``, replacing the last set.
 
 Times are seconds, written as integer nanoseconds.
 """
@@ -35,7 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,6 +49,9 @@ from tourbot.geometry import compose, invert
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Image, Scan
 from tourbot.snapshot import PersonState
+
+if TYPE_CHECKING:
+    from tourbot.maps.objects import ObjectShape
 
 __all__ = ["MAX_PARTICLES", "STORE", "TOPICS", "Ros2Channels", "grid_cells", "message_definition"]
 
@@ -61,13 +68,18 @@ TOPICS: Final[dict[str, str]] = {
     "/particles": "geometry_msgs/msg/PoseArray",
     "/beams": "visualization_msgs/msg/MarkerArray",
     "/people": "visualization_msgs/msg/MarkerArray",
+    "/objects": "visualization_msgs/msg/MarkerArray",
     "/ceiling/image": "sensor_msgs/msg/Image",
 }
 
 #: The ROS 2 Humble type store the messages are built and serialized with.
 STORE = get_typestore(Stores.ROS2_HUMBLE)
 _MARKER_CYLINDER: Final = 3
+_MARKER_LINE_STRIP: Final = 4
 _MARKER_POINTS: Final = 8
+_MARKER_TEXT: Final = 9
+_OBSERVED_RGB: Final = (1.0, 0.55, 0.0)
+_UNOBSERVED_RGB: Final = (0.6, 0.6, 0.6)
 _MARKER_ADD: Final = 0
 _MARKER_DELETEALL: Final = 3
 
@@ -329,6 +341,45 @@ class Ros2Channels:
             m.scale = t["geometry_msgs/msg/Vector3"](x=0.4, y=0.4, z=1.7)
             markers.append(m)
         self._write("/people", stamp, t["visualization_msgs/msg/MarkerArray"](markers=markers))
+
+    def write_objects(
+        self,
+        shapes: Sequence[ObjectShape],
+        states: Sequence[Sequence[float]],
+        observed: Sequence[bool],
+        timestamp: float,
+        ids: Sequence[int] | None = None,
+    ) -> None:
+        """``/objects``: each object's outline in its state (``shapes[i].polygons``, map frame) as
+        a closed line strip, orange where ``observed[i]`` else grey, and its name; replacing the last set.
+
+        ``ids`` are the markers' ids (default: the positions in ``shapes``).
+        """
+        ids = list(range(len(shapes))) if ids is None else list(ids)
+        if not len(shapes) == len(states) == len(observed) == len(ids):
+            raise ValueError("write_objects takes one state, one observed flag and one id per shape")
+        t = self._types
+        stamp = _ns(timestamp)
+        markers = [
+            self._marker(
+                stamp, "map", "objects", 0, _MARKER_LINE_STRIP, (0.0, 0.0, 0.0), [], _MARKER_DELETEALL
+            )
+        ]
+        for i, shape, state, seen in zip(ids, shapes, states, observed, strict=True):
+            outline = shape.polygons(np.asarray(state, dtype=np.float64)[None, :])[0]
+            closed = np.vstack([outline, outline[:1]])
+            pts = [t["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0) for x, y in closed]
+            rgb = _OBSERVED_RGB if seen else _UNOBSERVED_RGB
+            markers.append(self._marker(stamp, "map", "objects", i, _MARKER_LINE_STRIP, rgb, pts))
+            label = self._marker(stamp, "map", "names", i, _MARKER_TEXT, rgb, [])
+            cx, cy = (float(v) for v in outline.mean(axis=0))
+            label.pose = t["geometry_msgs/msg/Pose"](
+                position=t["geometry_msgs/msg/Point"](x=cx, y=cy, z=0.5), orientation=_quaternion(t, 0.0)
+            )
+            label.scale = t["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.3)
+            label.text = shape.name
+            markers.append(label)
+        self._write("/objects", stamp, t["visualization_msgs/msg/MarkerArray"](markers=markers))
 
 
 def _quaternion(types: Any, theta: float) -> Any:

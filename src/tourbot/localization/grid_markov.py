@@ -448,6 +448,7 @@ class GridMarkovLocalization:
         self._w = np.full(lat.n_poses, 1.0 / lat.n_poses)
         self._uniform = True
         self._odom_ref = None
+        self._sweep_next = 0  # a reset localizer runs as a fresh one
 
     def reset_tracking(
         self, pose: ArrayLike, cov: ArrayLike | None = None, grid: OccupancyGrid | None = None
@@ -482,6 +483,7 @@ class GridMarkovLocalization:
         self._w = w / w.sum()
         self._uniform = False
         self._odom_ref = None
+        self._sweep_next = 0
 
     # -------------------------------------------------------------------------------- update
 

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from tourbot.geometry import compose, relative
 from tourbot.interfaces import ScanShare
 from tourbot.localization.mcl import MCLConfig, MonteCarloLocalization
+from tourbot.localization.mcl.clustering import weighted_mean_cov
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.objects import ObjectShape
 from tourbot.maps.raycast import DistanceCaster
@@ -48,6 +49,8 @@ class ObjectRun:
 
     updates: list[tuple[int, ObjectEstimate]] = field(default_factory=list)  # (scan index, estimate)
     path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (t, x, y, theta)
+    path_scans: list[int] = field(default_factory=list)  # the scan index of each pose of ``path``
+    path_covariances: list[FloatArray] = field(default_factory=list)  # (3, 3) of x, y, theta, per pose
     update_seconds: list[float] = field(default_factory=list)
     final: list[ObjectEstimate] = field(default_factory=list)
     redraws: int = 0  # how often the world handed MCL a new map (``world=True``)
@@ -116,6 +119,8 @@ def estimate_log(
         here = compose(samples, relative(belief_odom, odom)) if trajectory is None else samples
         mean = _mean_pose(here, weights)
         run.path.append((scan.timestamp, *mean))
+        run.path_scans.append(k)
+        run.path_covariances.append(weighted_mean_cov(here, weights)[1])
         if for_objects:
             before = len(estimator.update_seconds)
             updated = estimator.update(scan, here, weights)

@@ -9,6 +9,15 @@ The detections go into :class:`tourbot.vision.occupancy.VisionMap`; the map's ob
 published in the snapshot under ``estimators["vision"]["obstacles"]`` (world points), where the
 navigator takes them as obstacles beside the laser's.
 
+The pose estimate's uncertainty is used too: an image pair is placed in the world by one estimate,
+so an error ``(dx, dy, dtheta)`` of it moves a detection at ``(ax, ay)`` from the robot by
+``(dx - ay dtheta, dy + ax dtheta)``. Each obstacle and floor point's evidence in the map is
+scaled by the probability that this error, Gaussian with the estimate's covariance (taken
+isotropic at its largest spread), moves it less than ``pose_tolerance``
+(:func:`evidence_weights`); a pair whose estimate leaves even a point at the robot's own position
+below ``min_pose_weight`` is not used at all (``uncertain`` counts them): the robot does not map
+what it cannot place.
+
 Visitors leave no phantom obstacles: the laser sees them, and the image columns of laser endpoints
 that moved between the two scans are masked (``VisionConfig.moving``, ``body``); what stays
 (a visitor who stood, then left) is erased by the floor seen free again (the map's persistence).
@@ -21,7 +30,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from tourbot.geometry import compose, relative
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
@@ -32,7 +41,34 @@ from tourbot.vision.detector import Detection, View, VisionConfig, VisionDetecto
 from tourbot.vision.model import scan_endpoints
 from tourbot.vision.occupancy import VisionMap
 
-__all__ = ["VisionEstimatorConfig", "VisionObstacleEstimator"]
+__all__ = ["VisionEstimatorConfig", "VisionObstacleEstimator", "evidence_weights"]
+
+FloatArray = NDArray[np.float64]
+
+
+def evidence_weights(
+    pose: ArrayLike, covariance: ArrayLike, points: ArrayLike, tolerance: float
+) -> FloatArray:
+    """How sure a view placed at ``pose`` (covariance ``(3, 3)`` of x, y, theta) is of each world
+    point ``(N, 2)``: ``P(|e| < tolerance)`` for the point's displacement ``e`` by the pose's error.
+
+    The displacement's covariance is ``J C J^T`` with ``J = [[1, 0, -ay], [0, 1, ax]]``, ``(ax, ay)``
+    the point relative to the pose's position; taken isotropic with its largest eigenvalue
+    ``s^2``, ``|e|`` is Rayleigh distributed: ``1 - exp(-tolerance^2 / (2 s^2))`` (1 for ``s = 0``).
+    """
+    c = np.asarray(covariance, dtype=np.float64).reshape(3, 3)
+    c = 0.5 * (c + c.T)
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    origin = np.asarray(pose, dtype=np.float64).reshape(3)
+    ax, ay = pts[:, 0] - origin[0], pts[:, 1] - origin[1]
+    sxx, syy, stt, sxy, sxt, syt = c[0, 0], c[1, 1], c[2, 2], c[0, 1], c[0, 2], c[1, 2]
+    a = sxx - 2.0 * ay * sxt + ay * ay * stt
+    d = syy + 2.0 * ax * syt + ax * ax * stt
+    b = sxy + ax * sxt - ay * syt - ax * ay * stt
+    largest = np.maximum(0.5 * (a + d) + np.sqrt(0.25 * (a - d) ** 2 + b * b), 0.0)
+    with np.errstate(divide="ignore"):
+        weights = -np.expm1(-(tolerance * tolerance) / (2.0 * largest))
+    return np.asarray(weights, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -43,7 +79,10 @@ class VisionEstimatorConfig:
     robot's centre where vision cells are forgotten: it stands there, and the camera, blind nearer
     than ``detector.min_distance``, could never clear a phantom that close; ``map_margin``:
     detections this close to the static map's obstacles are the map's (m); ``camera``: the images
-    it takes."""
+    it takes; ``pose_tolerance`` (m): the displacement by the pose's error within which a point
+    still counts as where it is placed (the 10 cm of the detection target); ``min_pose_weight``:
+    a pair whose pose leaves a point at the robot itself less sure than this is skipped (with the
+    defaults: a position spread above about 13 cm)."""
 
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
@@ -51,6 +90,8 @@ class VisionEstimatorConfig:
     footprint: float = 0.45
     map_margin: float = 0.2
     camera: str = "forward"
+    pose_tolerance: float = 0.1
+    min_pose_weight: float = 0.25
 
 
 class VisionObstacleEstimator:
@@ -74,9 +115,11 @@ class VisionObstacleEstimator:
         self.seconds = 0.0
         self.last: tuple[View, View, Detection] | None = None
         self.best: tuple[View, View, Detection] | None = None  # the pair with the most detections
-        self._scan: tuple[Scan, NDArray[np.float64]] | None = None
+        self.uncertain = 0  # pairs skipped: the pose that places them too uncertain
+        self._scan: tuple[Scan, FloatArray, FloatArray] | None = None
         self._prev: View | None = None
-        self._prev_odom: NDArray[np.float64] | None = None
+        self._prev_odom: FloatArray | None = None
+        self._prev_cov: FloatArray = np.zeros((3, 3))
         self._points: tuple[tuple[float, float], ...] = ()
         self._version = -1
 
@@ -84,14 +127,19 @@ class VisionObstacleEstimator:
         """The odometry reaches it with each image (``Image.odom``)."""
 
     def on_scan(self, scan: Scan, belief: PoseBelief) -> None:
-        self._scan = (scan, np.asarray(belief.estimate.pose, dtype=np.float64))
+        est = belief.estimate
+        self._scan = (
+            scan,
+            np.asarray(est.pose, dtype=np.float64),
+            np.asarray(est.covariance, dtype=np.float64).reshape(3, 3),
+        )
 
     def on_image(self, image: Image, belief: PoseBelief | None = None) -> Detection | None:  # noqa: ARG002
         """One forward image: placed at the latest estimate moved on by the odometry since."""
         cfg = self.config
         if image.camera != cfg.camera or self._scan is None or image.odom is None:
             return None
-        scan, est = self._scan
+        scan, est, cov = self._scan
         if scan.odom is None:
             return None
         self.images += 1
@@ -102,20 +150,32 @@ class VisionObstacleEstimator:
         self.map.clear(pose[:2], cfg.footprint)  # at every image: the robot may stand still
         prev = self._prev
         if prev is None or self._prev_odom is None:
-            self._prev, self._prev_odom = view, odom
+            self._prev, self._prev_odom, self._prev_cov = view, odom, cov
             return None
         motion = relative(self._prev_odom, odom)
-        if abs(motion[2]) > cfg.max_turn:
-            # turning: the odometry's turn is least exact and the baseline short; start afresh
-            self._prev, self._prev_odom = view, odom
+        turned = abs(motion[2]) > cfg.max_turn
+        if not turned and math.hypot(motion[0], motion[1]) < cfg.min_baseline:
             return None
-        if math.hypot(motion[0], motion[1]) < cfg.min_baseline:
+        placed = self._prev_cov  # the two images are placed by the earlier one's estimate
+        sure = evidence_weights(prev.pose, placed, prev.pose[None, :2], cfg.pose_tolerance)[0]
+        uncertain = not turned and sure < cfg.min_pose_weight
+        if turned or uncertain:
+            # turning: the odometry's turn is least exact and the baseline short; uncertain: the
+            # robot does not know well enough where it is to place what it sees; start afresh
+            self.uncertain += uncertain
+            self._prev, self._prev_odom, self._prev_cov = view, odom, cov
             return None
         # the two images placed by one estimate and the odometry between them (short-term exact)
         view = View(image.pixels, compose(prev.pose, motion), endpoints, returned)
         t0 = time.perf_counter()
         det = self.detector.detect(prev, view)
-        self.map.update(self._off_map(det.obstacles), det.floor)
+        obstacles = self._off_map(det.obstacles)
+        self.map.update(
+            obstacles,
+            det.floor,
+            evidence_weights(prev.pose, placed, obstacles, cfg.pose_tolerance),
+            evidence_weights(prev.pose, placed, det.floor, cfg.pose_tolerance),
+        )
         self.map.clear(view.pose[:2], cfg.footprint)
         self.seconds += time.perf_counter() - t0
         self.pairs += 1
@@ -123,9 +183,10 @@ class VisionObstacleEstimator:
         if self.best is None or len(det.obstacles) > len(self.best[2].obstacles):
             self.best = self.last
         self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned), odom
+        self._prev_cov = cov
         return det
 
-    def _off_map(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _off_map(self, points: FloatArray) -> FloatArray:
         """The points farther than ``map_margin`` from the static map's obstacles: what is on the map
         (walls, seen through the gaps of a map drawn from laser returns) is already in the costmap."""
         if not len(points):

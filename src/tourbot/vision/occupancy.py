@@ -43,20 +43,38 @@ class VisionMap:
         self.hit, self.miss, self.low, self.high, self.threshold = hit, miss, low, high, threshold
         self.version = 0
 
-    def _add(self, points: FloatArray, value: float) -> None:
+    def _add(self, points: FloatArray, value: float, weights: FloatArray | None = None) -> None:
         if not len(points):
             return
         cells = self.frame.world_to_cell(np.asarray(points, dtype=np.float64).reshape(-1, 2))
         ok = self.frame.inside(cells)
-        # one view counts once per cell, however many of its pixels fall there
-        r, c = np.unique(cells[ok], axis=0).T
-        self.log_odds[r, c] += value
+        # one view counts once per cell, however many of its pixels fall there: with the weight
+        # of its most certain point in the cell
+        uniq, inverse = np.unique(cells[ok], axis=0, return_inverse=True)
+        r, c = uniq.T
+        if weights is None:
+            self.log_odds[r, c] += value
+        else:
+            w = np.zeros(len(uniq))
+            np.maximum.at(w, inverse.reshape(-1), np.asarray(weights, dtype=np.float64).reshape(-1)[ok])
+            self.log_odds[r, c] += (value * w).astype(np.float32)
         np.clip(self.log_odds, self.low, self.high, out=self.log_odds)
         self.seen[r, c] = True
         self.version += 1
 
-    def update(self, obstacles: FloatArray, floor: FloatArray) -> None:
-        """Add the hits at world points ``obstacles`` ``(K, 2)`` and misses at ``floor`` ``(F, 2)``."""
+    def update(
+        self,
+        obstacles: FloatArray,
+        floor: FloatArray,
+        obstacle_weights: FloatArray | None = None,
+        floor_weights: FloatArray | None = None,
+    ) -> None:
+        """Add the hits at world points ``obstacles`` ``(K, 2)`` and misses at ``floor`` ``(F, 2)``.
+
+        ``obstacle_weights`` ``(K,)`` and ``floor_weights`` ``(F,)`` in ``[0, 1]`` scale each
+        point's ``hit`` or ``miss`` (default 1: full evidence): how sure the view is that the point
+        lies where it is given (the pose's spread, see :mod:`tourbot.runtime.vision`).
+        """
         if len(floor) and len(obstacles):
             # a view does not contradict itself: no free floor next to its own obstacle cells
             hits = self.frame.world_to_cell(np.asarray(obstacles, dtype=np.float64).reshape(-1, 2))
@@ -70,8 +88,10 @@ class VisionMap:
             near = np.zeros(len(fc), dtype=bool)
             near[inside] = mark[fc[inside, 0] + 1, fc[inside, 1] + 1]
             floor = np.asarray(floor)[~near]
-        self._add(floor, self.miss)
-        self._add(obstacles, self.hit)
+            if floor_weights is not None:
+                floor_weights = np.asarray(floor_weights)[~near]
+        self._add(floor, self.miss, floor_weights)
+        self._add(obstacles, self.hit, obstacle_weights)
         if len(floor):
             cells = self.frame.world_to_cell(np.asarray(floor, dtype=np.float64).reshape(-1, 2))
             ok = self.frame.inside(cells)
