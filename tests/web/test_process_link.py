@@ -4,6 +4,9 @@ errors flow back, and closing ends the process."""
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -170,3 +173,31 @@ def test_slots_and_queue_outlive_a_restarted_robot(db: Database, tmp_path: Path)
                 _wait(lambda: link.view().x > 2.5)
     finally:
         link.close()
+
+
+def test_an_interpreter_that_exits_without_closing_does_not_restart_its_robot() -> None:
+    # A server that exits (Ctrl-C, end of a script) before closing its links: multiprocessing's exit
+    # handler stops the robot's process, and the link must not take that for a crash and start a
+    # new robot while the interpreter goes away (a spawned child then dies with a traceback).
+    script = (
+        "from tests.web.fakes import FakeRobot\n"
+        "from tourbot.web.process_link import ProcessLink\n"
+        "link = ProcessLink(FakeRobot, name='lefkos')\n"
+        "link.wait_ready(60)\n"
+        "print('ready', flush=True)\n"
+    )
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), str(root / "src")])}
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        check=False,
+        cwd=root,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert "ready" in done.stdout
+    assert "Traceback" not in done.stderr, done.stderr
+    assert "stopped" not in done.stderr, done.stderr

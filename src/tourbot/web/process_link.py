@@ -22,6 +22,7 @@ shuts down first, then closes the robot (:meth:`ProcessLink.close`).
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import logging
 import multiprocessing
@@ -35,6 +36,16 @@ from typing import Any, Protocol, runtime_checkable
 
 from tourbot.errors import TourbotError
 from tourbot.web.link import RobotLink, RobotView
+
+_exiting = threading.Event()
+
+
+@atexit.register
+def _interpreter_exits() -> None:
+    # Runs before multiprocessing's own exit handler (registered earlier) terminates the daemonic
+    # robot processes: a robot that stops because the server exits is not started again.
+    _exiting.set()
+
 
 __all__ = ["ProcessLink", "RestartableFactory", "RobotProcessError"]
 
@@ -190,7 +201,7 @@ class ProcessLink:
             if message[0] == "view":
                 self._view = message[1]
                 continue
-            if self._closing:
+            if self._closing or _exiting.is_set():
                 return
             self.restarting = True  # until _restart decides otherwise: never shown "failed" meanwhile
             self.failure = str(message[1])
@@ -216,7 +227,7 @@ class ProcessLink:
         with self._command_lock:
             self._stop_process(5.0)
             self._state.close()
-            if self._closing:
+            if self._closing or _exiting.is_set():
                 return False
             self._spawn(factory)
         try:
