@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from tourbot.ceiling.merit import Merit, associate, merit, merit_fast
 from tourbot.ceiling.rig import CeilingCamera
+from tourbot.geometry import wrap_angle
 from tourbot.maps.grid import OccupancyGrid
 
 __all__ = ["CeilingLocalizer", "Hypothesis", "Localization", "LocalizerConfig"]
@@ -196,7 +197,7 @@ class CeilingLocalizer:
         )
         noise = rng.standard_normal(parents.shape) * np.array([sx, sx, st])
         kids = parents + noise
-        kids[:, 2] = (kids[:, 2] + math.pi) % (2 * math.pi) - math.pi
+        kids[:, 2] = wrap_angle(kids[:, 2])
         return kids
 
     # -- beyond the paper -----------------------------------------------------------------------
@@ -238,7 +239,7 @@ class CeilingLocalizer:
                 qa_ok = qa[ok]
                 x = la[:, 0] - (c * qa_ok[:, 0] - s * qa_ok[:, 1])
                 y = la[:, 1] - (s * qa_ok[:, 0] + c * qa_ok[:, 1])
-                poses.append(np.column_stack([x, y, (th + math.pi) % (2 * math.pi) - math.pi]))
+                poses.append(np.column_stack([x, y, wrap_angle(th)]))
         if not poses:
             return np.zeros((0, 3))
         out = np.concatenate(poses)
@@ -306,7 +307,7 @@ class CeilingLocalizer:
             x = x + delta
             if np.abs(delta[:2]).max() < 1e-4 and np.abs(delta[2:]).max() < 1e-5:
                 break
-        x[2] = (x[2] + math.pi) % (2 * math.pi) - math.pi
+        x[2] = float(wrap_angle(x[2]))
         return x
 
     # -- hypotheses -----------------------------------------------------------------------------
@@ -356,7 +357,7 @@ def _rank(value: FloatArray, n: NDArray[np.int64]) -> NDArray[np.int64]:
 
 
 def _near(a: FloatArray, b: FloatArray, dm: float, dr: float) -> bool:
-    dth = abs((a[2] - b[2] + math.pi) % (2 * math.pi) - math.pi)
+    dth = abs(float(wrap_angle(a[2] - b[2])))
     return bool(math.hypot(a[0] - b[0], a[1] - b[1]) < dm and dth < dr)
 
 

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.geometry import wrap_angle
+
 __all__ = [
     "Corner",
     "ExtractionParams",
@@ -137,7 +139,7 @@ def fit_line(points: FloatArray, range_sigma: float) -> tuple[float, float, Floa
     r = c[0] * math.cos(alpha) + c[1] * math.sin(alpha)
     if r < 0:
         alpha, r = alpha + math.pi, -r
-    alpha = math.atan2(math.sin(alpha), math.cos(alpha))
+    alpha = float(wrap_angle(alpha))
     tangent = np.array([-math.sin(alpha), math.cos(alpha)])
     along = d @ tangent
     spread = max(float(along @ along), 1e-9)
@@ -205,7 +207,7 @@ def _segment(points: FloatArray, params: ExtractionParams) -> Segment:
 
 
 def _collinear(a: Segment, b: Segment, params: ExtractionParams) -> bool:
-    da = abs(math.atan2(math.sin(a.alpha - b.alpha), math.cos(a.alpha - b.alpha)))
+    da = abs(float(wrap_angle(a.alpha - b.alpha)))
     if da > params.merge_angle:
         return False
     gap = float(np.hypot(*(b.start - a.end)))
