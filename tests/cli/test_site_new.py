@@ -2,11 +2,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
+from scipy import ndimage
 
 from tests.mapping.conftest import building, drive
 from tourbot.cli.main import main
 from tourbot.io.carmen import write_carmen
+from tourbot.io.line_map import read_line_map
 from tourbot.site.model import load_site
 
 
@@ -27,6 +30,17 @@ def test_site_new_writes_a_valid_site(tmp_path: Path, capsys: pytest.CaptureFixt
     assert "site hall:" in capsys.readouterr().out
     assert sorted(p.name for p in (tmp_path / "sites").iterdir()) == ["hall"]  # nothing half-made beside
     assert [e.name for e in site.exhibits] == site.tour("highlights").exhibits
+    # the line map beside the grid, in the grid's frame: its walls lie on the grid's walls
+    walls = read_line_map(out / "lines.geojson")
+    assert len(walls) >= 4
+    along = np.linspace(0.0, 1.0, 11)[None, :, None]
+    points = (walls[:, :1] + along * (walls[:, 1:] - walls[:, :1])).reshape(-1, 2)
+    cells = site.grid.world_to_cell(points)
+    inside = site.grid.inside(cells)
+    assert inside.mean() > 0.95
+    to_wall = ndimage.distance_transform_edt(~site.grid.occupied()) * site.grid.resolution
+    assert float(np.median(to_wall[cells[inside, 0], cells[inside, 1]])) < 0.15
+    assert (out / "lines.svg").read_text().lstrip().startswith("<")
     # the simulator accepts it at once
     main(["simulate", "--site", str(out), "--duration", "3", "--crowd", "empty",
           "--write-log", str(tmp_path / "sim" / "s.log.gz")])  # fmt: skip

@@ -1,10 +1,11 @@
-"""A new site from one robot log: the people-filtered graph-SLAM map and suggested doors.
+"""A new site from one robot log: the people-filtered graph-SLAM map, the line map and suggested doors.
 
 Burgard et al. (Sec. 7.1) set a new exhibition up in under two days, mapping included; here the
 map comes from one log (:class:`tourbot.mapping.graph_slam.GraphSlam` with the people filter as
-its front end, Sec. 2 and 5), the doors are suggested where the map's walls have a door-wide gap
-(:func:`tourbot.maps.doors.suggest_doorways`), and the site file holds both; exhibits are then
-placed on the map (the admin page, ``tourbot site exhibit``).
+its front end, Sec. 2 and 5), the line map from the same log by feature-based mapping (Sec. 2.2,
+:class:`tourbot.mapping.features.FeatureMapper`), the doors are suggested where the map's walls
+have a door-wide gap (:func:`tourbot.maps.doors.suggest_doorways`), and the site file holds the
+map and the doors; exhibits are then placed on the map (the admin page, ``tourbot site exhibit``).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from tourbot.mapping.features import FeatureMap, FeatureMapper
 from tourbot.mapping.graph_slam import GraphSlam, GraphSlamParams
 from tourbot.mapping.incremental import MapperParams, MappingError
 from tourbot.mapping.people_filter import PeopleFilteredMapper, PeopleMappingConfig
@@ -21,7 +23,15 @@ from tourbot.maps.doors import Doorway
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
-__all__ = ["MIN_SCANS", "check_log", "map_log", "require_odometry", "site_document", "tour_stops"]
+__all__ = [
+    "MIN_SCANS",
+    "check_log",
+    "line_map_log",
+    "map_log",
+    "require_odometry",
+    "site_document",
+    "tour_stops",
+]
 
 MIN_SCANS = 50  # fewer scans than this do not make a building's map
 
@@ -56,6 +66,12 @@ def map_log(log: RobotLog, seed: int = 0, resolution: float = 0.05) -> tuple[Occ
         slam.add_scan(scan)
     slam.finish()
     return slam.grid(), slam
+
+
+def line_map_log(log: RobotLog) -> FeatureMap:
+    """The line map of ``log`` (walls and corners; its frame, like :func:`map_log`'s: the first
+    odometry pose)."""
+    return FeatureMapper().run(log.scans)
 
 
 def tour_stops(poses: np.ndarray, count: int = 4) -> list[tuple[float, float, float]]:
