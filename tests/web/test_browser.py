@@ -234,6 +234,34 @@ def test_onboard_screen_talks_and_staff_place_an_exhibit(
         assert page.errors == []
 
 
+def test_staff_edit_an_exhibit_placed_to_the_millimetre(
+    server: tuple[str, FakeRobot], browser: Any, site_db: Database
+) -> None:
+    # `tourbot site new` and imported sites place exhibits to the millimetre, with a heading: the
+    # form must save them as they are (a step of 0.01 blocked the form without a word)
+    site_db.save_exhibit("stop-1", "Stop 1", x=7.123, y=2.987, theta=-1.5852)
+    url, _ = server
+    site_db.set_staff("curator", "correct horse")
+    staff = _Visitor(browser, url + "/admin")
+    console: list[str] = []
+    staff.page.on("console", lambda m: console.append(m.text))
+    staff.page.fill("#username", "curator")
+    staff.page.fill("#password", "correct horse")
+    staff.page.click("#login button")
+    staff.page.wait_for_selector("#work:not([hidden])")
+    staff.page.click("#exhibits tr:has-text('stop-1')")
+    staff.page.fill("#exhibit [name=name]", "The first exhibit")
+    staff.page.click("#exhibit button:not([type])")
+    staff.page.wait_for_function(
+        "() => document.getElementById('message').textContent.includes('saved stop-1')", timeout=10000
+    )
+    saved = site_db.exhibit("stop-1")
+    assert saved.name == "The first exhibit"
+    assert (saved.x, saved.y, saved.theta) == pytest.approx((7.123, 2.987, -1.5852))
+    assert not [m for m in console if "not a valid regular expression" in m]  # the slug's pattern
+    assert staff.errors == []
+
+
 @pytest.mark.slow
 def test_visitor_sends_the_simulated_robot_to_an_exhibit(
     browser: Any, sqlite_url: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch

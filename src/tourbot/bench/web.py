@@ -34,7 +34,7 @@ import typer
 
 from tourbot.geometry import wrap_angle
 
-__all__ = ["register"]
+__all__ = ["CHROMIUM", "CHROMIUM_FLAGS", "ServedSite", "register"]
 
 TARGET_KBIT = 1.0
 TARGET_P99_MS = 100.0
@@ -53,7 +53,7 @@ def _cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-class _Server:
+class ServedSite:
     """``tourbot serve`` in a child process on a fresh SQLite file."""
 
     def __init__(
@@ -293,12 +293,12 @@ async def _relay(server_port: int) -> tuple[int, list[int], asyncio.Server]:
 
 
 CHROMIUM = Path("/usr/bin/chromium")
-_CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                    "--disable-background-networking", "--disable-component-update", "--disable-sync",
                    "--use-angle=swiftshader", "--enable-unsafe-swiftshader"]  # fmt: skip
 
 
-async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15.0) -> dict[str, Any]:
+async def _browser_bandwidth(server: ServedSite, seconds: float, warmup: float = 15.0) -> dict[str, Any]:
     """The visitor page in Chromium, loaded through the byte-counting relay: every byte the server
     sends to that page after ``warmup`` (page, scripts and keyframe loaded) for ``seconds``, the
     binary stream and the JSON texts (status, path, speech) alike, while a driver (not relayed)
@@ -317,7 +317,7 @@ async def _browser_bandwidth(server: _Server, seconds: float, warmup: float = 15
     if tour:
         await driver.send({"type": "tour", "tour": tour})
     async with async_playwright() as p:
-        browser = await p.chromium.launch(executable_path=str(CHROMIUM), args=_CHROMIUM_FLAGS, headless=True)
+        browser = await p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_FLAGS, headless=True)
         page = await browser.new_page()
         await page.goto(f"http://127.0.0.1:{port}/?robot={robot}")
         await page.wait_for_function(
@@ -365,7 +365,7 @@ async def _site(base: str) -> dict[str, Any]:
         return dict((await client.get("/api/site")).json())
 
 
-async def _bandwidth(server: _Server, seconds: float) -> dict[str, Any]:
+async def _bandwidth(server: ServedSite, seconds: float) -> dict[str, Any]:
     site = await _site(server.base)
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
@@ -447,12 +447,12 @@ def _cpu_between(samples: list[tuple[float, float]], start: float, end: float) -
 
 
 async def _viewers(
-    server: _Server,
+    server: ServedSite,
     n: int,
     seconds: float,
     pid: int,
     processes: int = 4,
-    watched: list[_Server] | None = None,
+    watched: list[ServedSite] | None = None,
 ) -> dict[str, Any]:
     """``n`` viewers in ``processes`` worker processes (so that the viewers' own lag is not the
     measure); each frame's delay is its arrival time minus the server's sampling time written in
@@ -525,7 +525,7 @@ async def _viewers(
     }
 
 
-async def _staff(server: _Server, method: str, robot: str) -> dict[str, Any]:
+async def _staff(server: ServedSite, method: str, robot: str) -> dict[str, Any]:
     """The server's own send-delay statistics (staff API)."""
     import httpx
 
@@ -540,7 +540,7 @@ async def _staff(server: _Server, method: str, robot: str) -> dict[str, Any]:
         ) from None
 
 
-async def _latency(server: _Server, trials: int) -> dict[str, Any]:
+async def _latency(server: ServedSite, trials: int) -> dict[str, Any]:
     site = await _site(server.base)
     robot = site["robots"][0]
     holder = _Viewer(server.port, robot, site["stream"])
@@ -651,8 +651,8 @@ def register(bench: typer.Typer) -> None:
         )  # fmt: skip
         broker = _Broker() if followers else None
         extra = () if broker is None else ("--broker", broker.url)
-        server = _Server(site, visitors, seed, extra=extra)
-        watched: list[_Server] = []
+        server = ServedSite(site, visitors, seed, extra=extra)
+        watched: list[ServedSite] = []
         hops: list[float] = []
         try:
             with Progress(transient=True) as progress:
@@ -660,7 +660,7 @@ def register(bench: typer.Typer) -> None:
                 server.wait()
                 if broker is not None:
                     watched = [
-                        _Server(site, visitors, seed, extra=("--follow", broker.url))
+                        ServedSite(site, visitors, seed, extra=("--follow", broker.url))
                         for _ in range(followers)
                     ]
                     for follower in watched:
@@ -694,7 +694,7 @@ def register(bench: typer.Typer) -> None:
                 broker.close()
         in_server: dict[str, Any] = {}
         if compare:  # the same viewers against the earlier design: the robot steps in the server
-            old = _Server(site, visitors, seed, robot_process=False)
+            old = ServedSite(site, visitors, seed, robot_process=False)
             try:
                 old.wait()
                 in_server = asyncio.run(

@@ -145,3 +145,6 @@ $("tour").addEventListener("submit", async (event) => {
 });
 
 getJSON("/api/admin/stats").then(() => loggedIn("staff")).catch(() => {});
+
+// for tests and benchmarks: the map (world <-> canvas) once it is drawn
+window.tourbot = { get map() { return map; } };
