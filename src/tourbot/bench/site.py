@@ -91,8 +91,11 @@ async def _staff_names_and_places(base: str, person: _Person, browser: Any) -> t
     return float(placed[0]), float(placed[1])
 
 
-async def _visitor_tour(base: str, person: _Person, browser: Any, seconds: float) -> dict[str, Any]:
-    """The visitor page: take control, start the tour; when the robot reached each stop."""
+async def _visitor_tour(
+    base: str, person: _Person, browser: Any, seconds: float, enough: int | None
+) -> dict[str, Any]:
+    """The visitor page: take control, start the tour; when the robot reached each stop (until
+    every stop, or ``enough`` of them, or ``seconds``)."""
     page = await browser.new_page()
     await page.goto(base + "/")
     await page.wait_for_selector("#tours button[data-tour='highlights']", timeout=60000)
@@ -109,14 +112,14 @@ async def _visitor_tour(base: str, person: _Person, browser: Any, seconds: float
             done, stops = (int(v) for v in text.rsplit(",", 1)[1].strip(" )").split("/"))
             while len(arrivals) < done:
                 arrivals.append(time.monotonic() - started)
-            if done == stops:
+            if done == stops or (enough is not None and done >= enough):
                 break
         await asyncio.sleep(0.5)
     await page.close()
     return {"arrivals": arrivals, "stops": stops}
 
 
-async def _pages(base: str, tour_seconds: float) -> dict[str, Any]:
+async def _pages(base: str, tour_seconds: float, enough: int | None) -> dict[str, Any]:
     from playwright.async_api import Error, async_playwright
 
     person = _Person()
@@ -128,7 +131,7 @@ async def _pages(base: str, tour_seconds: float) -> dict[str, Any]:
             placed = await _staff_names_and_places(base, person, browser)
             staff_s = time.monotonic() - t0
             step = "the visitor page"
-            tour = await _visitor_tour(base, person, browser, tour_seconds)
+            tour = await _visitor_tour(base, person, browser, tour_seconds, enough)
         except Error as exc:  # a page that did not do what a person would see it do
             raise typer.BadParameter(f"{step}: {str(exc).splitlines()[0]}") from None
         finally:
@@ -136,7 +139,10 @@ async def _pages(base: str, tour_seconds: float) -> dict[str, Any]:
     return {"placed": placed, "staff_s": staff_s, "clicks": person.clicks, "fields": person.fields, **tour}
 
 
-def _one(name: str, log: Path, folder: Path, crowd: str, tour_seconds: float) -> dict[str, Any]:
+def _one(
+    name: str, log: Path, folder: Path, crowd: str, tour_seconds: float, enough: int | None = None
+) -> dict[str, Any]:
+    """The whole path for one log; ``enough`` stops the tour's clock after that many stops."""
     site = folder / name
     t0 = time.monotonic()
     made = subprocess.run(
@@ -152,7 +158,7 @@ def _one(name: str, log: Path, folder: Path, crowd: str, tour_seconds: float) ->
     try:
         server.wait(300.0)
         serve_s = time.monotonic() - t0 - site_new_s
-        pages = asyncio.run(_pages(server.base, tour_seconds))
+        pages = asyncio.run(_pages(server.base, tour_seconds, enough))
     finally:
         server.close()
     first = pages["arrivals"][0] if pages["arrivals"] else float("nan")
