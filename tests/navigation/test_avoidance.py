@@ -49,3 +49,29 @@ def test_surrounded_robot_is_blocked() -> None:
     v, _, moving = _window().choose(0.0, 0.0, (2.0, 0.0), ring)
     assert not moving
     assert v == 0.0
+
+
+def _wall(y: float) -> np.ndarray:
+    """A wall along the robot's heading, ``y`` m to its side, 5 cm between points."""
+    x = np.arange(-2.0, 3.0, 0.05)
+    return np.stack([x, np.full_like(x, y)], axis=-1)
+
+
+def test_a_robot_inside_its_margin_drives_along_the_wall() -> None:
+    # 0.37 m from a wall: inside radius 0.3 + margin 0.08. The robot used to stop for good there
+    # (every arc, the spin on the spot too, counted as too close): seen at a corridor's corner.
+    v, w, moving = _window().choose(0.0, 0.0, (2.0, 0.0), _wall(-0.37))
+    assert moving
+    assert v > 0.0
+    c, _ = arc_clearance(np.array([v]), np.array([w]), _wall(-0.37), 2.0, 8)
+    assert c[0] >= 0.37 - DWAConfig().squeeze - 1e-9  # comes no closer than it stood
+
+
+def test_a_robot_inside_its_margin_does_not_turn_into_the_wall() -> None:
+    # the carrot behind the wall: no arc toward it is admissible, the robot stays where it is
+    v, w, moving = _window().choose(0.0, 0.0, (0.5, -2.0), _wall(-0.37))
+    if moving:
+        c, _ = arc_clearance(np.array([v]), np.array([w]), _wall(-0.37), 2.0, 8)
+        assert c[0] >= 0.37 - DWAConfig().squeeze - 1e-9
+    far = _window().choose(0.0, 0.0, (0.5, -2.0), _wall(-0.60))
+    assert far[2]  # with room beside it, it moves

@@ -104,16 +104,19 @@ async def _visitor_tour(
     started = time.monotonic()
     await person.click(page, "#tours button[data-tour='highlights']")
     arrivals: list[float] = []
+    seen: set[str] = set()
     stops = 0
     deadline = started + seconds
     while time.monotonic() < deadline:
         text = await page.evaluate("() => document.getElementById('state').textContent")
-        if text.startswith("Arrived at") and "(tour highlights," in text:
-            done, stops = (int(v) for v in text.rsplit(",", 1)[1].strip(" )").split("/"))
-            while len(arrivals) < done:
+        if text.startswith("Arrived at ") and " (tour highlights, " in text:
+            name, progress = text[len("Arrived at ") :].rsplit(" (tour highlights, ", 1)
+            stops = int(progress.strip(" )").split("/")[1])
+            if name not in seen:
+                seen.add(name)
                 arrivals.append(time.monotonic() - started)
-            if done == stops or (enough is not None and done >= enough):
-                break
+        if (stops and len(seen) == stops) or (enough is not None and len(seen) >= enough):
+            break
         await asyncio.sleep(0.5)
     await page.close()
     return {"arrivals": arrivals, "stops": stops}

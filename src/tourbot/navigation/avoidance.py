@@ -34,6 +34,7 @@ class DWAConfig:
     n_speeds: int = 5
     n_turns: int = 11
     margin: float = 0.08  # m beyond the robot's radius
+    squeeze: float = 0.01  # m an arc may come closer than now when the robot is inside the margin
     heading_weight: float = 1.0
     clearance_weight: float = 0.4
     velocity_weight: float = 0.3
@@ -146,7 +147,12 @@ class DynamicWindow:
         V, W = V.ravel(), W.ravel()
         pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
         clear, along = arc_clearance(V, W, pts, cfg.horizon, cfg.steps)
-        gap = clear - self.radius - cfg.margin
+        # The margin keeps the robot off obstacles; a robot already inside it (the planned path
+        # cut a corner, a person stepped close) keeps what clearance it has: arcs that come no
+        # closer than now (within ``squeeze``) stay admissible, or it could never move again.
+        here = float(np.min(np.hypot(pts[:, 0], pts[:, 1]))) if len(pts) else math.inf
+        margin = min(cfg.margin, max(here - self.radius - cfg.squeeze, 0.0))
+        gap = clear - self.radius - margin
         # admissible: not touching, and able to brake within the free distance (DWA Eq. 4)
         free_run = np.where(np.isfinite(along), np.maximum(along + gap, 0.0), np.inf)
         admissible = (gap > 0.0) & (2.0 * self.accel * free_run >= V * V)
