@@ -271,7 +271,6 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
         "cap": rng.uniform(0.5, 1.5, size=n),
         "radii": rng.uniform(0.2, 0.35, size=n),
         "group": np.minimum(np.arange(n), rng.integers(0, n, size=n)),
-        "at_robot": rng.random(n) < 0.5,
         "phase": rng.uniform(0.0, 6.0, size=n),
         "heading": rng.uniform(-3.0, 3.0, size=n),
         "wall_dist": wall_dist,
@@ -285,8 +284,9 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
 @given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2), st.integers(1, 3))
 def test_move_people_matches_reference(seed: int, n: int, h: float, m: int) -> None:
     w = _world(seed, n)
-    # the robot the visitors gather at, and the museum's other robots
+    # the museum's robots, and the one each visitor stands at (-1: none)
     robots = np.random.default_rng(seed + 1).uniform(0.5, 5.5, size=(m, 2))
+    facing = np.random.default_rng(seed + 2).integers(-1, m, size=n)
     params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3, 0.3])
     args = (
         w["pos"],
@@ -295,7 +295,7 @@ def test_move_people_matches_reference(seed: int, n: int, h: float, m: int) -> N
         w["cap"],
         w["radii"],
         w["group"],
-        w["at_robot"],
+        facing,
         w["phase"],
         w["heading"],
         w["wall_dist"],
