@@ -204,7 +204,8 @@ def test_served_robots_in_their_processes_share_one_crowd() -> None:
         assert list(museum.links) == ["lefkos", "albert"]
         lefkos, albert = museum.links["lefkos"], museum.links["albert"]
         assert isinstance(lefkos, ProcessLink)
-        assert museum.world is not None and museum.world.alive
+        assert museum.world is not None
+        assert museum.world.alive
         time.sleep(3.0)  # all processes stepping
         a, b = lefkos.view(), albert.view()
         assert len(a.truth) == len(b.truth) == 40
@@ -221,6 +222,7 @@ def test_killing_a_robot_leaves_the_visitors_where_they_were(killed: str) -> Non
     """kill -9 of a robot's process under ``serve --robots 2``: while it is restarted the visitors
     walk on (the crowd's clock never goes back, no visitor moves farther between two looks at the
     shared crowd than walking allows), the same 40 of them; the restarted robot sees them again."""
+    import itertools
     import time
 
     import numpy as np
@@ -233,7 +235,8 @@ def test_killing_a_robot_leaves_the_visitors_where_they_were(killed: str) -> Non
     museum = simulated_museum(settings)
     try:
         fleet, link = museum.fleet, museum.links[killed]
-        assert fleet is not None and isinstance(link, ProcessLink)
+        assert fleet is not None
+        assert isinstance(link, ProcessLink)
         looks: list[tuple[float, np.ndarray]] = []
 
         def watch(seconds: float, until: object = None) -> None:
@@ -248,13 +251,14 @@ def test_killing_a_robot_leaves_the_visitors_where_they_were(killed: str) -> Non
         link._process.kill()
         killed_at = len(looks)
         watch(90.0, until=lambda: bool(link.restarts) and not link.restarting)
-        assert link.restarts and link.failure is None, "the robot was not restarted"
+        assert link.restarts, "the robot was not restarted"
+        assert link.failure is None
         watch(2.0)
         assert len(looks) > killed_at + 10
         times = np.array([t for t, _ in looks])
         assert (np.diff(times) > 0).all(), "the crowd's clock went back: the crowd restarted"
         worst = 0.0
-        for (t0, p0), (t1, p1) in zip(looks, looks[1:], strict=False):
+        for (t0, p0), (t1, p1) in itertools.pairwise(looks):
             assert len(p1) == len(p0) == 40
             step = float(np.max(np.linalg.norm(p1 - p0, axis=1)))
             worst = max(worst, step - 1.8 * (t1 - t0))

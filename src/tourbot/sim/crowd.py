@@ -1023,7 +1023,9 @@ class Crowd:
         index, or one per spot)."""
         a = self._anchor[robot]
         ang = a[..., 2] + stand[:, 1]
-        return np.stack([a[..., 0] + stand[:, 0] * np.cos(ang), a[..., 1] + stand[:, 0] * np.sin(ang)], axis=-1)
+        return np.stack(
+            [a[..., 0] + stand[:, 0] * np.cos(ang), a[..., 1] + stand[:, 0] * np.sin(ang)], axis=-1
+        )
 
     def _ring_points(self, ring: NDArray[np.bool_]) -> FloatArray:
         """The spots of the visitors ``ring`` (at robots), each around its own robot's anchor."""
@@ -1212,7 +1214,9 @@ class Crowd:
             vel = np.asarray(velocities, dtype=np.float64).reshape(-1, 2)
             th = -self.grid.origin[2]
             c, s = math.cos(th), math.sin(th)
-            self._robot_vel = np.stack([c * vel[:, 0] - s * vel[:, 1], s * vel[:, 0] + c * vel[:, 1]], axis=-1)
+            self._robot_vel = np.stack(
+                [c * vel[:, 0] - s * vel[:, 1], s * vel[:, 0] + c * vel[:, 1]], axis=-1
+            )
         elif dt > 0:
             self._robot_vel = (poses[:, :2] - self._poses[:, :2]) / dt
         if velocities is not None or dt > 0:

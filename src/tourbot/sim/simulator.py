@@ -5,9 +5,9 @@ limits (stopped by walls, doors, furniture and invisible obstacles, which count 
 crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture change,
 the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the project's
 one ray caster against the world and the visitors' legs (several robots in one museum share one
-world: ``tourbot.sim.fleet``, the museum's world ``tourbot.sim.world`` stepping the one crowd); each camera on the robot
-(``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward camera) renders its image
-when one is due. It returns the odometry reading, the scan and the images as records; the truth
+world: ``tourbot.sim.fleet``, the museum's world ``tourbot.sim.world`` stepping the one crowd); each
+camera on the robot (``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward
+camera) renders its image when one is due. It returns the odometry reading, the scan and the images as records; the truth
 (robot, people, doors, furniture, collisions) is kept beside them for metrics only, and the whole
 sensor stream can be written as a CARMEN log.
 

@@ -211,7 +211,11 @@ class SimulatedWorldFactory:
             raise TourbotError("the museum's world: an empty museum has no crowd to step")
         name, size = self.fleet
         return MuseumWorld(
-            load_site(site_path(self.site)), config, FleetPoses(size, name=name), seed=self.seed, dt=SimConfig().dt
+            load_site(site_path(self.site)),
+            config,
+            FleetPoses(size, name=name),
+            seed=self.seed,
+            dt=SimConfig().dt,
         )
 
 
@@ -266,7 +270,9 @@ def simulated_museum(settings: ServeSettings) -> SimulatedMuseum:
     museum = SimulatedMuseum(links, FleetPoses(settings.robots) if shared else None)
     fleet = museum.fleet
     if fleet is not None and crowded:
-        world = SimulatedWorldFactory(settings.site, settings.crowd, settings.seed, (fleet.name, settings.robots))
+        world = SimulatedWorldFactory(
+            settings.site, settings.crowd, settings.seed, (fleet.name, settings.robots)
+        )
         museum.world = WorldProcess(world, speedup=settings.speedup)
     for i, name in enumerate(_robot_names(settings.robots)):
         seed = settings.seed + i
