@@ -7,9 +7,9 @@ the wheel odometry accumulates its error, and at the laser's rate a scan is cast
 one ray caster against the world and the visitors' legs (several robots in one museum share one
 world: ``tourbot.sim.fleet``, the museum's world ``tourbot.sim.world`` stepping the one crowd); each
 camera on the robot (``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward
-camera) renders its image when one is due. It returns the odometry reading, the scan and the images as records; the truth
-(robot, people, doors, furniture, collisions) is kept beside them for metrics only, and the whole
-sensor stream can be written as a CARMEN log.
+camera) renders its image when one is due. It returns the odometry reading, the scan and the
+images as records; the truth (robot, people, doors, furniture, collisions) is kept beside them for
+metrics only, and the whole sensor stream can be written as a CARMEN log.
 
 Deterministic for a seed: the crowd, the odometry, the laser and the objects each draw from their
 own generator spawned from one ``numpy.random.SeedSequence``.
