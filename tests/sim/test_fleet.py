@@ -151,17 +151,3 @@ def test_the_robots_of_one_museum_see_one_crowd_that_walks_around_both() -> None
         assert sum(sim.collisions.person for sim in sims) == 0
     finally:
         fleet.close()
-
-
-def test_the_world_waits_for_every_robot() -> None:
-    from tourbot.errors import TourbotError
-    from tourbot.sim.crowd import CrowdConfig
-    from tourbot.sim.world import MuseumWorld
-
-    fleet = FleetPoses(2)
-    try:
-        fleet.write(0, (1.0, 2.0, 0.0))
-        with pytest.raises(TourbotError, match=r"robots \[1\] wrote no pose"):
-            MuseumWorld(default_site(), CrowdConfig(num_people=5), fleet, wait=0.2)
-    finally:
-        fleet.close()

@@ -936,6 +936,24 @@ class Crowd:
         n = self.num_people
         return self.positions, np.full(n, self.config.body_radius)
 
+    def place(self, positions: ArrayLike, velocities: ArrayLike, time: float | None = None) -> None:
+        """Put the visitors at ``positions`` with ``velocities`` (world, ``(N, 2)`` each, as many
+        as the crowd has), its clock at ``time``: a crowd carried on from where another one left
+        off (the museum's world restarted). Only where they are and how they move is taken; each
+        goes on from there with the plans this crowd drew for it."""
+        pos = self._local_point(np.asarray(positions, dtype=np.float64)).reshape(-1, 2)
+        vel = np.asarray(velocities, dtype=np.float64).reshape(-1, 2)
+        if len(pos) != self.num_people or len(vel) != self.num_people:
+            raise CrowdError(f"a crowd of {self.num_people} placed at {len(pos)} positions")
+        th = -self.grid.origin[2]
+        c, s = math.cos(th), math.sin(th)
+        p = self._people
+        p.pos = pos
+        p.vel = np.stack([c * vel[:, 0] - s * vel[:, 1], s * vel[:, 0] + c * vel[:, 1]], axis=-1)
+        p.goal[p.mode == DWELL] = pos[p.mode == DWELL]
+        if time is not None:
+            self.time = self._last_decision = self._next_decision = float(time)
+
     # ---- spawning ----------------------------------------------------------------------------
 
     def _random_free_points(self, rng: np.random.Generator, n: int) -> FloatArray:

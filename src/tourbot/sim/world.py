@@ -9,7 +9,9 @@ step aside for each robot as for one (the crowd's robot inputs are the list of r
 Under ``tourbot serve`` the world runs in a process of its own (:mod:`tourbot.web.world_process`),
 so that a robot's process that dies and is restarted takes nothing of the crowd with it: the
 visitors walk on, around the dead robot's body where it stopped (its last written pose; a robot
-that no longer steps is taken to stand), and the restarted robot writes its pose again.
+that no longer steps is taken to stand), and the restarted robot writes its pose again. The world's
+own process, restarted, carries the crowd on from the shared memory (where each visitor is and how
+it moves; their plans are drawn afresh).
 
 Truth, as the rest of the simulator: the robots' estimators never read it.
 """
@@ -44,7 +46,10 @@ class MuseumWorld:
     """The crowd of ``site`` for the robots of ``fleet`` (all of them: the world waits, up to
     ``wait`` seconds, until each has written its pose, then spawns the visitors clear of them).
 
-    :meth:`step` advances the crowd by ``dt`` seconds with the robots where they are now.
+    :meth:`step` advances the crowd by ``dt`` seconds with the robots where they are now. A world
+    built on a fleet that already holds a crowd of as many visitors (the world's process died and
+    was started again) carries it on: ``resumed``, the visitors where and as they were, at the
+    crowd's time, with fresh plans.
     """
 
     def __init__(
@@ -68,6 +73,11 @@ class MuseumWorld:
         poses, _, self._writes = fleet.poses()
         self._rng = np.random.default_rng(seed)
         self.crowd = Crowd(site_crowd(site, config), site.grid, self._rng, robot_pose=poses)
+        # a world started again (its process died): the visitors go on from where the last one left them
+        before = fleet.read_crowd()
+        self.resumed = before is not None and len(before.positions) == self.crowd.num_people
+        if before is not None and self.resumed:
+            self.crowd.place(before.positions, before.velocities, time=before.time)
         self._since = np.zeros(len(poses))  # world seconds since each robot's last write
         self._publish()
 

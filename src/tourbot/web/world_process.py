@@ -17,6 +17,7 @@ import contextlib
 import logging
 import multiprocessing
 import signal
+import threading
 import time
 from collections.abc import Callable
 from multiprocessing.connection import Connection
@@ -64,44 +65,104 @@ def _world_main(factory: Callable[[], SteppedWorld], speedup: float, pipe: Conne
 
 
 class WorldProcess:
-    """The world ``factory`` builds (``spawn``: picklable), stepped in a child process."""
+    """The world ``factory`` builds (``spawn``: picklable), stepped in a child process.
 
-    def __init__(self, factory: Callable[[], SteppedWorld], *, speedup: float = 1.0) -> None:
-        ctx = multiprocessing.get_context("spawn")
-        self._pipe, child = ctx.Pipe()
-        self._process = ctx.Process(
-            target=_world_main, args=(factory, speedup, child), name="tourbot-world", daemon=True
+    Supervised as a robot's process is: a world whose process stops is started again (its new
+    crowd carries on from the shared one, :class:`tourbot.sim.world.MuseumWorld`), at most
+    ``max_restarts`` times in ``restart_window`` seconds; past that it stays stopped (logged) and
+    the visitors stand where they were.
+    """
+
+    def __init__(
+        self,
+        factory: Callable[[], SteppedWorld],
+        *,
+        speedup: float = 1.0,
+        max_restarts: int = 5,
+        restart_window: float = 60.0,
+    ) -> None:
+        self._ctx = multiprocessing.get_context("spawn")
+        self._factory = factory
+        self._speedup = speedup
+        self.max_restarts = max_restarts
+        self.restart_window = restart_window
+        self.restarts: list[float] = []  # monotonic times of the restarts
+        self._closing = False
+        self._lock = threading.Lock()
+        self._watcher: threading.Thread | None = None
+        self._spawn()
+
+    def _spawn(self) -> None:
+        self._pipe, child = self._ctx.Pipe()
+        self._process = self._ctx.Process(
+            target=_world_main, args=(self._factory, self._speedup, child), name="tourbot-world", daemon=True
         )
         self._process.start()
         child.close()
-        self._ready = False
 
-    def wait_ready(self, timeout: float = 600.0) -> None:
-        """Wait until the world has been built (it waits for every robot's first pose)."""
-        if self._ready:
-            return
+    def _ready(self, timeout: float) -> None:
         if not self._pipe.poll(timeout):
-            self.close()
             raise RobotProcessError(f"the museum's world: not ready within {timeout:.0f} s")
         try:
             kind, why = self._pipe.recv()
         except (EOFError, OSError):
             kind, why = "failed", "its process stopped while starting"
         if kind != "ready":
-            self.close()
             raise RobotProcessError(f"the museum's world could not start: {why}")
-        self._ready = True
+
+    def wait_ready(self, timeout: float = 600.0) -> None:
+        """Wait until the world has been built (it waits for every robot's first pose); then watch it."""
+        if self._watcher is not None:
+            return
+        try:
+            self._ready(timeout)
+        except RobotProcessError:
+            self.close()
+            raise
+        self._watcher = threading.Thread(target=self._watch, name="world-watch", daemon=True)
+        self._watcher.start()
+
+    def _watch(self) -> None:
+        """Start the world again whenever its process stops (within the restart budget)."""
+        while True:
+            self._process.join()
+            with self._lock:
+                if self._closing:
+                    return
+                now = time.monotonic()
+                self.restarts = [t for t in self.restarts if now - t < self.restart_window]
+                if len(self.restarts) >= self.max_restarts:
+                    n, window = len(self.restarts), self.restart_window
+                    log.error("the museum's world: %d restarts in %.0f s, it stays stopped", n, window)
+                    return
+                self.restarts.append(now)
+                log.error(
+                    "the museum's world stopped (exit code %s): starting it again", self._process.exitcode
+                )
+                self._pipe.close()
+                self._spawn()
+            try:
+                self._ready(120.0)
+            except RobotProcessError as exc:
+                log.error("%s", exc)
+                with self._lock:
+                    if self._process.is_alive():
+                        self._process.terminate()
 
     @property
     def alive(self) -> bool:
         return bool(self._process.is_alive())
 
     def close(self, timeout: float = 10.0) -> None:
-        """Stop the world's process (idempotent)."""
-        with contextlib.suppress(BrokenPipeError, OSError):
-            self._pipe.send(None)
-        self._process.join(timeout)
-        if self._process.is_alive():
-            self._process.terminate()
+        """Stop the world's process (idempotent); it is not started again."""
+        with self._lock:
+            self._closing = True
+            with contextlib.suppress(BrokenPipeError, OSError):
+                self._pipe.send(None)
             self._process.join(timeout)
-        self._pipe.close()
+            if self._process.is_alive():
+                self._process.terminate()
+                self._process.join(timeout)
+            self._pipe.close()
+        if self._watcher is not None and self._watcher is not threading.current_thread():
+            self._watcher.join(timeout)
