@@ -205,6 +205,85 @@ def test_the_ring_steps_aside_and_follows_the_driving_robot() -> None:
     assert in_way(rel) <= 1
 
 
+def _two_rings(seed: int) -> tuple[Crowd, np.ndarray, np.random.Generator]:
+    """Two robots of one museum, 14 m apart in a hall, each with visitors standing at it."""
+    grid = _room(30.0, 14.0)
+    robots = np.array([[4.0, 7.0, 0.0], [16.0, 7.0, 0.0]])
+    rng = np.random.default_rng(seed)
+    cfg = CrowdConfig(num_people=60, robot_interest=1.0, interest_duration=1e6, blocker_share=0.0)
+    crowd = Crowd(cfg, grid, rng, robots)
+    for _ in range(200):
+        crowd.step(0.2, robots, rng)
+    return crowd, robots, rng
+
+
+def test_visitors_gather_at_every_robot_of_the_museum() -> None:
+    crowd, robots, _ = _two_rings(2)
+    at = crowd.robot_of
+    for k, (x, y, _) in enumerate(robots):
+        ring = crowd.positions[at == k]
+        assert len(ring) >= 6, f"robot {k + 1}: {len(ring)} visitors at it"
+        d = np.hypot(ring[:, 0] - x, ring[:, 1] - y)
+        assert np.median(d) <= 3.5  # at this robot, not the other (12 m away)
+        assert np.mean(ring[:, 0] > x) >= 0.7  # in front of it (both face +x)
+    with pytest.raises(CrowdError, match="made with 2 robots stepped with 1"):
+        crowd.step(0.1, robots[0], np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("driver", [0, 1])
+def test_a_ring_steps_aside_for_either_robot_and_follows_it(driver: int) -> None:
+    """Robot ``driver + 1`` drives 6 m through its ring while the other stands: its visitors step
+    out of its lane and come along (the tour group); the other robot's ring stays where it was."""
+    crowd, robots, rng = _two_rings(3)  # two or more in each robot's lane
+    other = 1 - driver
+    at = crowd.robot_of
+    members, others = at == driver, at == other
+    x, y, th = robots[driver]
+
+    def in_way(rel: np.ndarray) -> int:
+        """People in the 0.9 m wide lane 0.5-2.5 m ahead of the driving robot (facing +x)."""
+        return int(np.sum((rel[:, 0] > 0.5) & (rel[:, 0] < 2.5) & (np.abs(rel[:, 1]) < 0.45)))
+
+    assert in_way(crowd.positions[members] - robots[driver, :2]) >= 2
+    stay = crowd.positions[others].copy()
+    poses = robots.copy()
+    for k in range(1, 151):  # 15 s at 0.4 m/s along +x
+        poses[driver] = (x + 0.04 * k, y, th)
+        crowd.step(0.1, poses, rng)
+    still = members & (crowd.robot_of == driver)
+    assert still.sum() >= 4
+    rel = crowd.positions[still] - poses[driver, :2]
+    assert np.median(np.linalg.norm(rel, axis=1)) <= 3.5  # they came along ...
+    assert in_way(rel) <= 1  # ... and keep out of its lane
+    kept = others & (crowd.robot_of == other)
+    moved = np.linalg.norm(crowd.positions[kept] - stay[kept[others]], axis=1)
+    assert np.median(moved) <= 0.5  # the standing robot's ring stands
+
+
+def test_a_group_follows_the_second_robot_on_its_tour() -> None:
+    """A group at the second robot walks with it along a 10 m tour leg with a turn."""
+    crowd, robots, rng = _two_rings(6)
+    lead = crowd.groups
+    at = crowd.robot_of
+    in_group = np.flatnonzero((at == 1) & (np.bincount(lead, minlength=len(lead))[lead] >= 2))
+    assert len(in_group) >= 2, "no group of two or more at the second robot"
+    poses = robots.copy()
+    path = [(16.0 + 0.05 * k, 7.0, 0.0) for k in range(1, 121)]  # 6 m east at 0.5 m/s ...
+    path += [(22.0, 7.0 - 0.05 * k, -np.pi / 2) for k in range(1, 81)]  # ... then 4 m south
+    gaps = []
+    for pose in path:
+        poses[1] = pose
+        crowd.step(0.1, poses, rng)
+        d = np.linalg.norm(crowd.positions[in_group] - np.array(pose[:2]), axis=1)
+        gaps.append(d[crowd.robot_of[in_group] == 1])
+    stayed = crowd.robot_of[in_group] == 1
+    assert stayed.mean() >= 0.5  # most of the group is still with it at the end
+    final = np.concatenate(gaps[-10:])
+    assert np.median(final) <= 3.5  # and near it: 10 m from where they stood
+    start = np.linalg.norm(crowd.positions[in_group[stayed]] - robots[1, :2], axis=1)
+    assert start.min() >= 5.0
+
+
 def test_groups_walk_abreast() -> None:
     grid = _room(24.0, 16.0)
     rng = np.random.default_rng(3)
@@ -271,7 +350,6 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
         "cap": rng.uniform(0.5, 1.5, size=n),
         "radii": rng.uniform(0.2, 0.35, size=n),
         "group": np.minimum(np.arange(n), rng.integers(0, n, size=n)),
-        "at_robot": rng.random(n) < 0.5,
         "phase": rng.uniform(0.0, 6.0, size=n),
         "heading": rng.uniform(-3.0, 3.0, size=n),
         "wall_dist": wall_dist,
@@ -285,8 +363,9 @@ def _world(seed: int, n: int) -> dict[str, np.ndarray]:
 @given(st.integers(0, 10_000), st.integers(1, 25), st.floats(0.01, 0.2), st.integers(1, 3))
 def test_move_people_matches_reference(seed: int, n: int, h: float, m: int) -> None:
     w = _world(seed, n)
-    # the robot the visitors gather at, and the museum's other robots
+    # the museum's robots, and the one each visitor stands at (-1: none)
     robots = np.random.default_rng(seed + 1).uniform(0.5, 5.5, size=(m, 2))
+    facing = np.random.default_rng(seed + 2).integers(-1, m, size=n)
     params = np.array([0.5, 0.25, 2.0, 0.08, 10.0, 0.2, 0.4, 10.0, 0.2, 0.5, 1.3, 0.3])
     args = (
         w["pos"],
@@ -295,7 +374,7 @@ def test_move_people_matches_reference(seed: int, n: int, h: float, m: int) -> N
         w["cap"],
         w["radii"],
         w["group"],
-        w["at_robot"],
+        facing,
         w["phase"],
         w["heading"],
         w["wall_dist"],

@@ -188,33 +188,84 @@ def test_the_simulated_robot_takes_a_high_resolution_picture() -> None:
 
 @pytest.mark.slow
 def test_served_robots_in_their_processes_share_one_crowd() -> None:
-    """``serve --robots 2`` as it runs them (each robot in its own process): both simulators
-    have the same visitors (their debug truth, read from each process, names the same people at
-    the same places, give or take a step's walk), and each one's body is in the other's world."""
+    """``serve --robots 2`` as it runs them (each robot in its own process, the museum's world in
+    another): both simulators have the same visitors (their debug truth, read from each process,
+    names the same people at the same places, give or take a step's walk)."""
     import math
     import time
 
     from tourbot.localization.mcl import MCLConfig
     from tourbot.web.process_link import ProcessLink
-    from tourbot.web.serve import simulated_links
+    from tourbot.web.serve import simulated_museum
 
     settings = ServeSettings(site="fhw", robots=2, crowd="40", mcl=MCLConfig().with_samples(100))
-    links = simulated_links(settings)
+    museum = simulated_museum(settings)
     try:
-        assert list(links) == ["lefkos", "albert"]
-        lefkos, albert = links["lefkos"], links["albert"]
+        assert list(museum.links) == ["lefkos", "albert"]
+        lefkos, albert = museum.links["lefkos"], museum.links["albert"]
         assert isinstance(lefkos, ProcessLink)
-        time.sleep(3.0)  # both processes stepping
+        assert museum.world is not None
+        assert museum.world.alive
+        time.sleep(3.0)  # all processes stepping
         a, b = lefkos.view(), albert.view()
         assert len(a.truth) == len(b.truth) == 40
         by_id = {p.id: p for p in a.truth}
         drift = max(math.hypot(by_id[p.id].x - p.x, by_id[p.id].y - p.y) for p in b.truth)
         assert drift < 0.5  # at most a few steps apart (1.5 m/s at most)
     finally:
-        for link in links.values():
-            close = getattr(link, "close", None)
-            if callable(close):
-                close()
+        museum.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("killed", ["lefkos", "albert"])
+def test_killing_a_robot_leaves_the_visitors_where_they_were(killed: str) -> None:
+    """kill -9 of a robot's process under ``serve --robots 2``: while it is restarted the visitors
+    walk on (the crowd's clock never goes back, no visitor moves farther between two looks at the
+    shared crowd than walking allows), the same 40 of them; the restarted robot sees them again."""
+    import itertools
+    import time
+
+    import numpy as np
+
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.web.process_link import ProcessLink
+    from tourbot.web.serve import simulated_museum
+
+    settings = ServeSettings(site="fhw", robots=2, crowd="40", mcl=MCLConfig().with_samples(100))
+    museum = simulated_museum(settings)
+    try:
+        fleet, link = museum.fleet, museum.links[killed]
+        assert fleet is not None
+        assert isinstance(link, ProcessLink)
+        looks: list[tuple[float, np.ndarray]] = []
+
+        def watch(seconds: float, until: object = None) -> None:
+            end = time.monotonic() + seconds
+            while time.monotonic() < end and not (callable(until) and until()):
+                crowd = fleet.read_crowd()
+                if crowd is not None and (not looks or crowd.time != looks[-1][0]):
+                    looks.append((crowd.time, crowd.positions))
+                time.sleep(0.02)
+
+        watch(2.0)
+        link._process.kill()
+        killed_at = len(looks)
+        watch(90.0, until=lambda: bool(link.restarts) and not link.restarting)
+        assert link.restarts, "the robot was not restarted"
+        assert link.failure is None
+        watch(2.0)
+        assert len(looks) > killed_at + 10
+        times = np.array([t for t, _ in looks])
+        assert (np.diff(times) > 0).all(), "the crowd's clock went back: the crowd restarted"
+        worst = 0.0
+        for (t0, p0), (t1, p1) in itertools.pairwise(looks):
+            assert len(p1) == len(p0) == 40
+            step = float(np.max(np.linalg.norm(p1 - p0, axis=1)))
+            worst = max(worst, step - 1.8 * (t1 - t0))
+        assert worst <= 0.2, f"a visitor jumped {worst:.2f} m beyond walking"
+        assert len(link.view().truth) == 40  # the restarted robot sees the same crowd
+    finally:
+        museum.close()
 
 
 @pytest.mark.slow

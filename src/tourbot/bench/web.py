@@ -401,7 +401,7 @@ async def _bandwidth(server: ServedSite, seconds: float) -> dict[str, Any]:
 
 
 def _children(pid: int) -> list[int]:
-    """The child processes of ``pid`` (Linux /proc): the server's robot processes."""
+    """The child processes of ``pid`` (Linux /proc): the server's robots and its museum's world."""
     found = []
     for stat in Path("/proc").glob("[0-9]*/stat"):
         with suppress(OSError, IndexError, ValueError):
@@ -768,7 +768,7 @@ def register(bench: typer.Typer) -> None:
             unit="% of a core",
         )
         report.add(
-            measure="robot process CPU (simulator + MCL + navigator)",
+            measure="robot + world processes CPU (simulator, MCL, navigator; crowd)",
             value=100 * crowd.get("robot_cpu", math.nan),
             unit="% of a core",
         )

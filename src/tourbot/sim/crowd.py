@@ -459,7 +459,7 @@ def move_people(
     cap: FloatArray,
     radii: FloatArray,
     group: NDArray[np.int64],
-    at_robot: NDArray[np.bool_],
+    facing: NDArray[np.int64],
     phase: FloatArray,
     heading: FloatArray,
     wall_dist: FloatArray,
@@ -478,11 +478,11 @@ def move_people(
     personal-space radius ``radii`` (:func:`social_forces`; those with no desired velocity stand),
     from the nearest wall (the
     distance transform of the map) and from each robot (``robots`` ``(M, 2)``, several in one
-    museum; the first is the one visitors gather at); a pull towards the group's leader when
-    more than 1.5 m away. Speeds are capped at ``cap``. Then hard constraints: a person closer
-    than half a radius to a wall is pushed out, one who would leave the walkable space stays
-    where they were (and stops), nobody enters a robot. Legs advance their gait phase with the
-    distance walked; walkers face where they go, visitors standing at the robot face it.
+    museum); a pull towards the group's leader when more than 1.5 m away. Speeds are capped at
+    ``cap``. Then hard constraints: a person closer than half a radius to a wall is pushed out,
+    one who would leave the walkable space stays where they were (and stops), nobody enters a
+    robot. Legs advance their gait phase with the distance walked; walkers face where they go,
+    visitors standing at a robot (``facing[i]``, its index in ``robots``; -1 for none) face it.
     """
     n = pos.shape[0]
     tau = params[_P_TAU]
@@ -577,8 +577,8 @@ def move_people(
         new_phase[i] = (phase[i] + 2.0 * math.pi * sp * h / params[_P_STRIDE]) % (2.0 * math.pi)
         if sp > 0.1:
             new_heading[i] = math.atan2(vy, vx)
-        elif at_robot[i]:
-            new_heading[i] = math.atan2(robots[0, 1] - py, robots[0, 0] - px)
+        elif facing[i] >= 0:
+            new_heading[i] = math.atan2(robots[facing[i], 1] - py, robots[facing[i], 0] - px)
         else:
             new_heading[i] = heading[i]
         new_pos[i, 0] = px
@@ -595,7 +595,7 @@ def move_people_reference(
     cap: FloatArray,
     radii: FloatArray,
     group: NDArray[np.int64],
-    at_robot: NDArray[np.bool_],
+    facing: NDArray[np.int64],
     phase: FloatArray,
     heading: FloatArray,
     wall_dist: FloatArray,
@@ -665,9 +665,10 @@ def move_people_reference(
         new_pos = np.where(close[:, None], robot + rel / rd[:, None] * min_gap, new_pos)
     speed = np.linalg.norm(new_vel, axis=-1)
     new_phase = np.mod(phase + 2.0 * np.pi * speed * h / params[_P_STRIDE], 2.0 * np.pi)
-    face_robot = np.arctan2(robots[0, 1] - new_pos[:, 1], robots[0, 0] - new_pos[:, 0])
+    faced = robots[np.maximum(facing, 0)] if len(robots) else np.zeros((len(pos), 2))
+    face_robot = np.arctan2(faced[:, 1] - new_pos[:, 1], faced[:, 0] - new_pos[:, 0])
     new_heading = np.where(
-        speed > 0.1, np.arctan2(new_vel[:, 1], new_vel[:, 0]), np.where(at_robot, face_robot, heading)
+        speed > 0.1, np.arctan2(new_vel[:, 1], new_vel[:, 0]), np.where(facing >= 0, face_robot, heading)
     )
     return new_pos, new_vel, new_phase, new_heading
 
@@ -761,7 +762,8 @@ class _People:
     goal_poi: NDArray[np.int64]  # index of the point of interest walked to, -1 for none
     timer: FloatArray  # dwell time left, s
     interested: NDArray[np.bool_]
-    stand: FloatArray  # (N, 2) polar (distance, bearing) of the standing spot, robot frame
+    robot: NDArray[np.int64]  # the robot a visitor at a robot (mode ROBOT) stands at, its index
+    stand: FloatArray  # (N, 2) polar (distance, bearing) of the standing spot, that robot's frame
     block_until: FloatArray  # time until which the visitor blocks the robot on purpose
     phase: FloatArray  # gait phase, rad
     leg_radius: FloatArray  # (N, 2)
@@ -771,13 +773,16 @@ class _People:
 
 
 class Crowd:
-    """Visitors walking in a map's free space; step it with the robot's pose.
+    """Visitors walking in a map's free space; step it with the robots' poses.
 
     ``Crowd(config, grid, rng, robot_pose)`` spawns ``config.num_people`` visitors in groups in
-    the free space, clear of the robot. :meth:`step` advances them by ``dt`` seconds (in substeps
-    of at most ``config.max_substep``; the robot is taken to be at ``robot_pose`` throughout, so
-    callers with a moving robot step at their own rate; its speed is taken from the poses of
-    consecutive steps). :meth:`legs` gives what a laser at leg height hits.
+    the free space, clear of the robots: ``robot_pose`` is one pose ``(3,)`` or the poses ``(M, 3)``
+    of the ``M`` robots of one museum (WebFAIR's several robots), each of which the visitors gather
+    at, follow and step aside for as they do for one (a visitor drawn to the robots joins the
+    nearest one it sees). :meth:`step` advances them by ``dt`` seconds (in substeps of at most
+    ``config.max_substep``; the robots are taken to be at ``robot_pose`` throughout, so callers
+    with moving robots step at their own rate; their velocities are given, or taken from the poses
+    of consecutive steps). :meth:`legs` gives what a laser at leg height hits.
     """
 
     def __init__(
@@ -796,21 +801,22 @@ class Crowd:
         self._count = config.num_people if config.density is None else round(config.density * area)
         if self._count > 0 and len(self._space.free_cells) == 0:
             raise CrowdError("the map has no free space wide enough for a person")
-        self._robot = self._local_pose(robot_pose)
-        self._robots = np.ascontiguousarray(self._robot[None, :2])  # this robot first, then the others
-        # The pose the standing ring is laid out from: the robot's while it drives, kept while it
-        # stands (so the ring stays put as it turns on the spot).
-        self._anchor = self._robot.copy()
-        self._robot_moving = False
-        self._robot_vel = np.zeros(2)
+        self._poses = self._local_poses(robot_pose)  # (M, 3), grid frame
+        self._robots = np.ascontiguousarray(self._poses[:, :2])
+        m = len(self._poses)
+        # The pose each robot's standing ring is laid out from: the robot's while it drives, kept
+        # while it stands (so the ring stays put as it turns on the spot).
+        self._anchor = self._poses.copy()
+        self._moving = np.zeros(m, dtype=bool)
+        self._robot_vel = np.zeros((m, 2))
         self._poi = np.array(
             [self._local_point(p) for p in config.points_of_interest], dtype=np.float64
         ).reshape(-1, 2)
-        # Geodesic fields: 0 to the robot (computed when needed), 1.. to the exhibits.
-        self._fields = np.full((1 + len(self._poi), *self._space.walkable.shape), np.inf)
+        # Geodesic fields: 0..M-1 to the robots (computed when needed), M.. to the exhibits.
+        self._fields = np.full((m + len(self._poi), *self._space.walkable.shape), np.inf)
         for j, poi in enumerate(self._poi):
-            self._fields[1 + j] = self._space.field_to(poi, config.field_max_distance * 4.0)
-        self._field_robot_at = np.array([np.inf, np.inf])
+            self._fields[m + j] = self._space.field_to(poi, config.field_max_distance * 4.0)
+        self._field_robot_at = np.full((m, 2), np.inf)
         self._people = self._spawn(rng)
         self._in_view = np.zeros(self.num_people, dtype=bool)
         self._last_decision = 0.0
@@ -836,6 +842,15 @@ class Crowd:
 
     def _local_pose(self, pose: ArrayLike) -> FloatArray:
         return compose(invert(self.grid.origin), np.asarray(pose, dtype=np.float64))
+
+    def _local_poses(self, poses: ArrayLike) -> FloatArray:
+        """One pose ``(3,)`` or several ``(M, 3)`` (world) as ``(M, 3)`` in the grid frame."""
+        arr = np.asarray(poses, dtype=np.float64)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] != 3 or len(arr) == 0:
+            raise CrowdError(f"robot poses must be (3,) or (M, 3) with M >= 1, got shape {arr.shape}")
+        return np.array([self._local_pose(p) for p in arr])
 
     def _local_point(self, point: ArrayLike) -> FloatArray:
         return transform_points(invert(self.grid.origin), np.asarray(point, dtype=np.float64))
@@ -872,9 +887,19 @@ class Crowd:
         return np.asarray(wrap_angle(self._people.heading + self.grid.origin[2]))
 
     @property
+    def num_robots(self) -> int:
+        return len(self._poses)
+
+    @property
     def at_robot(self) -> NDArray[np.bool_]:
-        """Which visitors are currently drawn to the robot, ``(N,)``."""
+        """Which visitors are currently drawn to a robot, ``(N,)``."""
         return self._people.mode == ROBOT
+
+    @property
+    def robot_of(self) -> NDArray[np.int64]:
+        """The index of the robot each visitor is drawn to (its standing ring), -1 for none, ``(N,)``."""
+        p = self._people
+        return np.where(p.mode == ROBOT, p.robot, -1)
 
     @property
     def groups(self) -> NDArray[np.int64]:
@@ -883,7 +908,7 @@ class Crowd:
 
     @property
     def blocking(self) -> NDArray[np.bool_]:
-        """Which visitors are blocking the robot's way on purpose now, ``(N,)``."""
+        """Which visitors are blocking their robot's way on purpose now, ``(N,)``."""
         p = self._people
         return (p.mode == ROBOT) & (p.block_until > self.time)
 
@@ -910,6 +935,24 @@ class Crowd:
             return self.legs()
         n = self.num_people
         return self.positions, np.full(n, self.config.body_radius)
+
+    def place(self, positions: ArrayLike, velocities: ArrayLike, time: float | None = None) -> None:
+        """Put the visitors at ``positions`` with ``velocities`` (world, ``(N, 2)`` each, as many
+        as the crowd has), its clock at ``time``: a crowd carried on from where another one left
+        off (the museum's world restarted). Only where they are and how they move is taken; each
+        goes on from there with the plans this crowd drew for it."""
+        pos = self._local_point(np.asarray(positions, dtype=np.float64)).reshape(-1, 2)
+        vel = np.asarray(velocities, dtype=np.float64).reshape(-1, 2)
+        if len(pos) != self.num_people or len(vel) != self.num_people:
+            raise CrowdError(f"a crowd of {self.num_people} placed at {len(pos)} positions")
+        th = -self.grid.origin[2]
+        c, s = math.cos(th), math.sin(th)
+        p = self._people
+        p.pos = pos
+        p.vel = np.stack([c * vel[:, 0] - s * vel[:, 1], s * vel[:, 0] + c * vel[:, 1]], axis=-1)
+        p.goal[p.mode == DWELL] = pos[p.mode == DWELL]
+        if time is not None:
+            self.time = self._last_decision = self._next_decision = float(time)
 
     # ---- spawning ----------------------------------------------------------------------------
 
@@ -950,13 +993,15 @@ class Crowd:
                 else:
                     cand = pos[group[k]] + rng.normal(0.0, 0.6, size=2)
                 ok = self._space.is_walkable(cand[None])[0]
-                if ok and np.hypot(*(cand - self._robot[:2])) > keep_clear:
+                if ok and self._robot_distances(cand[None])[0].min() > keep_clear:
                     break
             pos[k] = cand
         speed = np.clip(rng.normal(cfg.speed_mean, cfg.speed_sd, size=n), cfg.speed_min, cfg.speed_max)
         speed = speed[group]  # a group walks at its leader's pace
         heading = rng.uniform(-np.pi, np.pi, size=n)
-        near = np.hypot(pos[:, 0] - self._robot[0], pos[:, 1] - self._robot[1]) < cfg.notice_distance
+        dist = self._robot_distances(pos)
+        nearest = np.argmin(dist, axis=1)
+        near = dist.min(axis=1) < cfg.notice_distance
         interested = ((rng.random(n) < cfg.robot_interest) & near)[group]
         people = _People(
             pos=pos,
@@ -970,6 +1015,7 @@ class Crowd:
             goal_poi=np.full(n, -1, dtype=np.int64),
             timer=rng.exponential(cfg.pause_mean, size=n),
             interested=np.zeros(n, dtype=bool),
+            robot=np.zeros(n, dtype=np.int64),
             stand=np.zeros((n, 2)),
             block_until=np.full(n, -np.inf),
             phase=rng.uniform(0.0, 2.0 * np.pi, size=n),
@@ -979,34 +1025,46 @@ class Crowd:
             stuck=np.zeros(n),
         )
         self._people = people
-        leaders = np.flatnonzero(interested & (group == np.arange(n)))
-        self._join_robot(leaders, rng)
+        leaders = interested & (group == np.arange(n))
+        for k in range(self.num_robots):
+            self._join_robot(np.flatnonzero(leaders & (nearest == k)), k, rng)
         return people
+
+    def _robot_distances(self, pos: FloatArray) -> FloatArray:
+        """Distances ``(K, M)`` from points ``(K, 2)`` (grid frame) to each robot."""
+        return np.asarray(np.linalg.norm(pos[:, None, :] - self._poses[None, :, :2], axis=-1))
 
     # ---- the ring at the robot ---------------------------------------------------------------
 
-    def _anchor_points(self, stand: FloatArray) -> FloatArray:
-        """Grid-frame points of polar spots ``(K, 2)`` around the anchor pose."""
-        ax, ay, ath = self._anchor
+    def _anchor_points(self, stand: FloatArray, robot: int | NDArray[np.int64]) -> FloatArray:
+        """Grid-frame points of polar spots ``(K, 2)`` around the anchor pose of ``robot`` (one
+        index, or one per spot)."""
+        a = self._anchor[robot]
+        ang = a[..., 2] + stand[:, 1]
         return np.stack(
-            [ax + stand[:, 0] * np.cos(ath + stand[:, 1]), ay + stand[:, 0] * np.sin(ath + stand[:, 1])],
-            axis=-1,
+            [a[..., 0] + stand[:, 0] * np.cos(ang), a[..., 1] + stand[:, 0] * np.sin(ang)], axis=-1
         )
 
-    def _taken_spots(self, exclude: NDArray[np.bool_] | None = None) -> tuple[FloatArray, FloatArray]:
-        """Spots taken near the robot and their personal distances: the ring's, and where the
-        others stand nearby (at an exhibit, waiting); ``exclude`` leaves some visitors out."""
+    def _ring_points(self, ring: NDArray[np.bool_]) -> FloatArray:
+        """The spots of the visitors ``ring`` (at robots), each around its own robot's anchor."""
+        p = self._people
+        return self._anchor_points(p.stand[ring], p.robot[ring])
+
+    def _taken_spots(
+        self, robot: int, exclude: NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Spots taken near ``robot`` and their personal distances: the rings' (at every robot),
+        and where the others stand nearby (at an exhibit, waiting); ``exclude`` leaves some
+        visitors out."""
         cfg = self.config
         p = self._people
-        near = (
-            np.hypot(p.pos[:, 0] - self._anchor[0], p.pos[:, 1] - self._anchor[1])
-            < cfg.stand_distance[1] + 3.0
-        )
+        anchor = self._anchor[robot]
+        near = np.hypot(p.pos[:, 0] - anchor[0], p.pos[:, 1] - anchor[1]) < cfg.stand_distance[1] + 3.0
         ring = p.mode == ROBOT
         standing = (p.mode == DWELL) & near
         if exclude is not None:
             ring, standing = ring & ~exclude, standing & ~exclude
-        points = np.concatenate([self._anchor_points(p.stand[ring]), p.pos[standing]])
+        points = np.concatenate([self._ring_points(ring), p.pos[standing]])
         return points, np.concatenate([p.spacing[ring], p.spacing[standing]])
 
     def _find_spot(
@@ -1015,11 +1073,12 @@ class Crowd:
         taken: FloatArray,
         space: FloatArray,
         rng: np.random.Generator,
+        robot: int,
         *,
         beside: FloatArray | None = None,
         blocker: bool = False,
     ) -> tuple[float, float] | None:
-        """A free spot ``(distance, bearing)`` around the anchor pose for visitor ``who``: walkable,
+        """A free spot ``(distance, bearing)`` around ``robot``'s anchor pose for visitor ``who``: walkable,
         and the mean of the two personal distances away from every spot ``taken`` (random
         sequential placement, a few tries only, so the ring stays loose): in front of the robot
         for a blocker, ``beside`` a group mate's spot, else in the ring; in a looser row up to
@@ -1027,25 +1086,22 @@ class Crowd:
         when there is no room."""
         cfg = self.config
         lo, hi = cfg.stand_distance
+        anchor = self._anchor[robot]
         for attempt in range(24):
             outer = attempt >= 16
             if blocker and not outer:
                 d, b = rng.uniform(0.8, 1.5), rng.uniform(-0.45, 0.45)
             elif beside is not None and not outer:
                 ang = rng.uniform(-np.pi, np.pi)
-                rel = (
-                    beside
-                    + rng.uniform(0.6, 1.1) * np.array([math.cos(ang), math.sin(ang)])
-                    - self._anchor[:2]
-                )
+                rel = beside + rng.uniform(0.6, 1.1) * np.array([math.cos(ang), math.sin(ang)]) - anchor[:2]
                 d = float(np.hypot(rel[0], rel[1]))
-                b = float(wrap_angle(math.atan2(rel[1], rel[0]) - self._anchor[2]))
+                b = float(wrap_angle(math.atan2(rel[1], rel[0]) - anchor[2]))
                 if not (lo <= d <= hi + 1.0):
                     continue
             else:
                 d = rng.uniform(hi, hi + 1.5) if outer else rng.uniform(lo, hi)
                 b = rng.uniform(-cfg.stand_arc, cfg.stand_arc)
-            pt = self._anchor_points(np.array([[d, b]]))
+            pt = self._anchor_points(np.array([[d, b]]), robot)
             if not self._space.is_walkable(pt)[0]:
                 continue
             if len(taken):
@@ -1055,21 +1111,23 @@ class Crowd:
             return d, b
         return None
 
-    def _join_robot(self, leaders: NDArray[np.int64], rng: np.random.Generator) -> None:
-        """Groups of ``leaders`` that find room in the loose ring around the robot join it, each
+    def _join_robot(self, leaders: NDArray[np.int64], robot: int, rng: np.random.Generator) -> None:
+        """Groups of ``leaders`` that find room in the loose ring around ``robot`` join it, each
         member at a spot of :meth:`_find_spot` (members beside their leader); a group with a
         member without room does not join. A share ``blocker_share`` of the groups blocks the
         robot on purpose."""
         cfg = self.config
         p = self._people
-        taken, space = self._taken_spots()
+        if not len(leaders):
+            return
+        taken, space = self._taken_spots(robot)
         for lead in leaders.tolist():
             members = np.flatnonzero(p.group == lead)
             blocker = bool(rng.random() < cfg.blocker_share)
             spots: list[tuple[float, float]] = []
             mine = taken
             for m in members.tolist():
-                first = self._anchor_points(np.array([spots[0]]))[0] if spots else None
+                first = self._anchor_points(np.array([spots[0]]), robot)[0] if spots else None
                 found = self._find_spot(
                     m,
                     mine,
@@ -1077,16 +1135,18 @@ class Crowd:
                     if len(spots) == 0
                     else np.concatenate([space, p.spacing[members[: len(spots)]]]),
                     rng,
+                    robot,
                     beside=first,
                     blocker=blocker,
                 )
                 if found is None:
                     break
                 spots.append(found)
-                mine = np.concatenate([taken, self._anchor_points(np.array(spots))])
+                mine = np.concatenate([taken, self._anchor_points(np.array(spots), robot)])
             if len(spots) < len(members):
                 continue
             p.stand[members] = np.array(spots)
+            p.robot[members] = robot
             p.mode[members] = ROBOT
             p.interested[members] = True
             p.block_until[members] = self.time + rng.exponential(cfg.block_duration) if blocker else -np.inf
@@ -1094,43 +1154,52 @@ class Crowd:
             space = np.concatenate([space, p.spacing[members]])
 
     def _relocate(self, rng: np.random.Generator) -> None:
-        """Visitors at the robot whose spot has moved into a wall (the robot drove on) or who have
-        fallen far behind it take a new free spot (no spot: the nearest walkable one)."""
+        """Visitors at a driving robot whose spot has moved into a wall (the robot drove on) or who
+        have fallen far behind it take a new free spot (no spot: the nearest walkable one)."""
         cfg = self.config
         p = self._people
-        ring = np.flatnonzero((p.mode == ROBOT) & (p.block_until <= self.time))
+        ring_mask = (p.mode == ROBOT) & (p.block_until <= self.time) & self._moving[p.robot]
+        ring = np.flatnonzero(ring_mask)
         if not len(ring):
             return
-        spot = self._anchor_points(p.stand[ring])
+        spot = self._ring_points(ring_mask)
         bad = ~self._space.is_walkable(spot)
         bad |= np.hypot(spot[:, 0] - p.pos[ring, 0], spot[:, 1] - p.pos[ring, 1]) > cfg.stand_distance[1]
         for i in ring[bad].tolist():
             exclude = np.zeros(self.num_people, dtype=bool)
             exclude[i] = True
-            taken, space = self._taken_spots(exclude)
-            found = self._find_spot(i, taken, space, rng)
+            robot = int(p.robot[i])
+            taken, space = self._taken_spots(robot, exclude)
+            found = self._find_spot(i, taken, space, rng, robot)
             if found is not None:
                 p.stand[i] = found
 
-    def _step_aside(self, rng: np.random.Generator) -> None:
-        """While the robot drives, those standing at it in its way (not the blockers) and those
-        standing still in its path move sideways out of the corridor."""
+    def _step_aside(self, robot: int, rng: np.random.Generator) -> None:
+        """While ``robot`` drives, those standing at a robot in its way (not the blockers) and
+        those standing still in its path move sideways out of the corridor: its own ring's
+        visitors, and those of another robot it passes, take a spot beside its corridor."""
         cfg = self.config
         p = self._people
-        rth = float(self._robot[2])
+        rx, ry, rth = self._poses[robot]
         c, s = math.cos(rth), math.sin(rth)
-        rel = p.pos - self._robot[:2]
+        rel = p.pos - np.array([rx, ry])
         fwd = rel[:, 0] * c + rel[:, 1] * s
         lat = -rel[:, 0] * s + rel[:, 1] * c
         in_way = (fwd > 0.0) & (fwd < cfg.lookahead) & (np.abs(lat) < cfg.corridor)
         side = np.where(lat >= 0.0, 1.0, -1.0)
-        ring = np.flatnonzero(in_way & (p.mode == ROBOT) & (p.block_until <= self.time))
+        ring_mask = in_way & (p.mode == ROBOT) & (p.block_until <= self.time)
+        ring = np.flatnonzero(ring_mask)
         if len(ring):
-            # New spot in the robot's frame: same distance ahead, beside the corridor.
-            f = np.maximum(p.stand[ring, 0] * np.cos(p.stand[ring, 1]), 0.3)
+            # The new spot, in the driving robot's frame: as far ahead as the visitor's spot is
+            # now, beside the corridor; then in the frame of the robot the visitor stands at.
+            spot = self._ring_points(ring_mask) - np.array([rx, ry])
+            f = np.maximum(spot[:, 0] * c + spot[:, 1] * s, 0.3)
             new_lat = side[ring] * (cfg.corridor + rng.uniform(0.2, 0.6, size=len(ring)))
-            p.stand[ring, 0] = np.hypot(f, new_lat)
-            p.stand[ring, 1] = np.arctan2(new_lat, f)
+            new = np.array([rx, ry]) + f[:, None] * np.array([c, s]) + new_lat[:, None] * np.array([-s, c])
+            anchor = self._anchor[p.robot[ring]]
+            d = new - anchor[:, :2]
+            p.stand[ring, 0] = np.hypot(d[:, 0], d[:, 1])
+            p.stand[ring, 1] = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - anchor[:, 2])
         still = np.flatnonzero(in_way & (p.mode == DWELL) & (np.abs(lat) < cfg.corridor))
         if len(still):
             shift = side[still] * (cfg.corridor + 0.3 - np.abs(lat[still]))
@@ -1143,24 +1212,36 @@ class Crowd:
     # ---- stepping ----------------------------------------------------------------------------
 
     def step(
-        self, dt: float, robot_pose: ArrayLike, rng: np.random.Generator, others: ArrayLike | None = None
+        self,
+        dt: float,
+        robot_pose: ArrayLike,
+        rng: np.random.Generator,
+        velocities: ArrayLike | None = None,
     ) -> None:
-        """Advance the crowd by ``dt`` seconds with the robot at ``robot_pose`` (world) and the
-        museum's other robots at ``others`` (world ``(M, 2)``): the visitors gather at the robot,
-        follow it and step out of its way; every robot's body they walk around and never enter."""
+        """Advance the crowd by ``dt`` seconds with the robots at ``robot_pose`` (world, ``(3,)``
+        or ``(M, 3)``, as many robots as the crowd was made with): the visitors gather at each
+        robot, follow it and step out of its way, and walk around every robot's body, never into
+        it. ``velocities`` ``(M, 2)`` (world, m/s): the robots' own (a robot stepped apart from the
+        crowd, another process); else taken from the poses of the last step."""
         if dt < 0:
             raise CrowdError(f"cannot step a crowd backwards in time (dt={dt})")
-        robot = self._local_pose(robot_pose)
-        more = np.zeros((0, 2)) if others is None else np.asarray(others, dtype=np.float64).reshape(-1, 2)
-        self._robots = np.ascontiguousarray(
-            np.vstack([robot[None, :2], self._local_point(more).reshape(-1, 2)])
-        )
-        if dt > 0:
-            self._robot_vel = (robot[:2] - self._robot[:2]) / dt
-            self._robot_moving = float(np.hypot(*self._robot_vel)) > 0.05
-        self._robot = robot
-        if self._robot_moving:
-            self._anchor = robot.copy()
+        poses = self._local_poses(robot_pose)
+        if len(poses) != self.num_robots:
+            raise CrowdError(f"a crowd made with {self.num_robots} robots stepped with {len(poses)}")
+        if velocities is not None:
+            vel = np.asarray(velocities, dtype=np.float64).reshape(-1, 2)
+            th = -self.grid.origin[2]
+            c, s = math.cos(th), math.sin(th)
+            self._robot_vel = np.stack(
+                [c * vel[:, 0] - s * vel[:, 1], s * vel[:, 0] + c * vel[:, 1]], axis=-1
+            )
+        elif dt > 0:
+            self._robot_vel = (poses[:, :2] - self._poses[:, :2]) / dt
+        if velocities is not None or dt > 0:
+            self._moving = np.hypot(self._robot_vel[:, 0], self._robot_vel[:, 1]) > 0.05
+        self._poses = poses
+        self._robots = np.ascontiguousarray(poses[:, :2])
+        self._anchor[self._moving] = poses[self._moving]
         if self.num_people == 0:
             self.time += dt
             return
@@ -1182,8 +1263,9 @@ class Crowd:
             on_rate = off_rate * cfg.robot_interest / max(1e-9, 1.0 - cfg.robot_interest)
             u = rng.random(len(p.pos))
             leader = p.group == np.arange(len(p.pos))
-            robot = self._robot[:2]
-            dist = np.hypot(p.pos[:, 0] - robot[0], p.pos[:, 1] - robot[1])
+            every = self._robot_distances(p.pos)  # (N, M)
+            nearest = np.argmin(every, axis=1)  # the robot a visitor drawn to the robots notices
+            dist = np.where(p.interested, every[np.arange(len(p.pos)), p.robot], every.min(axis=1))
             candidates = leader & ~p.interested & (dist < cfg.notice_distance)
             flip_on = candidates & (u < 1.0 - math.exp(-on_rate * h))
             if flip_on.any():
@@ -1191,13 +1273,13 @@ class Crowd:
                     self._space.walkable,
                     self._space.coarse_res,
                     p.pos[flip_on],
-                    np.repeat(robot[None], int(flip_on.sum()), axis=0),
+                    self._poses[nearest[flip_on], :2],
                 )
                 flip_on[np.flatnonzero(flip_on)[~sees]] = False
-            # Leaders left behind by the driving robot give up following it.
-            spot = self._anchor_points(p.stand)
+            # Leaders left behind by their driving robot give up following it.
+            spot = self._anchor_points(p.stand, p.robot)
             behind = (
-                self._robot_moving
+                self._moving[p.robot]
                 & (p.mode == ROBOT)
                 & (p.block_until <= self.time)
                 & (np.hypot(spot[:, 0] - p.pos[:, 0], spot[:, 1] - p.pos[:, 1]) > cfg.give_up_distance)
@@ -1210,8 +1292,8 @@ class Crowd:
             lead_state = p.interested.copy()
             lead_state[flip_off] = False
             p.interested = lead_state[p.group]
-            if flip_on.any():
-                self._join_robot(np.flatnonzero(flip_on), rng)
+            for k in range(self.num_robots) if flip_on.any() else ():
+                self._join_robot(np.flatnonzero(flip_on & (nearest == k)), k, rng)
         stop = ~p.interested & (p.mode == ROBOT)
         if stop.any():
             p.mode[stop] = DWELL
@@ -1228,7 +1310,7 @@ class Crowd:
         cfg = self.config
         p = self._people
         out = np.full((len(j), 2), np.nan)
-        ring = self._anchor_points(p.stand[p.mode == ROBOT])
+        ring = self._ring_points(p.mode == ROBOT)
         for k, (e, i) in enumerate(zip(j.tolist(), who.tolist(), strict=True)):
             tries = 16
             r = np.sort(rng.uniform(cfg.exhibit_distance[0], cfg.exhibit_distance[1] + 2.0, size=tries))
@@ -1257,7 +1339,7 @@ class Crowd:
             cells = np.floor(p.pos[poi] / sp.coarse_res).astype(np.int64)
             rows = np.clip(cells[:, 1], 0, sp.walkable.shape[0] - 1)
             cols = np.clip(cells[:, 0], 0, sp.walkable.shape[1] - 1)
-            metres = self._fields[1:, rows, cols].T * sp.coarse_res  # (len(poi), exhibits)
+            metres = self._fields[self.num_robots :, rows, cols].T * sp.coarse_res  # (len(poi), exhibits)
             w = np.where(np.isfinite(metres), np.exp(-np.minimum(metres, 1e3) / cfg.exhibit_reach), 0.0)
             w[w.sum(axis=1) == 0] = 1.0
             cum = np.cumsum(w / w.sum(axis=1, keepdims=True), axis=1)
@@ -1297,8 +1379,9 @@ class Crowd:
         p = self._people
         sp = self._space
         self._update_interest(elapsed, rng)
-        if self._robot_moving:
-            self._step_aside(rng)
+        for k in np.flatnonzero(self._moving).tolist():
+            self._step_aside(k, rng)
+        if self._moving.any():
             self._relocate(rng)
         leader = p.group == np.arange(self.num_people)
         # Dwelling leaders whose time is up pick a new goal.
@@ -1342,12 +1425,12 @@ class Crowd:
         p.mode[lost] = DWELL
         p.timer[lost] = 0.0
 
-    def _refresh_robot_field(self) -> None:
-        """Recompute the field to the robot once it has moved a cell since the last one."""
-        robot = self._robot[:2]
-        if np.hypot(*(robot - self._field_robot_at)) >= self._space.coarse_res:
-            self._fields[0] = self._space.field_to(robot, self.config.field_max_distance)
-            self._field_robot_at = robot.copy()
+    def _refresh_robot_field(self, k: int) -> None:
+        """Recompute the field to robot ``k`` once it has moved a cell since the last one."""
+        robot = self._poses[k, :2]
+        if np.hypot(*(robot - self._field_robot_at[k])) >= self._space.coarse_res:
+            self._fields[k] = self._space.field_to(robot, self.config.field_max_distance)
+            self._field_robot_at[k] = robot
 
     def _targets(self) -> FloatArray:
         """Where everyone heads: the goal; a spot in the ring at the robot (laid out from the
@@ -1357,10 +1440,11 @@ class Crowd:
         out = p.goal.copy()
         at_robot = p.mode == ROBOT
         if at_robot.any():
-            out[at_robot] = self._anchor_points(p.stand[at_robot])
+            out[at_robot] = self._ring_points(at_robot)
             block = np.flatnonzero(at_robot & (p.block_until > self.time))
             if len(block):
-                rx, ry, rth = self._robot
+                robot = self._poses[p.robot[block]]
+                rx, ry, rth = robot[:, 0], robot[:, 1], robot[:, 2]
                 st = p.stand[block]
                 out[block] = np.stack(
                     [rx + st[:, 0] * np.cos(rth + st[:, 1]), ry + st[:, 0] * np.sin(rth + st[:, 1])], axis=-1
@@ -1390,11 +1474,12 @@ class Crowd:
         target = self._targets()
         dist = np.hypot(target[:, 0] - p.pos[:, 0], target[:, 1] - p.pos[:, 1])
         moving = (p.mode == WALK) | (at_robot & (dist > 0.15))
-        # Those who cannot see where they go walk down a geodesic field around the walls: to the
-        # robot (field 0, refreshed as the robot moves) or to their exhibit (fields 1..).
-        field_index = np.where(at_robot, 0, np.where(p.goal_poi >= 0, p.goal_poi + 1, -1))
-        if (moving & ~self._in_view & at_robot).any():
-            self._refresh_robot_field()
+        # Those who cannot see where they go walk down a geodesic field around the walls: to their
+        # robot (fields 0..M-1, refreshed as the robots move) or to their exhibit (fields M..).
+        m = self.num_robots
+        field_index = np.where(at_robot, p.robot, np.where(p.goal_poi >= 0, p.goal_poi + m, -1))
+        for k in np.unique(p.robot[moving & ~self._in_view & at_robot]).tolist():
+            self._refresh_robot_field(k)
         desired = steer(
             p.pos, target, moving, self._in_view, field_index, self._fields, sp.coarse_res, p.speed, cfg.tau
         )
@@ -1403,15 +1488,16 @@ class Crowd:
         lead = p.group
         beside = (p.mode == WALK) & (lead != np.arange(self.num_people)) & self._in_view & (dist < 2.0)
         desired[beside] += p.vel[lead[beside]]
-        if self._robot_moving:
-            along = at_robot & self._in_view & (dist < 2.0)
-            desired[along] += self._robot_vel[None, :]
+        driving = at_robot & self._moving[p.robot]  # at a robot that drives
+        if driving.any():
+            along = driving & self._in_view & (dist < 2.0)
+            desired[along] += self._robot_vel[p.robot[along]]
 
         # Social forces, integration, hard constraints and gait (Helbing & Molnár 1995, Eq. 1-5).
         cap = np.minimum(cfg.speed_max, 1.3 * p.speed)
-        if self._robot_moving:
-            # Those left behind by the driving robot hurry to catch up.
-            hurry = at_robot & (dist > 1.5)
+        if driving.any():
+            # Those left behind by their driving robot hurry to catch up.
+            hurry = driving & (dist > 1.5)
             cap[hurry] = cfg.speed_max
             desired[hurry] *= (cfg.speed_max / np.maximum(p.speed[hurry], 1e-9))[:, None]
         p.pos, p.vel, p.phase, p.heading = move_people(
@@ -1421,7 +1507,7 @@ class Crowd:
             cap,
             p.radius,
             p.group,
-            at_robot,
+            np.where(at_robot, p.robot, -1),
             p.phase,
             p.heading,
             sp.wall_dist,

@@ -4,19 +4,20 @@ Each simulated robot runs in its own process (``tourbot serve --robots N``) with
 simulator. A :class:`FleetPoses` is a small block of shared memory (``multiprocessing.
 shared_memory``) holding the world they share:
 
-* every robot's true pose: each simulator writes its own after each step and reads the others',
-  whose bodies then stand in its world. Its laser sees them (as discs of the robots' radius) and
-  its base stops against them, so the navigators, which only see the laser, avoid each other as
-  they avoid visitors;
-* the visitors: one crowd, stepped by the first robot's simulator (the world's host) with every
-  robot's pose, and written here after each of its steps (centres, velocities and the legs the
-  laser sees); the other robots' simulators read it instead of running a crowd of their own. So
-  every laser sees the same visitors, every base stops at them, and the visitors walk around
-  every robot (they gather at, follow and step aside for the host robot only).
+* every robot's true pose and velocity: each simulator writes its own after each step (and its
+  start pose when it is built) and reads the others', whose bodies then stand in its world. Its
+  laser sees them (as discs of the robots' radius) and its base stops against them, so the
+  navigators, which only see the laser, avoid each other as they avoid visitors;
+* the visitors: one crowd, stepped by the museum's world (:class:`tourbot.sim.world.MuseumWorld`,
+  a process of its own under ``tourbot serve``) with every robot's pose, and written here after
+  each of its steps (centres, velocities and the legs the laser sees); the robots' simulators
+  read it and run no crowd of their own. So every laser sees the same visitors, every base stops
+  at them, and the visitors gather at, follow and step aside for every robot.
 
-Why the host's process and not a crowd process of its own: the crowd then restarts with the host
-(the supervisor restarts a robot process that dies) and costs no further process on a 2-core
-machine; the price is that a restarted host draws a fresh crowd.
+Why the crowd is not in a robot's process (it was, in the first robot's): a robot's process that
+dies is restarted by the server, and the crowd would restart with it (every visitor put back
+where the crowd was drawn). Owned by the world, it goes on walking: the dead robot's body stays
+where it stopped (its last pose), and the restarted robot writes its pose again.
 
 Truth, used by the simulators only; a robot's estimators never read it. A pose is three doubles
 written without a lock: a reader may, rarely, see one robot's pose half-updated from one step to
@@ -36,7 +37,7 @@ from numpy.typing import NDArray
 
 __all__ = ["FleetCrowd", "FleetPoses"]
 
-_FIELDS = 4  # x, y, theta, present (1.0 once the robot has written its pose)
+_FIELDS = 7  # x, y, theta, present (1.0 once written), vx, vy (world, m/s), writes so far
 _HEADER = 4  # the crowd's sequence counter, visitors, leg circles, time
 _PERSON = 4  # x, y, vx, vy
 _CIRCLE = 3  # x, y, radius
@@ -88,10 +89,25 @@ class FleetPoses:
         """What another process gives :class:`FleetPoses` to attach to the same poses."""
         return str(self._shm.name)
 
-    def write(self, index: int, pose: tuple[float, float, float]) -> None:
-        """Robot ``index``'s true pose now."""
-        self._poses[index, :3] = pose
-        self._poses[index, 3] = 1.0
+    def write(
+        self, index: int, pose: tuple[float, float, float], velocity: tuple[float, float] = (0.0, 0.0)
+    ) -> None:
+        """Robot ``index``'s true pose and velocity (world, m/s) now."""
+        row = self._poses[index]
+        row[:3] = pose
+        row[4:6] = velocity
+        row[3] = 1.0
+        row[6] += 1.0
+
+    def present(self) -> NDArray[np.bool_]:
+        """Which robots have written a pose, ``(size,)``."""
+        return np.asarray(self._poses[:, 3] == 1.0)
+
+    def poses(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Every robot's pose ``(size, 3)``, velocity ``(size, 2)`` and count of writes ``(size,)``
+        (a count that stops growing: a robot that no longer steps)."""
+        rows = self._poses.copy()
+        return rows[:, :3], rows[:, 4:6], rows[:, 6]
 
     def others(self, index: int) -> NDArray[np.float64]:
         """The positions ``(M, 2)`` of the other robots that have written a pose."""
@@ -108,7 +124,7 @@ class FleetPoses:
         centres: NDArray[np.float64],
         radii: NDArray[np.float64],
     ) -> None:
-        """The host's crowd now (at most :data:`MAX_VISITORS` visitors are shared)."""
+        """The world's crowd now (at most :data:`MAX_VISITORS` visitors are shared)."""
         n = min(len(positions), MAX_VISITORS)
         k = min(len(radii), 2 * MAX_VISITORS)
         head = self._header
@@ -121,7 +137,7 @@ class FleetPoses:
         head[0] += 1.0
 
     def read_crowd(self) -> FleetCrowd | None:
-        """The crowd the host last wrote (None before its first write)."""
+        """The crowd the world last wrote (None before its first write)."""
         head = self._header
         for _ in range(100):
             seq = float(head[0])

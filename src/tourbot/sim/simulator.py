@@ -5,11 +5,11 @@ limits (stopped by walls, doors, furniture and invisible obstacles, which count 
 crowd of visitors (``tourbot.sim.crowd``, the one crowd model) walks, doors and furniture change,
 the wheel odometry accumulates its error, and at the laser's rate a scan is cast with the project's
 one ray caster against the world and the visitors' legs (several robots in one museum share one
-world: ``tourbot.sim.fleet``, the first robot's simulator stepping the one crowd); each camera on the robot
-(``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward camera) renders its image
-when one is due. It returns the odometry reading, the scan and the images as records; the truth
-(robot, people, doors, furniture, collisions) is kept beside them for metrics only, and the whole
-sensor stream can be written as a CARMEN log.
+world: ``tourbot.sim.fleet``, the museum's world ``tourbot.sim.world`` stepping the one crowd); each
+camera on the robot (``tourbot.sim.camera.SimCamera``: the upward ceiling camera, the forward
+camera) renders its image when one is due. It returns the odometry reading, the scan and the
+images as records; the truth (robot, people, doors, furniture, collisions) is kept beside them for
+metrics only, and the whole sensor stream can be written as a CARMEN log.
 
 Deterministic for a seed: the crowd, the odometry, the laser and the objects each draw from their
 own generator spawned from one ``numpy.random.SeedSequence``.
@@ -36,6 +36,7 @@ from tourbot.sim.laser import LaserConfig, SimLaser
 from tourbot.sim.objects import DynamicObjects
 from tourbot.sim.odometry import OdometryError, OdometryErrorConfig
 from tourbot.sim.robot import DiffDrive
+from tourbot.sim.world import site_crowd
 from tourbot.site.model import TABLE_LEG_RADIUS, Site
 from tourbot.snapshot import DoorState, FurnitureState, GroundTruth, PersonState
 
@@ -117,17 +118,14 @@ class Simulator:
         # a contact lasts while the robot stays this close: pushing on against an obstacle is one bump
         self._near = _disc_offsets(cfg.robot.radius + 0.05, self.static.resolution)
         self.crowd: Crowd | None = None
-        # several robots in one museum: the first robot's simulator hosts the one crowd, the
-        # others see it through the fleet's shared memory (sim.fleet)
-        self._guest = fleet is not None and fleet[1] != 0
+        # several robots in one museum: the museum's world (sim.world) steps the one crowd, every
+        # robot's simulator sees it through the fleet's shared memory (sim.fleet)
+        self._guest = fleet is not None
         self._shared: FleetCrowd | None = None
         if cfg.crowd is not None and not self._guest:
-            crowd_cfg = cfg.crowd
-            if not crowd_cfg.points_of_interest and site.exhibits:
-                from dataclasses import replace
-
-                crowd_cfg = replace(crowd_cfg, points_of_interest=tuple(e.position for e in site.exhibits))
-            self.crowd = Crowd(crowd_cfg, self.static, self._rng_crowd, robot_pose=start)
+            self.crowd = Crowd(site_crowd(site, cfg.crowd), self.static, self._rng_crowd, robot_pose=start)
+        if fleet is not None:
+            fleet[0].write(fleet[1], self.robot.pose)  # here from the start: the world waits for it
         self._legs: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
         self._time = 0.0
         self._steps = 0
@@ -169,16 +167,13 @@ class Simulator:
         others = self.fleet[0].others(self.fleet[1]) if self.fleet is not None else np.zeros((0, 2))
         self._move_robot(dt, others)
         if self.fleet is not None:
-            self.fleet[0].write(self.fleet[1], self.robot.pose)
+            th, v = self.robot.pose[2], self.robot.speed
+            self.fleet[0].write(self.fleet[1], self.robot.pose, (v * math.cos(th), v * math.sin(th)))
         self._steps += 1
         self._time = round(self._steps * dt, 9)  # no drift from summing dt
         self._legs = None
         if self.crowd is not None:
-            self.crowd.step(dt, self.robot.pose, self._rng_crowd, others)
-            if self.fleet is not None:
-                self.fleet[0].write_crowd(
-                    self._time, self.crowd.positions, self.crowd.velocities, *self.legs()
-                )
+            self.crowd.step(dt, self.robot.pose, self._rng_crowd)
         elif self._guest:
             assert self.fleet is not None
             self._shared = self.fleet[0].read_crowd() or self._shared
@@ -261,7 +256,7 @@ class Simulator:
 
     def legs(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """People's legs as circles (centres ``(K, 2)``, radii ``(K,)``); doors and furniture are
-        :meth:`DynamicObjects.segments`. A guest of a fleet: the host's crowd."""
+        :meth:`DynamicObjects.segments`. A robot of a fleet: the museum world's crowd."""
         if self.crowd is None:
             if self._shared is not None:
                 return self._shared.centres, self._shared.radii

@@ -30,8 +30,19 @@ if TYPE_CHECKING:
     from tourbot.sim.camera import ForwardCameraSim
     from tourbot.sim.fleet import FleetPoses
     from tourbot.sim.simulator import Simulator
+    from tourbot.sim.world import MuseumWorld
+    from tourbot.web.world_process import WorldProcess
 
-__all__ = ["ServeSettings", "SimulatedRobotFactory", "build_site_app", "run", "simulated_links"]
+__all__ = [
+    "ServeSettings",
+    "SimulatedMuseum",
+    "SimulatedRobotFactory",
+    "SimulatedWorldFactory",
+    "build_site_app",
+    "run",
+    "simulated_links",
+    "simulated_museum",
+]
 
 
 @dataclass(frozen=True)
@@ -177,28 +188,92 @@ class SimulatedRobotFactory:
         )
 
 
-def _fleet(robots: int) -> FleetPoses | None:
-    """The shared poses of several robots, freed when the server's process ends."""
-    if robots < 2:
-        return None
-    import atexit
+@dataclass(frozen=True)
+class SimulatedWorldFactory:
+    """Builds the museum's world (its one crowd, :class:`tourbot.sim.world.MuseumWorld`) on the
+    fleet's shared memory ``fleet`` (its name and number of robots); picklable, for its process."""
 
-    from tourbot.sim.fleet import FleetPoses
+    site: str
+    crowd: str | int
+    seed: int
+    fleet: tuple[str, int]
 
-    fleet = FleetPoses(robots)
-    atexit.register(fleet.close)
-    return fleet
+    def __call__(self) -> MuseumWorld:
+        from tourbot.app.simulated import crowd_config
+        from tourbot.sim.fleet import FleetPoses
+        from tourbot.sim.simulator import SimConfig
+        from tourbot.sim.world import MuseumWorld
+        from tourbot.site.default import site_path
+        from tourbot.site.model import load_site
+
+        config = crowd_config(self.crowd)
+        if config is None:
+            raise TourbotError("the museum's world: an empty museum has no crowd to step")
+        name, size = self.fleet
+        return MuseumWorld(
+            load_site(site_path(self.site)),
+            config,
+            FleetPoses(size, name=name),
+            seed=self.seed,
+            dt=SimConfig().dt,
+        )
+
+
+@dataclass
+class SimulatedMuseum:
+    """The simulated robots of ``tourbot serve`` and the world they share: ``fleet`` (their poses
+    and the visitors, shared memory), ``world`` (the process stepping the one crowd; None for an
+    empty museum, or one robot stepped by the server's thread, whose simulator keeps its crowd)."""
+
+    links: dict[str, RobotLink]
+    fleet: FleetPoses | None = None
+    world: WorldProcess | None = None
+
+    def close(self) -> None:
+        """Stop the robots' processes and the world's; free the shared memory (idempotent)."""
+        for link in self.links.values():
+            close = getattr(link, "close", None)
+            if callable(close):
+                close()
+        if self.world is not None:
+            self.world.close()
+            self.world = None
+        if self.fleet is not None:
+            self.fleet.close()
+            self.fleet = None
 
 
 def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
+    """The robots of :func:`simulated_museum`; their world is closed when the server's process ends."""
+    import atexit
+
+    museum = simulated_museum(settings)
+    atexit.register(museum.close)
+    return museum.links
+
+
+def simulated_museum(settings: ServeSettings) -> SimulatedMuseum:
     """One simulated robot per name (seeds ``seed``, ``seed + 1``, ...), each in its own process
-    when ``settings.robot_process`` (else stepped by the server's thread). Several robots share
-    one world (:mod:`tourbot.sim.fleet`): each other's bodies and one crowd of visitors, stepped by
-    the first robot's simulator."""
+    when ``settings.robot_process`` (else stepped by the server's thread). The robots share one
+    world (:mod:`tourbot.sim.fleet`): each other's bodies, and one crowd of visitors stepped by the
+    museum's world in a process of its own (:mod:`tourbot.web.world_process`) with every robot's
+    pose: the visitors gather at, follow and step aside for each robot, and a robot's process that
+    dies and is restarted leaves them walking where they were."""
+    from tourbot.app.simulated import crowd_config
+    from tourbot.sim.fleet import FleetPoses
     from tourbot.web.process_link import ProcessLink
+    from tourbot.web.world_process import WorldProcess
 
     links: dict[str, RobotLink] = {}
-    fleet = _fleet(settings.robots)
+    crowded = crowd_config(settings.crowd) is not None
+    shared = settings.robots >= 2 or (settings.robot_process and crowded)
+    museum = SimulatedMuseum(links, FleetPoses(settings.robots) if shared else None)
+    fleet = museum.fleet
+    if fleet is not None and crowded:
+        world = SimulatedWorldFactory(
+            settings.site, settings.crowd, settings.seed, (fleet.name, settings.robots)
+        )
+        museum.world = WorldProcess(world, speedup=settings.speedup)
     for i, name in enumerate(_robot_names(settings.robots)):
         seed = settings.seed + i
         fox = None if settings.foxglove is None else settings.foxglove + i
@@ -228,10 +303,16 @@ def simulated_links(settings: ServeSettings) -> dict[str, RobotLink]:
                 cameras=settings.cameras,
             )
             links[name] = factory()
-    for link in links.values():
-        if isinstance(link, ProcessLink):
-            link.wait_ready()
-    return links
+    try:
+        for link in links.values():
+            if isinstance(link, ProcessLink):
+                link.wait_ready()
+        if museum.world is not None:
+            museum.world.wait_ready()
+    except TourbotError:
+        museum.close()
+        raise
+    return museum
 
 
 def _roster(site: str) -> str:
