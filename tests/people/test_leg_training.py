@@ -44,7 +44,8 @@ def test_cross_validation_scores_each_recording_with_a_model_that_did_not_see_it
         assert 0.0 < score.recall <= 1.0
         assert 0.0 < score.precision <= score.precision_nonleg <= 1.0
         assert 0 < score.unknown < score.candidates
-        assert 0.0 < score.threshold < 1.0 and 0.0 < score.recall_at_threshold <= 1.0
+        assert 0.0 < score.threshold < 1.0
+        assert 0.0 < score.recall_at_threshold <= 1.0
         # far better than calling every candidate a leg
         assert score.precision_at_90 > 2.0 * score.annotated / score.candidates
 

@@ -103,7 +103,9 @@ BACKGROUND_RADIUS = 0.10
 BACKGROUND_SHARE = 0.5
 
 
-def background_share(scans: Sequence[Scan], points: FloatArray, radius: float = BACKGROUND_RADIUS) -> FloatArray:
+def background_share(
+    scans: Sequence[Scan], points: FloatArray, radius: float = BACKGROUND_RADIUS
+) -> FloatArray:
     """For each of ``points`` ``(M, 2)`` (laser frame of a standing laser), the share of ``scans``
     with a return within ``radius`` of it: near 1 for the static background, small where people
     only pass."""
@@ -123,6 +125,7 @@ def background_share(scans: Sequence[Scan], points: FloatArray, radius: float = 
         tree = cKDTree(np.stack([r[ok] * np.cos(a), r[ok] * np.sin(a)], -1))
         hits += np.isfinite(tree.query(points, distance_upper_bound=radius)[0])
     return hits / len(scans)
+
 
 # Training copies of each annotated scan: as recorded, half the beams, a third of them with 1 cm
 # more range noise (768 beams over 270 degrees -> 384 and 256: the beam counts of common lasers).
