@@ -69,6 +69,8 @@ def test_track_scores_count_misses_and_switches_of_the_walker(shared_data: Path,
     covered = [tracks for _, truth, tracks in trace if len(truth) and tracks]
     assert s["switches"] <= len(covered)
     assert 0.0 < s["recall"] <= 1.0
+    # furniture tracks are a share of the confirmed tracks that are not near an annotated leg
+    assert 0.0 <= s["furniture_per_scan"] <= s["tracks_per_scan"] * (1.0 - s["precision"]) + 1e-9
     _draw_traces({bag.name: trace}, tmp_path / "t.png")
     assert (tmp_path / "t.png").stat().st_size > 1000
 
@@ -90,3 +92,16 @@ def test_tour_scene_has_followers_and_standing_visitors() -> None:
     ]
     assert standing_tracked(run, truth) == 1.0
     assert standing_tracked(run, [[] for _ in truth]) == 0.0
+
+
+def test_the_rules_chosen_are_those_of_least_cost_on_the_recordings_given() -> None:
+    from tourbot.bench.tracking import RULES, choose_rules, rule_cost
+
+    assert "shipped" in RULES
+    assert RULES["shipped"] == {}  # the defaults are among the candidates
+    row = {"furniture_per_scan": 0.2, "misses": 30.0, "scans": 100.0}
+    assert abs(rule_cost(row) - 0.5) < 1e-12
+    costs = {"a": {"p1": 0.1, "p2": 0.9}, "b": {"p1": 0.5, "p2": 0.2}}
+    assert choose_rules(costs, ["p1"]) == "a"
+    assert choose_rules(costs, ["p2"]) == "b"
+    assert choose_rules(costs, ["p1", "p2"]) == "b"  # mean 0.35 against 0.5

@@ -100,9 +100,9 @@ def _shipped_doc() -> dict[str, object]:
         ({"kind": "logistic"}, "kind", "not a boosted-trees leg model"),
         ({"depth": 0}, "depth", "integer from 1 to 8"),
         ({"bias": "x"}, "bias", "finite number"),
-        ({"leaf_value": [[0.0, 1.0]]}, "leaf_value", "trees of 8 numbers"),
-        ({"split_feature": [[99] * 7]}, "split_feature", "feature indices"),
-        ({"split_value": None}, "split_value", "trees of 7 numbers"),
+        ({"leaf_value": [[0.0, 1.0]]}, "leaf_value", "trees of {leaves} numbers"),
+        ({"split_feature": None}, "split_feature", "feature indices"),
+        ({"split_value": None}, "split_value", "trees of {internal} numbers"),
         ({"features": None}, "features", "other features"),
     ],
 )
@@ -113,12 +113,14 @@ def test_a_bad_model_file_names_the_file_and_field(
 
     path = tmp_path / "m.json"
     doc = _shipped_doc() | change
-    if field == "split_feature":  # as many trees as the other tables
+    depth = doc["depth"] if isinstance(doc["depth"], int) and doc["depth"] > 0 else 1
+    internal = 2**depth - 1
+    if field == "split_feature":  # as many trees as the other tables, an index out of range
         trees = doc["leaf_value"]
         assert isinstance(trees, list)
-        doc["split_feature"] = [[99] * 7 for _ in trees]
+        doc["split_feature"] = [[99] * internal for _ in trees]
     path.write_text(json.dumps(doc))
-    with pytest.raises(LegModelError, match=message) as exc:
+    with pytest.raises(LegModelError, match=message.format(leaves=internal + 1, internal=internal)) as exc:
         LegModel.load(path)
     assert exc.value.path == str(path)
     assert exc.value.field == field

@@ -459,11 +459,14 @@ class BoostConfig:
     """Gradient boosting of :class:`LegModel`: ``rounds`` trees of ``depth`` levels, each shrunk by
     ``learning_rate``; splits are searched among ``bins`` quantiles of each feature; a node with
     fewer than ``min_leaf`` samples is not split; ``l2`` regularises the leaf values (Newton steps
-    of the logistic loss, as in XGBoost). Positives and negatives weigh the same in all."""
+    of the logistic loss, as in XGBoost). Positives and negatives weigh the same in all.
+    300 trees of 4 levels at 0.1 were chosen over 150 of 3 at 0.2 on held-out recordings (best
+    precision at recall 0.9, leave one recording out: better on 4 of 6, within 0.01 on the other
+    two; mean 0.63 against 0.54)."""
 
-    rounds: int = 150
-    depth: int = 3
-    learning_rate: float = 0.2
+    rounds: int = 300
+    depth: int = 4
+    learning_rate: float = 0.1
     bins: int = 32
     min_leaf: int = 20
     l2: float = 1.0
