@@ -104,7 +104,9 @@ def measure(log: RobotLog, grid: OccupancyGrid, scans: int = 400) -> SensorFit:
     """The figures of ``log`` (a :class:`~tourbot.records.RobotLog` with reference poses) on its
     reference map ``grid``, from ``scans`` scans spread over the log."""
     if not log.scans or not log.has_reference:
-        raise TourbotError(f"{log.source}: the sensor model is measured at reference poses, and this log has none")
+        raise TourbotError(
+            f"{log.source}: the sensor model is measured at reference poses, and this log has none"
+        )
     geometry = log.scans[0].geometry
     caster = DistanceCaster(grid, float(geometry.max_range))
     centre = ndimage.distance_transform_edt(~grid.occupied()) * grid.resolution
