@@ -53,6 +53,38 @@ def test_first_seed_chooses_the_seeds(tmp_path: Path) -> None:
     assert set(payload["rows"][0]["raw"]["kidnaps_per_seed"]) <= {"3"}
 
 
+@pytest.mark.slow
+@pytest.mark.usefixtures("shared_data")
+def test_parts_runs_only_the_runs_asked_for(tmp_path: Path) -> None:
+    # --parts peak: tracking in the peak crowd alone; no sparse crowd is built, the other columns
+    # are '-' (not zeros), the peak figures are there.
+    out = tmp_path / "loc.json"
+    main(
+        [
+            "bench", "localization", "--quick", "--parts", "peak", "--methods", "mcl-novelty",
+            "--cache", str(tmp_path / "cache"), "--speed-scans", "1", "--no-figure", "-o", str(out),
+        ]
+    )  # fmt: skip
+    payload = json.loads(out.read_text())
+    assert payload["meta"]["parts"] == ["peak"]
+    assert sorted(p.name for p in (tmp_path / "cache").glob("*.log.gz")) == ["fhw25-peak-0-rebuilt.log.gz"]
+    (row,) = payload["rows"]
+    assert row["fail sparse %"] == row["global ok %"] == row["t rec s"] == "-"
+    assert row["raw"]["kidnaps_per_seed"] == {}
+    assert row["fail peak %"] != "-"
+    assert row["jumps>2m peak"].startswith("0 ")
+
+
+def test_an_unknown_part_is_a_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bench", "localization", "--parts", "peak,kidnap"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert "--parts" in err
+    assert "'kidnap'" in err
+    assert len(err.splitlines()) == 1
+
+
 @pytest.mark.parametrize(("option", "value"), [("--first-seed", "-1"), ("--workers", "0")])
 def test_a_bad_count_is_a_one_line_error_naming_it(
     option: str, value: str, capsys: pytest.CaptureFixture[str]

@@ -60,6 +60,7 @@ __all__ = ["RunResult", "register"]
 
 FloatArray = NDArray[np.float64]
 KIDNAP_SEED_OFFSET = 10_000
+PARTS = ("sparse", "peak", "kidnaps", "global")
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
 LOGS = {
     "fhw": "fhw-corrected.log.gz",
@@ -185,7 +186,7 @@ def _factory(
 class SeedData:
     """One seed's crowded logs and kidnaps (built in the parent, cached on disk)."""
 
-    sparse: Any
+    sparse: Any  # None when the sparse runs are left out (--parts)
     peak: Any
     kidnapped: Any
     kidnaps: list[int]
@@ -204,16 +205,17 @@ class Sweep:
     global_scans: int
     profile: Any
     seeds: dict[int, SeedData]
+    parts: tuple[str, ...] = PARTS
 
 
 @dataclass(frozen=True)
 class SeedOutcome:
     """One (log, seed, method) task's figures; ``peak_run`` is kept only for the figure's seed."""
 
-    fail_sparse: float
+    fail_sparse: float  # NaN (and jumps None, recoveries None) for the runs left out
     fail_peak: float
     err_peak_cm: float
-    jumps: int
+    jumps: int | None
     heading_deg: float
     ms_per_update: float  # timing: differs from run to run
     real_time_factor: float  # timing
@@ -251,29 +253,43 @@ def run_task(name: str, seed: int, method: str, keep_run: bool = False) -> SeedO
     ref = sw.ref
     make = _factory(method, sw.grid, sw.particles, profile=sw.profile)
     first = tuple(ref[0])
-    r_s = _run(make("tracking", first, seed), d.sparse)
-    e_s, _ = pose_errors(r_s.est, ref[: len(r_s.est)])
-    r_p = _run(make("tracking", first, seed), d.peak)
-    e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
+    nan = math.nan
+    fail_s = fail_p = err_p = head_p = ms = rtf = glob_ok = glob_s = nan
+    leaps: int | None = None
     judged = None
-    if d.kidnaps:
+    r_p: RunResult | None = None
+    if "sparse" in sw.parts:
+        r_s = _run(make("tracking", first, seed), d.sparse)
+        e_s, _ = pose_errors(r_s.est, ref[: len(r_s.est)])
+        fail_s = 100.0 * failure_rate(e_s)
+    if "peak" in sw.parts:
+        r_p = _run(make("tracking", first, seed), d.peak)
+        e_p, h_p = pose_errors(r_p.est, ref[: len(r_p.est)])
+        fail_p, err_p = 100.0 * failure_rate(e_p), 100.0 * float(e_p.mean())
+        head_p, leaps = float(np.degrees(h_p.mean())), jumps(r_p.est, ref)
+        ms = 1000.0 * float(np.mean(r_p.seconds))
+        rtf = sw.duration / max(float(r_p.seconds.sum()), 1e-12)
+    if "kidnaps" in sw.parts and d.kidnaps:
         r_k = _run(make("tracking", first, seed), d.kidnapped)
         e_k, _ = pose_errors(r_k.est, ref[: len(r_k.est)])
         judged = recovery(e_k, sw.times, d.kidnaps, sw.path)
-    r_g = _run(make("global", first, seed), d.peak, sw.global_scans)
-    e_g, _ = pose_errors(r_g.est, ref[: len(r_g.est)])
-    j = settle_index(e_g, sw.times, 0, len(e_g))
+    if "global" in sw.parts:
+        r_g = _run(make("global", first, seed), d.peak, sw.global_scans)
+        e_g, _ = pose_errors(r_g.est, ref[: len(r_g.est)])
+        j = settle_index(e_g, sw.times, 0, len(e_g))
+        glob_ok = 100.0 * (j is not None)
+        glob_s = nan if j is None else float(sw.times[j] - sw.times[0])
     return SeedOutcome(
-        fail_sparse=100.0 * failure_rate(e_s),
-        fail_peak=100.0 * failure_rate(e_p),
-        err_peak_cm=100.0 * float(e_p.mean()),
-        jumps=jumps(r_p.est, ref),
-        heading_deg=float(np.degrees(h_p.mean())),
-        ms_per_update=1000.0 * float(np.mean(r_p.seconds)),
-        real_time_factor=sw.duration / max(float(r_p.seconds.sum()), 1e-12),
+        fail_sparse=fail_s,
+        fail_peak=fail_p,
+        err_peak_cm=err_p,
+        jumps=leaps,
+        heading_deg=head_p,
+        ms_per_update=ms,
+        real_time_factor=rtf,
         recoveries=judged,
-        global_ok=100.0 * (j is not None),
-        global_s=math.nan if j is None else float(sw.times[j] - sw.times[0]),
+        global_ok=glob_ok,
+        global_s=glob_s,
         peak_run=r_p if keep_run else None,
     )
 
@@ -459,6 +475,13 @@ def register(bench: typer.Typer) -> None:
         scans: Annotated[
             int | None, typer.Option(help="Use only the first SCANS scans of each log (a shorter tour).")
         ] = None,
+        parts: Annotated[
+            str,
+            typer.Option(
+                help="Runs, comma-separated: sparse, peak (tracking in each crowd), kidnaps, global; "
+                "the others are left out of the table ('-')."
+            ),
+        ] = ",".join(PARTS),
         cache: Annotated[Path, typer.Option(help="Cache of maps and crowded logs.")] = Path(
             "bench-results/cache/localization"
         ),
@@ -508,6 +531,12 @@ def register(bench: typer.Typer) -> None:
             if n not in LOGS:
                 raise TourbotError(f"unknown log {n!r}; choose from {', '.join(LOGS)}")
         chosen = [m.strip() for m in methods.split(",") if m.strip()]
+        runs = tuple(p.strip() for p in parts.split(",") if p.strip())
+        for p in runs:
+            if p not in PARTS:
+                raise TourbotError(f"--parts: unknown run {p!r}; choose from {', '.join(PARTS)}")
+        if not runs:
+            raise TourbotError(f"--parts names no run; choose from {', '.join(PARTS)}")
         if "amcl" in chosen and not amcl_available():
             console.print("[yellow]amcl not installed: Nav2 AMCL left out (pip install amcl)[/]")
             chosen.remove("amcl")
@@ -547,6 +576,7 @@ def register(bench: typer.Typer) -> None:
             "workers": workers,
             "dask": dask,
             "crowd": {},
+            "parts": list(runs),
         }
         figure_runs: dict[str, tuple[RunResult, Any]] = {}
         sweeps: dict[str, Sweep] = {}
@@ -565,7 +595,11 @@ def register(bench: typer.Typer) -> None:
             longest: list[float] = []
             with ScanProgress(f"{name}: crowds", 2 * n_seeds, unit="crowds") as crowds:
                 for seed in seed_list:
-                    sparse, sparse_truth = _crowded(base, grid, name, "sparse", seed, cache)
+                    sparse, sparse_truth = (
+                        _crowded(base, grid, name, "sparse", seed, cache)
+                        if "sparse" in runs
+                        else (None, None)
+                    )
                     crowds.advance()
                     peak, peak_truth = _crowded(base, grid, name, "peak", seed, cache)
                     crowds.advance()
@@ -576,7 +610,12 @@ def register(bench: typer.Typer) -> None:
                     per_seed[seed] = SeedData(
                         sparse, peak, apply_kidnaps(peak, kidnaps), [k.scan for k in kidnaps]
                     )
-                    fractions.append((float(sparse_truth.fraction.mean()), float(peak_truth.fraction.mean())))
+                    fractions.append(
+                        (
+                            math.nan if sparse_truth is None else float(sparse_truth.fraction.mean()),
+                            float(peak_truth.fraction.mean()),
+                        )
+                    )
                     longest.append(peak_truth.longest_above(0.5))
             sweeps[name] = Sweep(
                 grid=grid,
@@ -588,6 +627,7 @@ def register(bench: typer.Typer) -> None:
                 global_scans=g_scans,
                 profile=profile,
                 seeds=per_seed,
+                parts=runs,
             )
             report.meta["crowd"][name] = {
                 "sparse_mean_corrupted": mean_ci([f[0] for f in fractions]),
@@ -666,6 +706,7 @@ def _add_row(
     fails_p = [o.fail_peak for o in outcomes]
     errs = [o.err_peak_cm for o in outcomes]
     leaps = [o.jumps for o in outcomes]
+    counted = [n for n in leaps if n is not None]
     heads = [o.heading_deg for o in outcomes]
     secs = [o.ms_per_update for o in outcomes]
     rtf = [o.real_time_factor for o in outcomes]
@@ -683,7 +724,9 @@ def _add_row(
             "fail sparse %": fmt(fails_s),
             "fail peak %": fmt(fails_p),
             "err peak cm": fmt(errs),
-            "jumps>2m peak": f"{sum(leaps)} (max {max(leaps, default=0)} a seed)",
+            "jumps>2m peak": "-"
+            if len(counted) < len(leaps)
+            else f"{sum(counted)} (max {max(counted, default=0)} a seed)",
             "head peak deg": fmt(heads, 2),
             "recovered %": fmt(rec_ok, 0)
             + f" (n={len(rec_ok)}"

@@ -8,6 +8,7 @@ import numpy as np
 
 from tourbot.geometry import compose, relative
 from tourbot.localization.mcl import MonteCarloLocalization
+from tourbot.maps.grid import OccupancyGrid
 
 from ..conftest import Drive
 
@@ -57,4 +58,25 @@ def phantom_kidnap(odom: np.ndarray, at: int, delta: np.ndarray) -> np.ndarray:
     out = odom.copy()
     correction = compose(compose(odom[at], delta), relative(odom[at], np.zeros(3)))
     out[at:] = compose(correction, odom[at:])
+    return out
+
+
+def legs_before_walls(
+    truth: np.ndarray, grid: OccupancyGrid, gap: float, rng: np.random.Generator
+) -> list[np.ndarray]:
+    """Four legs (10 cm circles) whose near side is ``gap`` metres in front of the wall that a
+    beam at -60, -20, 20 or 60 degrees (a little jittered) would hit: visitors along the walls."""
+    from tourbot.maps.raycast import DDACaster
+
+    from ..conftest import GEOMETRY
+
+    caster = DDACaster(grid, GEOMETRY.max_range)
+    out = []
+    for p in truth:
+        laser = compose(p, np.asarray(GEOMETRY.offset))
+        angles = np.radians([-60.0, -20.0, 20.0, 60.0]) + rng.uniform(-0.05, 0.05, 4)
+        wall = caster.cast(laser[None, :], angles)[0].astype(np.float64)
+        d = np.maximum(wall - gap - 0.1, 0.5)  # the leg's centre, its near side gap before the wall
+        a = laser[2] + angles
+        out.append(np.column_stack([laser[0] + d * np.cos(a), laser[1] + d * np.sin(a)]))
     return out

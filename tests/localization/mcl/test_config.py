@@ -14,14 +14,16 @@ from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.maps.likelihood_field import LikelihoodFieldParams
 
 
-def test_defaults_are_the_papers() -> None:
+def test_defaults_are_the_papers_and_the_data() -> None:
     cfg = MCLConfig()
     assert (cfg.sampling.min_samples, cfg.sampling.max_samples) == (500, 2000)  # Nav2 AMCL
     assert (cfg.sampling.kld_epsilon, cfg.sampling.kld_quantile) == (0.05, 0.99)  # Fox 2003
     assert cfg.sensor.beam_filter == BeamFilter.NOVELTY  # Fox et al. 1998's recommendation
     assert cfg.sensor.filters.theta == 0.99
-    assert cfg.sensor.field == LikelihoodFieldParams()  # the field's own defaults, one home
-    assert cfg.sensor.likelihood_exponent == 1.0  # independent beams, Probabilistic Robotics
+    # learned from the data as PR Sec. 6.3 and Fox et al. 1998 (Eq. 5) do: bench sensor-model
+    assert cfg.sensor.field == LikelihoodFieldParams(sigma_hit=0.05, distance="surface")
+    assert cfg.sensor.novelty_sigma == 0.05
+    assert cfg.sensor.likelihood_exponent == 0.1  # 8-20 neighbouring beams err together
     assert (cfg.recovery.alpha_slow, cfg.recovery.alpha_fast, cfg.recovery.ratio) == (0.001, 0.1, 1.0)
     assert cfg.recovery.verify_period is None
     assert cfg.sensor.entropy_cell == (0.15, math.radians(2.0))
@@ -50,6 +52,8 @@ def test_nonsense_is_refused() -> None:
         SamplingConfig(min_samples=10, max_samples=5)
     with pytest.raises(LocalizationError, match="likelihood_exponent"):
         SensorConfig(likelihood_exponent=0.0)
+    with pytest.raises(LocalizationError, match="novelty_sigma"):
+        SensorConfig(novelty_sigma=-0.01)
     with pytest.raises(LocalizationError, match="max_injection"):
         RecoveryConfig(max_injection=1.5)
     with pytest.raises(ConfigError, match=r"mcl\.sensor\.field\.distance: must be one of centre, surface"):

@@ -260,7 +260,7 @@ class MonteCarloLocalization:
             hyp_w,
             r.geometry.angles[r.valid],
             r.ranges[r.valid],
-            cfg.field.sigma_hit,
+            cfg.novelty_sigma,
             max_range,
             cfg.filters.theta,
         )
