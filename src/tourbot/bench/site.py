@@ -13,7 +13,8 @@ a member of staff would run it, on a log the site was never authored for:
 Reported per log: the compute time of each step, the commands typed and the clicks and fields
 filled (the person's part: counted, not timed, since no person runs the bench), the time from the
 first command until the robot arrived at the tour's first stop (the target: a served tour within
-10 minutes, compute included) and how many of the tour's stops it reached within ``--tour-seconds``.
+10 minutes, compute included), how many of the tour's stops it reached within ``--tour-seconds``
+and when it reached the last one (the whole tour, from the visitor's click).
 """
 
 from __future__ import annotations
@@ -165,6 +166,8 @@ def _one(
     finally:
         server.close()
     first = pages["arrivals"][0] if pages["arrivals"] else float("nan")
+    whole = len(pages["arrivals"]) == pages["stops"] > 0
+    done = pages["arrivals"][-1] if whole else float("nan")
     served = site_new_s + serve_s + pages["staff_s"] + first
     return {
         "log": name,
@@ -174,6 +177,7 @@ def _one(
         "to 1st stop s": first,
         "served tour s": served,
         "stops reached": f"{len(pages['arrivals'])}/{pages['stops'] or '?'}",
+        "tour done s": done,
         "commands": 2,
         "clicks": pages["clicks"],
         "fields": pages["fields"],
@@ -210,7 +214,7 @@ def register(bench: typer.Typer) -> None:
             if not path.is_file():
                 raise typer.BadParameter(f"{path}: no such log", param_hint="--data")
         columns = ["log", "site new s", "serve start s", "staff page s", "to 1st stop s", "served tour s",
-                   "stops reached", "commands", "clicks", "fields", "met"]  # fmt: skip
+                   "stops reached", "tour done s", "commands", "clicks", "fields", "met"]  # fmt: skip
         report = BenchReport("site", columns, meta={"crowd": crowd, "tour_seconds": tour_seconds})
         with tempfile.TemporaryDirectory(prefix="tourbot-bench-site-") as folder:
             for n in names:
