@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, relative, transform_points, wrap_angle
-from tourbot.mapping.correlative import SearchWindow, Submap, refine, search
+from tourbot.mapping.correlative import Match, SearchWindow, Submap, refine, search
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.mapping.people_filter import PeopleFilteredMapper, beam_endpoints
 from tourbot.mapping.pose_graph import OptimizerParams, PoseGraph, edge_errors
@@ -93,7 +93,16 @@ class GraphSlamParams:
     loop_sigma_xy: float = 0.1
     closure_length: float = 1.0
     loop_sigma_theta: float = 0.02
-    gate: float = 16.3
+    submap_quality: float = 5.0
+    gate: float = 0.999
+    group_path: float = 10.0
+    group_recent: int = 10
+    group_xy: float = 0.3
+    group_k_xy: float = 0.02
+    group_theta: float = 0.05
+    group_k_theta: float = 0.005
+    ambiguity: float = 1.01
+    ambiguity_radius: float = 0.5
     optimizer: OptimizerParams = field(default_factory=OptimizerParams)
 
 
@@ -133,6 +142,9 @@ class GraphSlam:
         self.closures: list[Closure] = []
         self.rejected = 0  # closures proposed and then rejected by the consistency gate
         self.proposed = 0
+        self.ambiguous = 0  # matches refused because the window holds an almost as good one elsewhere
+        self._quality: list[float] = []  # how poorly each scan fitted the front end's map (>= 1)
+        self._pending: list[Closure] = []  # verified matches waiting for one that agrees
         self._scans: list[Scan] = []
         self._front_poses: list[FloatArray] = []
         self._odom: list[FloatArray] = []
@@ -171,6 +183,7 @@ class GraphSlam:
                 self.graph.add_edge(n - 1, n, odo, self._information(odo, odometry=True))
             self._along.append(self._along[-1] + float(np.hypot(step[0], step[1])))
         self._scans.append(scan)
+        self._quality.append(quality)
         self._front_poses.append(front)
         self._odom.append(odom)
         self._process(final=False)
@@ -246,11 +259,13 @@ class GraphSlam:
 
     def _build_submap(self, first: int, last: int) -> _Submap:
         anchor = self.graph.poses[first]
+        # a scan the front end fitted poorly may sit askew in the submap: left out of its picture
         pts = [
             transform_points(
                 relative(anchor, self.graph.poses[k]), self._points(k, self.params.mapper.max_match_range)
             )
             for k in range(first, last + 1)
+            if self._quality[k] <= self.params.submap_quality
         ]
         allp = np.concatenate([np.zeros((0, 2)), *pts])
         if len(allp) == 0:
@@ -268,7 +283,7 @@ class GraphSlam:
             pts = pts[np.linspace(0, len(pts) - 1, p.loop_points).astype(np.int64)]
         apart = self._graph_distances(k)
         pose_k = self.graph.poses[k]
-        best: tuple[float, int, FloatArray] | None = None
+        best: tuple[Match, _Submap, FloatArray, SearchWindow] | None = None
         for sub in self._submaps:
             if self._along[k] - self._along[sub.last] < p.recent_path:
                 continue
@@ -279,19 +294,32 @@ class GraphSlam:
             guess = relative(anchor, pose_k)
             if math.hypot(*(guess[:2] - sub.grid.centre)) > sub.grid.radius + linear:
                 continue
-            m = search(sub.grid, pts, guess, SearchWindow(linear, angular), p.min_score)
-            if m is None or (best is not None and m.score <= best[0]):
+            window = SearchWindow(linear, angular)
+            m = search(sub.grid, pts, guess, window, p.min_score)
+            if m is None or (best is not None and m.score <= best[0].score):
                 continue
-            found = refine(sub.grid, pts, m.pose)
-            # the edge goes to the submap's node nearest the scan: the submap's inside as it was
-            # built, seen from that node, so that the graph moving the anchor later bends it less
-            inside = [relative(sub.poses[0], q) for q in sub.poses]
-            near = int(np.argmin([math.hypot(*(q[:2] - found[:2])) for q in inside]))
-            best = (m.score, sub.first + near, relative(inside[near], found))
+            best = (m, sub, guess, window)
         if best is None:
             return False
-        score, node, delta = best
-        return self.propose_closure(node, k, delta, score)
+        m, sub, guess, window = best
+        # the runner-up: the best pose of the window farther than ``ambiguity_radius`` from the
+        # match; a place that looks the same elsewhere in the window (a corridor) is no evidence
+        other = search(sub.grid, pts, guess, window, 0.0, (m.pose[0], m.pose[1], p.ambiguity_radius))
+        ratio = 0.0 if other is None else other.score / m.score
+        self._last_ratio = ratio
+        found = refine(sub.grid, pts, m.pose)
+        # the edge goes to the submap's node nearest the scan: the submap's inside as it was
+        # built, seen from that node, so that the graph moving the anchor later bends it less
+        inside = [relative(sub.poses[0], q) for q in sub.poses]
+        far = [
+            math.inf if self._quality[sub.first + i] > p.submap_quality else math.hypot(*(q[:2] - found[:2]))
+            for i, q in enumerate(inside)
+        ]
+        near = int(np.argmin(far)) if min(far) < math.inf else 0
+        if ratio > p.ambiguity:
+            self.ambiguous += 1
+            return False
+        return self.propose_closure(sub.first + near, k, relative(inside[near], found), m.score)
 
     def _graph_distances(self, k: int) -> FloatArray:
         """Path length (m) from node ``k`` to every node through the graph, loop edges counting
@@ -310,25 +338,74 @@ class GraphSlam:
         return np.asarray(dijkstra(m, directed=False, indices=k), dtype=np.float64)
 
     def propose_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
-        """Add the loop edge if the graph can take it: optimised with the edge (plain quadratic
-        cost), the total squared whitened error may grow by at most ``gate`` over the graph's
-        without it (a closure that contradicts the chain's uncertainty is rejected); accepted
-        edges keep the robust kernel from then on."""
+        """A verified match of scan ``node`` in the submap at node ``anchor``: kept as a candidate
+        until another candidate (or an accepted closure) of the same pass agrees with it
+        (:meth:`_agree`); a group that agrees is then added if the graph can take it
+        (:meth:`add_closures`). True when this candidate's closure was added."""
         p = self.params
         self.proposed += 1
-        before = [q.copy() for q in self.graph.poses]
-        cost_before = float(edge_errors(self.graph.array(), self.graph.edges).sum())
-        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
-        edge = self.graph.add_edge(anchor, node, delta, info, robust=False)
-        poses = self.graph.optimize(p.optimizer)
-        cost_after = float(edge_errors(poses, self.graph.edges).sum())
-        self.graph.edges.pop()
-        if cost_after - cost_before > p.gate:
-            self.graph.poses = before
-            self.rejected += 1
+        d = np.asarray(delta, dtype=np.float64)
+        cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score))
+        along = self._along
+        self._pending = [c for c in self._pending if along[node] - along[c.node] <= p.group_path]
+        near = [
+            c
+            for c in [*self._pending, *self.closures[-p.group_recent :]]
+            if along[node] - along[c.node] <= p.group_path and abs(along[c.anchor] - along[anchor]) <= p.group_path
+        ]
+        agree = [c for c in near if self._agree(c, cand)]
+        if not agree:
+            self._pending.append(cand)
             return False
-        self.graph.edges.append(replace(edge, robust=True))
-        self.closures.append(
-            Closure(anchor, node, (float(delta[0]), float(delta[1]), float(delta[2])), score)
+        group = [cand, *(c for c in agree if c in self._pending)]
+        self._pending = [c for c in self._pending if c not in group]
+        return self.add_closures(group)
+
+    def _agree(self, a: Closure, b: Closure) -> bool:
+        """Pairwise consistency (Olson 2009): two closures of one pass agree when the cycle they
+        make with the graph's two short chains between their scans and between their anchors
+        closes within ``group_xy + group_k_xy * L`` m and ``group_theta + group_k_theta * L`` rad,
+        ``L`` the two chains' path length: a place that only looks like the one it is matched
+        to (a corridor, a twin room) is matched with offsets that differ from scan to scan."""
+        p = self.params
+        x = self.graph.poses
+        # scan b in anchor a's frame: through closure a then the chain a.node -> b.node, or
+        # through the chain a.anchor -> b.anchor then closure b
+        one = compose(np.asarray(a.delta), relative(x[a.node], x[b.node]))
+        two = compose(relative(x[a.anchor], x[b.anchor]), np.asarray(b.delta))
+        err = relative(one, two)
+        length = abs(self._along[b.node] - self._along[a.node]) + abs(self._along[b.anchor] - self._along[a.anchor])
+        return bool(
+            math.hypot(err[0], err[1]) <= p.group_xy + p.group_k_xy * length
+            and abs(float(wrap_angle(err[2]))) <= p.group_theta + p.group_k_theta * length
         )
+
+    def add_closures(self, group: list[Closure]) -> bool:
+        """Add the loop edges of ``group`` if the graph can take them: optimised with them (plain
+        quadratic cost), the total squared whitened error may grow by at most the chi-square
+        quantile ``gate`` of ``3 * len(group)`` degrees of freedom (a group that contradicts the
+        chain's uncertainty is rejected); accepted edges keep the robust kernel from then on. When
+        the new edges' own error at the current poses is already within the gate, the growth is
+        too (the current poses bound the optimum) and no optimisation is run."""
+        from scipy.stats import chi2
+
+        p = self.params
+        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
+        limit = float(chi2.ppf(p.gate, 3 * len(group)))
+        edges = [self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group]
+        current = self.graph.array()
+        own = float(edge_errors(current, edges).sum())
+        if own > limit:
+            before = [q.copy() for q in self.graph.poses]
+            cost_before = float(edge_errors(current, self.graph.edges[: -len(edges)]).sum())
+            poses = self.graph.optimize(p.optimizer)
+            grown = float(edge_errors(poses, self.graph.edges).sum()) - cost_before
+            if grown > limit:
+                del self.graph.edges[-len(edges) :]
+                self.graph.poses = before
+                self.rejected += len(group)
+                return False
+        del self.graph.edges[-len(edges) :]
+        self.graph.edges.extend(replace(e, robust=True) for e in edges)
+        self.closures.extend(group)
         return True
