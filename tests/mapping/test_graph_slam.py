@@ -53,8 +53,10 @@ def _nearest_before(ref: np.ndarray, node: int, back: int) -> int:
 def test_a_lone_match_waits_for_one_that_agrees(intel_start: tuple[RobotLog, GraphSlam]) -> None:
     log, fixture = intel_start
     slam = copy.deepcopy(fixture)
+    slam.closures.clear()  # no accepted closure of this pass to agree with
+    slam._pending.clear()
     ref = log.reference_poses
-    before = len(slam.closures)
+    before = 0
     first, second = 180, 186
     a1, a2 = _nearest_before(ref, first, 60), _nearest_before(ref, second, 60)
     assert not slam.propose_closure(a1, first, relative(ref[a1], ref[first]), 0.9)
@@ -68,14 +70,25 @@ def test_aliased_matches_that_disagree_are_never_accepted(intel_start: tuple[Rob
     offset that changes from scan to scan; no two agree, none is accepted."""
     log, fixture = intel_start
     slam = copy.deepcopy(fixture)
+    slam.closures.clear()  # none of this pass to contradict: the matches only disagree among themselves
+    slam._pending.clear()
     ref = log.reference_poses
-    before = len(slam.closures)
+    before = 0
     for k, (node, shift) in enumerate(zip(range(170, 200, 3), [1.0, 2.5, 4.0, 1.7, 3.2, 0.8, 2.1, 3.9, 1.3, 2.8], strict=True)):
         a = _nearest_before(ref, node, 60)
         delta = compose(relative(ref[a], ref[node]), np.array([shift * (-1) ** k, 0.0, 0.0]))
         assert not slam.propose_closure(a, node, delta, 0.9)
     assert len(slam.closures) == before
     assert slam.rejected == fixture.rejected  # never even tried on the graph
+    # with the pass's true closures known, each is refused at once as contradicting them
+    slam = copy.deepcopy(fixture)
+    node = 190
+    a = _nearest_before(ref, node, 60)
+    slam.propose_closure(a, node, relative(ref[a], ref[node]), 0.9)
+    count = slam.contradicted
+    bad = compose(relative(ref[a], ref[node + 3]), np.array([2.0, 0.0, 0.0]))
+    assert not slam.propose_closure(a, node + 3, bad, 0.9)
+    assert slam.contradicted == count + 1
 
 
 def test_a_false_group_is_rejected_or_survived(intel_start: tuple[RobotLog, GraphSlam]) -> None:

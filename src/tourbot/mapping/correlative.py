@@ -129,51 +129,25 @@ def _pose(submap: Submap, guess: FloatArray, theta: float, dx: int, dy: int) -> 
     return np.array([guess[0] + dx * res, guess[1] + dy * res, math.atan2(math.sin(theta), math.cos(theta))])
 
 
-def _exclusion(
-    submap: Submap, guess: FloatArray, exclude: tuple[float, float, float] | None
-) -> tuple[float, float, float]:
-    """``exclude`` (submap-frame x, y and a radius, m) as shift cells relative to ``guess`` and a
-    squared radius in cells (a negative radius: nothing excluded)."""
-    if exclude is None:
-        return 0.0, 0.0, -1.0
-    res = submap.resolution
-    return (exclude[0] - guess[0]) / res, (exclude[1] - guess[1]) / res, (exclude[2] / res) ** 2
-
-
 def search(
-    submap: Submap,
-    points: FloatArray,
-    guess: FloatArray,
-    window: SearchWindow,
-    min_score: float = 0.0,
-    exclude: tuple[float, float, float] | None = None,
+    submap: Submap, points: FloatArray, guess: FloatArray, window: SearchWindow, min_score: float = 0.0
 ) -> Match | None:
     """The best pose of the scan ``points`` (robot frame, ``(N, 2)``) within ``window`` of ``guess``
-    (submap frame), by branch and bound; None when no pose scores above ``min_score``.
-
-    ``exclude``: ``(x, y, radius)`` (submap frame, m): poses whose position lies within the radius
-    are not candidates (the runner-up of a match, to judge how ambiguous it is)."""
+    (submap frame), by branch and bound; None when no pose scores above ``min_score``."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     if len(pts) == 0:
         return None
-    g = np.asarray(guess, dtype=np.float64)
-    thetas, cells, half = _candidates(submap, pts, g, window)
+    thetas, cells, half = _candidates(submap, pts, np.asarray(guess, dtype=np.float64), window)
     levels = submap.pyramid.shape[0] - 1
     top = min(levels, max(0, math.ceil(math.log2(2 * half + 1))))
-    ex, ey, er2 = _exclusion(submap, g, exclude)
-    k, dx, dy, best = _branch_and_bound(submap.pyramid, cells, half, top, float(min_score), ex, ey, er2)
+    k, dx, dy, best = _branch_and_bound(submap.pyramid, cells, half, top, float(min_score))
     if k < 0:
         return None
     return Match(_pose(submap, np.asarray(guess, dtype=np.float64), float(thetas[k]), dx, dy), best)
 
 
 def search_reference(
-    submap: Submap,
-    points: FloatArray,
-    guess: FloatArray,
-    window: SearchWindow,
-    min_score: float = 0.0,
-    exclude: tuple[float, float, float] | None = None,
+    submap: Submap, points: FloatArray, guess: FloatArray, window: SearchWindow, min_score: float = 0.0
 ) -> Match | None:
     """Plain-numpy twin of :func:`search`: every rotation and shift of the window scored."""
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
@@ -181,7 +155,6 @@ def search_reference(
         return None
     g = np.asarray(guess, dtype=np.float64)
     thetas, cells, half = _candidates(submap, pts, g, window)
-    ex, ey, er2 = _exclusion(submap, g, exclude)
     grid = submap.grid
     rows_n, cols_n = grid.shape
     best, arg = min_score, None
@@ -193,9 +166,6 @@ def search_reference(
         ok = (c >= 0) & (c < cols_n) & (r >= 0) & (r < rows_n)
         v = np.where(ok, grid[np.clip(r, 0, rows_n - 1), np.clip(c, 0, cols_n - 1)], 0.0)
         scores = v.mean(axis=2)  # (dy, dx)
-        if er2 >= 0.0:
-            near = (shifts[None, :] - ex) ** 2 + (shifts[:, None] - ey) ** 2 < er2
-            scores = np.where(near, -1.0, scores)
         iy, ix = np.unravel_index(int(np.argmax(scores)), scores.shape)
         if scores[iy, ix] > best:
             best, arg = float(scores[iy, ix]), (k, int(shifts[ix]), int(shifts[iy]))
@@ -233,18 +203,10 @@ def _block_score(level: np.ndarray, cells: np.ndarray, dx: int, dy: int) -> floa
 
 @numba.njit(cache=True)
 def _branch_and_bound(
-    pyramid: np.ndarray,
-    cells: np.ndarray,
-    half: int,
-    top: int,
-    min_score: float,
-    ex: float,
-    ey: float,
-    er2: float,
+    pyramid: np.ndarray, cells: np.ndarray, half: int, top: int, min_score: float
 ) -> tuple[int, int, int, float]:
     """Depth-first branch and bound over (rotation, shift block); returns the best rotation index
-    and shift (-1 when nothing beats ``min_score``) and its score. Shifts within ``sqrt(er2)``
-    cells of ``(ex, ey)`` are no candidates (``er2 < 0``: none excluded)."""
+    and shift (-1 when nothing beats ``min_score``) and its score."""
     n_rot = cells.shape[0]
     side = 1 << top
     per = (2 * half + side) // side
@@ -284,7 +246,7 @@ def _branch_and_bound(
         if b <= best:
             continue
         if h == 0:
-            if x <= half and y <= half and (x - ex) ** 2 + (y - ey) ** 2 >= er2:
+            if x <= half and y <= half:
                 best = b
                 bk, bx_, by_ = k, x, y
             continue

@@ -97,12 +97,10 @@ class GraphSlamParams:
     gate: float = 0.999
     group_path: float = 10.0
     group_recent: int = 10
-    group_xy: float = 0.3
-    group_k_xy: float = 0.02
-    group_theta: float = 0.05
-    group_k_theta: float = 0.005
-    ambiguity: float = 1.01
-    ambiguity_radius: float = 0.5
+    group_xy: float = 0.2
+    group_k_xy: float = 0.01
+    group_theta: float = 0.03
+    group_k_theta: float = 0.001
     optimizer: OptimizerParams = field(default_factory=OptimizerParams)
 
 
@@ -142,8 +140,8 @@ class GraphSlam:
         self.closures: list[Closure] = []
         self.rejected = 0  # closures proposed and then rejected by the consistency gate
         self.proposed = 0
-        self.ambiguous = 0  # matches refused because the window holds an almost as good one elsewhere
         self._quality: list[float] = []  # how poorly each scan fitted the front end's map (>= 1)
+        self.contradicted = 0  # matches refused for contradicting an accepted closure of the pass
         self._pending: list[Closure] = []  # verified matches waiting for one that agrees
         self._scans: list[Scan] = []
         self._front_poses: list[FloatArray] = []
@@ -283,7 +281,7 @@ class GraphSlam:
             pts = pts[np.linspace(0, len(pts) - 1, p.loop_points).astype(np.int64)]
         apart = self._graph_distances(k)
         pose_k = self.graph.poses[k]
-        best: tuple[Match, _Submap, FloatArray, SearchWindow] | None = None
+        best: tuple[Match, _Submap] | None = None
         for sub in self._submaps:
             if self._along[k] - self._along[sub.last] < p.recent_path:
                 continue
@@ -294,19 +292,13 @@ class GraphSlam:
             guess = relative(anchor, pose_k)
             if math.hypot(*(guess[:2] - sub.grid.centre)) > sub.grid.radius + linear:
                 continue
-            window = SearchWindow(linear, angular)
-            m = search(sub.grid, pts, guess, window, p.min_score)
+            m = search(sub.grid, pts, guess, SearchWindow(linear, angular), p.min_score)
             if m is None or (best is not None and m.score <= best[0].score):
                 continue
-            best = (m, sub, guess, window)
+            best = (m, sub)
         if best is None:
             return False
-        m, sub, guess, window = best
-        # the runner-up: the best pose of the window farther than ``ambiguity_radius`` from the
-        # match; a place that looks the same elsewhere in the window (a corridor) is no evidence
-        other = search(sub.grid, pts, guess, window, 0.0, (m.pose[0], m.pose[1], p.ambiguity_radius))
-        ratio = 0.0 if other is None else other.score / m.score
-        self._last_ratio = ratio
+        m, sub = best
         found = refine(sub.grid, pts, m.pose)
         # the edge goes to the submap's node nearest the scan: the submap's inside as it was
         # built, seen from that node, so that the graph moving the anchor later bends it less
@@ -316,9 +308,6 @@ class GraphSlam:
             for i, q in enumerate(inside)
         ]
         near = int(np.argmin(far)) if min(far) < math.inf else 0
-        if ratio > p.ambiguity:
-            self.ambiguous += 1
-            return False
         return self.propose_closure(sub.first + near, k, relative(inside[near], found), m.score)
 
     def _graph_distances(self, k: int) -> FloatArray:
@@ -348,12 +337,14 @@ class GraphSlam:
         cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score))
         along = self._along
         self._pending = [c for c in self._pending if along[node] - along[c.node] <= p.group_path]
-        near = [
-            c
-            for c in [*self._pending, *self.closures[-p.group_recent :]]
-            if along[node] - along[c.node] <= p.group_path and abs(along[c.anchor] - along[anchor]) <= p.group_path
-        ]
-        agree = [c for c in near if self._agree(c, cand)]
+        def near(c: Closure) -> bool:
+            return along[node] - along[c.node] <= p.group_path and abs(along[c.anchor] - along[anchor]) <= p.group_path
+
+        accepted = [c for c in self.closures[-p.group_recent :] if near(c)]
+        if not all(self._agree(c, cand) for c in accepted):
+            self.contradicted += 1  # it contradicts a closure of the same pass
+            return False
+        agree = accepted + [c for c in self._pending if near(c) and self._agree(c, cand)]
         if not agree:
             self._pending.append(cand)
             return False
