@@ -78,7 +78,7 @@ class GraphSlamParams:
     odom_k_theta: float = 0.3
     submap_scans: int = 30
     query_every: int = 3
-    recent_path: float = 8.0
+    recent_path: float = 30.0
     loop_resolution: float = 0.05
     loop_sigma: float = 0.05
     loop_max_range: float = 15.0
