@@ -74,7 +74,9 @@ def test_aliased_matches_that_disagree_are_never_accepted(intel_start: tuple[Rob
     slam._pending.clear()
     ref = log.reference_poses
     before = 0
-    for k, (node, shift) in enumerate(zip(range(170, 200, 3), [1.0, 2.5, 4.0, 1.7, 3.2, 0.8, 2.1, 3.9, 1.3, 2.8], strict=True)):
+    for k, (node, shift) in enumerate(
+        zip(range(170, 200, 3), [1.0, 2.5, 4.0, 1.7, 3.2, 0.8, 2.1, 3.9, 1.3, 2.8], strict=True)
+    ):
         a = _nearest_before(ref, node, 60)
         delta = compose(relative(ref[a], ref[node]), np.array([shift * (-1) ** k, 0.0, 0.0]))
         assert not slam.propose_closure(a, node, delta, 0.9)

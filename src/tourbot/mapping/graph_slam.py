@@ -14,11 +14,19 @@ the front end slipped. Consecutive runs of scans form
 few scans, the finished submaps the robot may be back in (the current graph pose, within a window
 that grows with the path length between submap and scan through the graph) are searched for the
 scan with the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match
-whose score passes the threshold is refined and attached to the submap node nearest the scan.
-Geometric consistency decides whether it stays: the graph is optimised with GTSAM with the closure
-under the plain quadratic cost, and the closure is rejected (the graph put back) when the total
-squared whitened error grows by more than a chi-square gate; an accepted closure keeps a robust
-(Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the map.
+whose score passes the threshold is refined and attached to the submap node nearest the scan (scans
+the front end fitted poorly are left out of the submaps and never anchor a closure: they may sit
+askew in them). A match alone is no closure: repeated structure (a corridor, twin rooms) is
+matched with conviction somewhere else. It waits until another match of the same pass agrees
+with it, and is refused if it contradicts a closure already accepted in that pass (pairwise
+consistency, Olson, "Recognizing places using spectrally clustered local matches", RAS 2009:
+two closures and the graph's two short chains between their scans and between their anchors form
+a cycle that must close). Geometric consistency with the whole graph then decides whether an
+agreeing group stays: optimised with GTSAM with the group's edges under the plain quadratic cost,
+the total squared whitened error may grow by a chi-square quantile at most (no optimisation is
+needed when the edges already fit the current poses that well); an accepted closure keeps a
+robust (Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the
+map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
 PeopleFilteredMapper` as front end, the beams it leaves out as people are left out of the submaps,
@@ -62,8 +70,15 @@ class GraphSlamParams:
     of path between the submap and the scan through the graph (an accepted closure counts
     ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
     ``min_score``: a match's mean likelihood (0-1) to be proposed; ``loop_sigma_*``: the loop
-    edge's standard deviations; ``gate``: how much the graph's total squared whitened error may
-    grow when a closure is added (chi-square, 3 degrees of freedom, 99.9 %: 16.3).
+    edge's standard deviations; ``submap_quality``: scans whose fit quality (alignment objective
+    over ``-sm_score_scale``) exceeds it stay out of the submaps. Two closures agree when their
+    cycle closes within ``group_xy + group_k_xy * L`` m and ``group_theta + group_k_theta * L``
+    rad (``L``: the path length of the cycle's two chains); closures are of one pass when their
+    scans and their anchors are each within ``group_path`` m of path (the last ``group_recent``
+    accepted ones are compared). ``gate``: the chi-square probability of the graph's consistency
+    check (the total squared whitened error may grow by that quantile of ``3 * n`` degrees of
+    freedom for a group of ``n``). ``recent_path`` (30 m) and the agreement's tolerances were
+    chosen on Intel, ACES and FHW and checked on Freiburg 079 (``docs/results/loopclosure.md``).
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
@@ -337,8 +352,12 @@ class GraphSlam:
         cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score))
         along = self._along
         self._pending = [c for c in self._pending if along[node] - along[c.node] <= p.group_path]
+
         def near(c: Closure) -> bool:
-            return along[node] - along[c.node] <= p.group_path and abs(along[c.anchor] - along[anchor]) <= p.group_path
+            return (
+                along[node] - along[c.node] <= p.group_path
+                and abs(along[c.anchor] - along[anchor]) <= p.group_path
+            )
 
         accepted = [c for c in self.closures[-p.group_recent :] if near(c)]
         if not all(self._agree(c, cand) for c in accepted):
@@ -365,7 +384,9 @@ class GraphSlam:
         one = compose(np.asarray(a.delta), relative(x[a.node], x[b.node]))
         two = compose(relative(x[a.anchor], x[b.anchor]), np.asarray(b.delta))
         err = relative(one, two)
-        length = abs(self._along[b.node] - self._along[a.node]) + abs(self._along[b.anchor] - self._along[a.anchor])
+        length = abs(self._along[b.node] - self._along[a.node]) + abs(
+            self._along[b.anchor] - self._along[a.anchor]
+        )
         return bool(
             math.hypot(err[0], err[1]) <= p.group_xy + p.group_k_xy * length
             and abs(float(wrap_angle(err[2]))) <= p.group_theta + p.group_k_theta * length
@@ -383,7 +404,9 @@ class GraphSlam:
         p = self.params
         info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
         limit = float(chi2.ppf(p.gate, 3 * len(group)))
-        edges = [self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group]
+        edges = [
+            self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group
+        ]
         current = self.graph.array()
         own = float(edge_errors(current, edges).sum())
         if own > limit:
