@@ -158,7 +158,6 @@ class GraphSlam:
         self._quality: list[float] = []  # how poorly each scan fitted the front end's map (>= 1)
         self.contradicted = 0  # matches refused for contradicting an accepted closure of the pass
         self._pending: list[Closure] = []  # verified matches waiting for one that agrees
-        self._settled = True  # no closure taken without an optimisation since the last one
         self._scans: list[Scan] = []
         self._front_poses: list[FloatArray] = []
         self._odom: list[FloatArray] = []
@@ -408,26 +407,18 @@ class GraphSlam:
         edges = [
             self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group
         ]
-        own = float(edge_errors(self.graph.array(), edges).sum())
+        current = self.graph.array()
+        own = float(edge_errors(current, edges).sum())
         if own > limit:
-            if not self._settled:
-                # closures taken without an optimisation since the last one: the growth is measured
-                # from the graph's optimum without the group, not from poses that have not met them
-                del self.graph.edges[-len(edges) :]
-                self.graph.optimize(p.optimizer)
-                self.graph.edges.extend(edges)
             before = [q.copy() for q in self.graph.poses]
-            cost_before = float(edge_errors(self.graph.array(), self.graph.edges[: -len(edges)]).sum())
+            cost_before = float(edge_errors(current, self.graph.edges[: -len(edges)]).sum())
             poses = self.graph.optimize(p.optimizer)
-            self._settled = True
             grown = float(edge_errors(poses, self.graph.edges).sum()) - cost_before
             if grown > limit:
                 del self.graph.edges[-len(edges) :]
                 self.graph.poses = before
                 self.rejected += len(group)
                 return False
-        else:
-            self._settled = False
         del self.graph.edges[-len(edges) :]
         self.graph.edges.extend(replace(e, robust=True) for e in edges)
         self.closures.extend(group)
