@@ -153,6 +153,8 @@ class _Run:
     cpu_seconds: float  # this process's CPU time (the machine is shared: less noisy)
     closures: list[tuple[int, int, tuple[float, float, float]]] = field(default_factory=list)
     rejected: int = 0
+    proposed: int = 0  # matches proposed (graph SLAM): accepted, rejected, contradicted or alone
+    contradicted: int = 0
 
 
 def _read(name: str, max_scans: int | None) -> RobotLog:
@@ -191,7 +193,7 @@ def _slam(log: RobotLog, start: NDArray[np.float64], loop_closure: bool = False)
     grid = slam.grid()  # drawing the final map counts: it is part of the run
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     closures = [(c.anchor, c.node, c.delta) for c in slam.closures]
-    return _Run(poses, grid, seconds, cpu, closures, slam.rejected)
+    return _Run(poses, grid, seconds, cpu, closures, slam.rejected, slam.proposed, slam.contradicted)
 
 
 def _features(log: RobotLog, start: NDArray[np.float64]) -> _Run:
@@ -359,6 +361,8 @@ def register(bench: typer.Typer) -> None:
                         "closures": len(run.closures) if run is not None and run.closures else 0,
                         "false closures": _false_closures(run.closures, ref) if run is not None else 0,
                         "rejected closures": run.rejected if run is not None else 0,
+                        "contradicted closures": run.contradicted if run is not None else 0,
+                        "proposed closures": run.proposed if run is not None else 0,
                         "separation pairs": sep.pairs,
                         "revisit pairs": rev.pairs,
                         **{f"anchor {k}": v for k, v in ANCHORS.get(name, {}).items()},

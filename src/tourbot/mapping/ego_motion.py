@@ -36,8 +36,14 @@ def _no_odometry_mapper() -> MapperParams:
     # a wider prior (25 cm was tried on negative_2.bag) lets the match jump to wrong optima.
     # Every beam and the full hill climbing at every level (not the mapper's faster defaults): a
     # pose error here is a static object seen moving, and there is no odometry to fall back on.
+    # unknown_level and window as when this was measured on the leg_tracker bags (the mapping
+    # defaults changed for the odometry logs' front end, issue 20)
     return MapperParams(
-        match=MatchParams(sigma_xy=0.1, sigma_theta=0.08), match_beams=None, level_halvings=None
+        match=MatchParams(sigma_xy=0.1, sigma_theta=0.08),
+        match_beams=None,
+        level_halvings=None,
+        unknown_level=0.25,
+        window=150,
     )
 
 

@@ -14,11 +14,19 @@ the front end slipped. Consecutive runs of scans form
 few scans, the finished submaps the robot may be back in (the current graph pose, within a window
 that grows with the path length between submap and scan through the graph) are searched for the
 scan with the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match
-whose score passes the threshold is refined and attached to the submap node nearest the scan.
-Geometric consistency decides whether it stays: the graph is optimised with GTSAM with the closure
-under the plain quadratic cost, and the closure is rejected (the graph put back) when the total
-squared whitened error grows by more than a chi-square gate; an accepted closure keeps a robust
-(Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the map.
+whose score passes the threshold is refined and attached to the submap node nearest the scan (scans
+the front end fitted poorly are left out of the submaps and never anchor a closure: they may sit
+askew in them). A match alone is no closure: repeated structure (a corridor, twin rooms) is
+matched with conviction somewhere else. It waits until another match of the same pass agrees
+with it, and is refused if it contradicts a closure already accepted in that pass (pairwise
+consistency, Olson, "Recognizing places using spectrally clustered local matches", RAS 2009:
+two closures and the graph's two short chains between their scans and between their anchors form
+a cycle that must close). Geometric consistency with the whole graph then decides whether an
+agreeing group stays: optimised with GTSAM with the group's edges under the plain quadratic cost,
+the total squared whitened error may grow by a chi-square quantile at most (no optimisation is
+needed when the edges already fit the current poses that well); an accepted closure keeps a
+robust (Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the
+map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
 PeopleFilteredMapper` as front end, the beams it leaves out as people are left out of the submaps,
@@ -37,7 +45,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.geometry import compose, relative, transform_points, wrap_angle
-from tourbot.mapping.correlative import SearchWindow, Submap, refine, search
+from tourbot.mapping.correlative import Match, SearchWindow, Submap, refine, search
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.mapping.people_filter import PeopleFilteredMapper, beam_endpoints
 from tourbot.mapping.pose_graph import OptimizerParams, PoseGraph, edge_errors
@@ -62,8 +70,15 @@ class GraphSlamParams:
     of path between the submap and the scan through the graph (an accepted closure counts
     ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
     ``min_score``: a match's mean likelihood (0-1) to be proposed; ``loop_sigma_*``: the loop
-    edge's standard deviations; ``gate``: how much the graph's total squared whitened error may
-    grow when a closure is added (chi-square, 3 degrees of freedom, 99.9 %: 16.3).
+    edge's standard deviations; ``submap_quality``: scans whose fit quality (alignment objective
+    over ``-sm_score_scale``) exceeds it stay out of the submaps. Two closures agree when their
+    cycle closes within ``group_xy + group_k_xy * L`` m and ``group_theta + group_k_theta * L``
+    rad (``L``: the path length of the cycle's two chains); closures are of one pass when their
+    scans and their anchors are each within ``group_path`` m of path (the last ``group_recent``
+    accepted ones are compared). ``gate``: the chi-square probability of the graph's consistency
+    check (the total squared whitened error may grow by that quantile of ``3 * n`` degrees of
+    freedom for a group of ``n``). ``recent_path`` (30 m) and the agreement's tolerances were
+    chosen on Intel, ACES and FHW and checked on Freiburg 079 (``docs/results/loopclosure.md``).
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
@@ -78,7 +93,7 @@ class GraphSlamParams:
     odom_k_theta: float = 0.3
     submap_scans: int = 30
     query_every: int = 3
-    recent_path: float = 8.0
+    recent_path: float = 30.0
     loop_resolution: float = 0.05
     loop_sigma: float = 0.05
     loop_max_range: float = 15.0
@@ -93,7 +108,14 @@ class GraphSlamParams:
     loop_sigma_xy: float = 0.1
     closure_length: float = 1.0
     loop_sigma_theta: float = 0.02
-    gate: float = 16.3
+    submap_quality: float = 5.0
+    gate: float = 0.999
+    group_path: float = 10.0
+    group_recent: int = 10
+    group_xy: float = 0.2
+    group_k_xy: float = 0.01
+    group_theta: float = 0.03
+    group_k_theta: float = 0.001
     optimizer: OptimizerParams = field(default_factory=OptimizerParams)
 
 
@@ -133,6 +155,9 @@ class GraphSlam:
         self.closures: list[Closure] = []
         self.rejected = 0  # closures proposed and then rejected by the consistency gate
         self.proposed = 0
+        self._quality: list[float] = []  # how poorly each scan fitted the front end's map (>= 1)
+        self.contradicted = 0  # matches refused for contradicting an accepted closure of the pass
+        self._pending: list[Closure] = []  # verified matches waiting for one that agrees
         self._scans: list[Scan] = []
         self._front_poses: list[FloatArray] = []
         self._odom: list[FloatArray] = []
@@ -171,6 +196,7 @@ class GraphSlam:
                 self.graph.add_edge(n - 1, n, odo, self._information(odo, odometry=True))
             self._along.append(self._along[-1] + float(np.hypot(step[0], step[1])))
         self._scans.append(scan)
+        self._quality.append(quality)
         self._front_poses.append(front)
         self._odom.append(odom)
         self._process(final=False)
@@ -246,11 +272,13 @@ class GraphSlam:
 
     def _build_submap(self, first: int, last: int) -> _Submap:
         anchor = self.graph.poses[first]
+        # a scan the front end fitted poorly may sit askew in the submap: left out of its picture
         pts = [
             transform_points(
                 relative(anchor, self.graph.poses[k]), self._points(k, self.params.mapper.max_match_range)
             )
             for k in range(first, last + 1)
+            if self._quality[k] <= self.params.submap_quality
         ]
         allp = np.concatenate([np.zeros((0, 2)), *pts])
         if len(allp) == 0:
@@ -268,7 +296,7 @@ class GraphSlam:
             pts = pts[np.linspace(0, len(pts) - 1, p.loop_points).astype(np.int64)]
         apart = self._graph_distances(k)
         pose_k = self.graph.poses[k]
-        best: tuple[float, int, FloatArray] | None = None
+        best: tuple[Match, _Submap] | None = None
         for sub in self._submaps:
             if self._along[k] - self._along[sub.last] < p.recent_path:
                 continue
@@ -280,18 +308,22 @@ class GraphSlam:
             if math.hypot(*(guess[:2] - sub.grid.centre)) > sub.grid.radius + linear:
                 continue
             m = search(sub.grid, pts, guess, SearchWindow(linear, angular), p.min_score)
-            if m is None or (best is not None and m.score <= best[0]):
+            if m is None or (best is not None and m.score <= best[0].score):
                 continue
-            found = refine(sub.grid, pts, m.pose)
-            # the edge goes to the submap's node nearest the scan: the submap's inside as it was
-            # built, seen from that node, so that the graph moving the anchor later bends it less
-            inside = [relative(sub.poses[0], q) for q in sub.poses]
-            near = int(np.argmin([math.hypot(*(q[:2] - found[:2])) for q in inside]))
-            best = (m.score, sub.first + near, relative(inside[near], found))
+            best = (m, sub)
         if best is None:
             return False
-        score, node, delta = best
-        return self.propose_closure(node, k, delta, score)
+        m, sub = best
+        found = refine(sub.grid, pts, m.pose)
+        # the edge goes to the submap's node nearest the scan: the submap's inside as it was
+        # built, seen from that node, so that the graph moving the anchor later bends it less
+        inside = [relative(sub.poses[0], q) for q in sub.poses]
+        far = [
+            math.inf if self._quality[sub.first + i] > p.submap_quality else math.hypot(*(q[:2] - found[:2]))
+            for i, q in enumerate(inside)
+        ]
+        near = int(np.argmin(far)) if min(far) < math.inf else 0
+        return self.propose_closure(sub.first + near, k, relative(inside[near], found), m.score)
 
     def _graph_distances(self, k: int) -> FloatArray:
         """Path length (m) from node ``k`` to every node through the graph, loop edges counting
@@ -310,25 +342,84 @@ class GraphSlam:
         return np.asarray(dijkstra(m, directed=False, indices=k), dtype=np.float64)
 
     def propose_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
-        """Add the loop edge if the graph can take it: optimised with the edge (plain quadratic
-        cost), the total squared whitened error may grow by at most ``gate`` over the graph's
-        without it (a closure that contradicts the chain's uncertainty is rejected); accepted
-        edges keep the robust kernel from then on."""
+        """A verified match of scan ``node`` in the submap at node ``anchor``: kept as a candidate
+        until another candidate (or an accepted closure) of the same pass agrees with it
+        (:meth:`_agree`); a group that agrees is then added if the graph can take it
+        (:meth:`add_closures`). True when this candidate's closure was added."""
         p = self.params
         self.proposed += 1
-        before = [q.copy() for q in self.graph.poses]
-        cost_before = float(edge_errors(self.graph.array(), self.graph.edges).sum())
-        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
-        edge = self.graph.add_edge(anchor, node, delta, info, robust=False)
-        poses = self.graph.optimize(p.optimizer)
-        cost_after = float(edge_errors(poses, self.graph.edges).sum())
-        self.graph.edges.pop()
-        if cost_after - cost_before > p.gate:
-            self.graph.poses = before
-            self.rejected += 1
+        d = np.asarray(delta, dtype=np.float64)
+        cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score))
+        along = self._along
+        self._pending = [c for c in self._pending if along[node] - along[c.node] <= p.group_path]
+
+        def near(c: Closure) -> bool:
+            return (
+                along[node] - along[c.node] <= p.group_path
+                and abs(along[c.anchor] - along[anchor]) <= p.group_path
+            )
+
+        accepted = [c for c in self.closures[-p.group_recent :] if near(c)]
+        if not all(self._agree(c, cand) for c in accepted):
+            self.contradicted += 1  # it contradicts a closure of the same pass
             return False
-        self.graph.edges.append(replace(edge, robust=True))
-        self.closures.append(
-            Closure(anchor, node, (float(delta[0]), float(delta[1]), float(delta[2])), score)
+        agree = accepted + [c for c in self._pending if near(c) and self._agree(c, cand)]
+        if not agree:
+            self._pending.append(cand)
+            return False
+        group = [cand, *(c for c in agree if c in self._pending)]
+        self._pending = [c for c in self._pending if c not in group]
+        return self.add_closures(group)
+
+    def _agree(self, a: Closure, b: Closure) -> bool:
+        """Pairwise consistency (Olson 2009): two closures of one pass agree when the cycle they
+        make with the graph's two short chains between their scans and between their anchors
+        closes within ``group_xy + group_k_xy * L`` m and ``group_theta + group_k_theta * L`` rad,
+        ``L`` the two chains' path length: a place that only looks like the one it is matched
+        to (a corridor, a twin room) is matched with offsets that differ from scan to scan."""
+        p = self.params
+        x = self.graph.poses
+        # scan b in anchor a's frame: through closure a then the chain a.node -> b.node, or
+        # through the chain a.anchor -> b.anchor then closure b
+        one = compose(np.asarray(a.delta), relative(x[a.node], x[b.node]))
+        two = compose(relative(x[a.anchor], x[b.anchor]), np.asarray(b.delta))
+        err = relative(one, two)
+        length = abs(self._along[b.node] - self._along[a.node]) + abs(
+            self._along[b.anchor] - self._along[a.anchor]
         )
+        return bool(
+            math.hypot(err[0], err[1]) <= p.group_xy + p.group_k_xy * length
+            and abs(float(wrap_angle(err[2]))) <= p.group_theta + p.group_k_theta * length
+        )
+
+    def add_closures(self, group: list[Closure]) -> bool:
+        """Add the loop edges of ``group`` if the graph can take them: optimised with them (plain
+        quadratic cost), the total squared whitened error may grow by at most the chi-square
+        quantile ``gate`` of ``3 * len(group)`` degrees of freedom (a group that contradicts the
+        chain's uncertainty is rejected); accepted edges keep the robust kernel from then on. When
+        the new edges' own error at the current poses is already within the gate, the growth is
+        too (the current poses bound the optimum) and no optimisation is run."""
+        from scipy.stats import chi2
+
+        p = self.params
+        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
+        limit = float(chi2.ppf(p.gate, 3 * len(group)))
+        edges = [
+            self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group
+        ]
+        current = self.graph.array()
+        own = float(edge_errors(current, edges).sum())
+        if own > limit:
+            before = [q.copy() for q in self.graph.poses]
+            cost_before = float(edge_errors(current, self.graph.edges[: -len(edges)]).sum())
+            poses = self.graph.optimize(p.optimizer)
+            grown = float(edge_errors(poses, self.graph.edges).sum()) - cost_before
+            if grown > limit:
+                del self.graph.edges[-len(edges) :]
+                self.graph.poses = before
+                self.rejected += len(group)
+                return False
+        del self.graph.edges[-len(edges) :]
+        self.graph.edges.extend(replace(e, robust=True) for e in edges)
+        self.closures.extend(group)
         return True
