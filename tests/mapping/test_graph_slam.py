@@ -102,8 +102,7 @@ def test_a_false_group_is_rejected_or_survived(intel_start: tuple[RobotLog, Grap
     before = aligned_trajectory_error(slam.poses, ref).rmse
     shift = np.array([5.0, 0.0, 0.0])
     group = [
-        Closure(10, node, tuple(compose(relative(ref[10], ref[node]), shift)), 0.9)  # type: ignore[arg-type]
-        for node in (150, 153)
+        Closure(10, node, tuple(compose(relative(ref[10], ref[node]), shift)), 0.9) for node in (150, 153)
     ]
     assert slam._agree(group[0], group[1])  # they agree with each other
     assert not slam.add_closures(group)
