@@ -134,7 +134,7 @@ def run_tour(site: Any, seed: int, crowd: str, mode: str, max_time: float) -> tu
     fps = math.nan
     est = None
     if mode == "vision":
-        est = rt.estimators[0]
+        est = next(e for e in rt.estimators if e.name == "vision")
         vm = est.map  # type: ignore[attr-defined]
         near_real, hand = _truth_masks(site, vm.frame)
         occ = vm.occupied()

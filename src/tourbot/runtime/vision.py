@@ -18,9 +18,12 @@ isotropic at its largest spread), moves it less than ``pose_tolerance``
 below ``min_pose_weight`` is not used at all (``uncertain`` counts them): the robot does not map
 what it cannot place.
 
-Visitors leave no phantom obstacles: the laser sees them, and the image columns of laser endpoints
-that moved between the two scans are masked (``VisionConfig.moving``, ``body``); what stays
-(a visitor who stood, then left) is erased by the floor seen free again (the map's persistence).
+Visitors leave no phantom obstacles: the people tracker's visitors (``people``, the robot's one
+:class:`tourbot.people.estimator.PeopleEstimator`, its confirmed tracks moved on to each image's
+time) are masked as upright bodies in both images of a pair (``VisionConfig.person_radius``); a
+visitor the tracker has not confirmed yet is masked by the laser alone (the image columns of laser
+endpoints that moved between the two scans, ``VisionConfig.moving``, ``body``); what stays is
+erased by the floor seen free again (the map's persistence).
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from tourbot.geometry import compose, relative
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.maps.grid import OccupancyGrid
+from tourbot.people.estimator import PeopleEstimator
 from tourbot.records import Image, Odometry, Scan
 from tourbot.vision.camera import ForwardCamera
 from tourbot.vision.detector import Detection, View, VisionConfig, VisionDetector
@@ -101,9 +105,15 @@ class VisionObstacleEstimator:
     scan_share = ScanShare.ALL
 
     def __init__(
-        self, frame: OccupancyGrid, camera: ForwardCamera, config: VisionEstimatorConfig | None = None
+        self,
+        frame: OccupancyGrid,
+        camera: ForwardCamera,
+        config: VisionEstimatorConfig | None = None,
+        *,
+        people: PeopleEstimator | None = None,
     ) -> None:
         self.config = cfg = config or VisionEstimatorConfig()
+        self._people = people
         self.detector = VisionDetector(camera, cfg.detector)
         self.map = VisionMap(frame)
         self._static = frame
@@ -146,7 +156,8 @@ class VisionObstacleEstimator:
         odom = np.asarray(image.odom, dtype=np.float64)
         pose = compose(est, relative(np.asarray(scan.odom), odom))
         endpoints, returned = scan_endpoints(scan, est)
-        view = View(image.pixels, pose, endpoints, returned)
+        visitors = np.zeros((0, 2)) if self._people is None else self._people.positions(image.timestamp)
+        view = View(image.pixels, pose, endpoints, returned, visitors)
         self.map.clear(pose[:2], cfg.footprint)  # at every image: the robot may stand still
         prev = self._prev
         if prev is None or self._prev_odom is None:
@@ -166,7 +177,7 @@ class VisionObstacleEstimator:
             self._prev, self._prev_odom, self._prev_cov = view, odom, cov
             return None
         # the two images placed by one estimate and the odometry between them (short-term exact)
-        view = View(image.pixels, compose(prev.pose, motion), endpoints, returned)
+        view = View(image.pixels, compose(prev.pose, motion), endpoints, returned, visitors)
         t0 = time.perf_counter()
         det = self.detector.detect(prev, view)
         obstacles = self._off_map(det.obstacles)
@@ -182,7 +193,7 @@ class VisionObstacleEstimator:
         self.last = (prev, view, det)
         if self.best is None or len(det.obstacles) > len(self.best[2].obstacles):
             self.best = self.last
-        self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned), odom
+        self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned, visitors), odom
         self._prev_cov = cov
         return det
 

@@ -11,15 +11,22 @@ al. 2002): read :meth:`VisionDetector.detect` first.
    point, kept when it lies in front of the model's surface, between the floor and the robot's
    height, within ``max_distance``, and away from every laser endpoint (what the laser sees is
    the laser's);
-4. moving visitors (seen by the laser: endpoints of ``s_t`` with no endpoint of ``s_{t-1}`` near
-   them, and the other way round) mask the image columns of their bodies, so they leave no phantom;
+4. visitors leave no phantom: the people tracker's estimates (Burgard et al., Sec. 4) at each
+   image's time are upright bodies (:func:`body_mask`); a pixel of image t on a body, a pixel of
+   ``î_t`` sampled from a body in image t-1, and an epipolar candidate that falls on a body in
+   image t-1 are not used; visitors the tracker has not yet taken up are masked by the laser
+   alone (endpoints of ``s_t`` with no endpoint of ``s_{t-1}`` near them, and the other way round:
+   the image columns of their bodies);
+5. a triangulated point whose depth one pixel of matching error moves by more than
+   ``max_depth_spread`` is dropped: far from the robot, near the epipole of a forward motion, the
+   images do not fix its depth (the phantoms of periodic textures and of the picket-fence walls);
    the floor points where the images agree are returned too (free space for the map).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +36,7 @@ from tourbot.vision.camera import ForwardCamera
 from tourbot.vision.correlation import local_ncc, patch_ncc
 from tourbot.vision.model import back_project, model_points, model_profile
 
-__all__ = ["Detection", "View", "VisionConfig", "VisionDetector"]
+__all__ = ["Detection", "View", "VisionConfig", "VisionDetector", "body_mask"]
 
 FloatArray = NDArray[np.float64]
 Float32Array = NDArray[np.float32]
@@ -84,17 +91,22 @@ class VisionConfig:
     body: float = 0.35
     min_leg: float = 0.07
     azimuth_step: float = math.radians(0.1)
+    person_radius: float = 0.4
+    person_height: float = 2.0
+    max_depth_spread: float = 0.1
 
 
 @dataclass(frozen=True)
 class View:
     """One image with what was known when it was taken: the robot's ``pose`` (world, from the
-    estimate) and the laser's endpoints ``(B, 2)`` (world) with which of them returned."""
+    estimate), the laser's endpoints ``(B, 2)`` (world) with which of them returned, and the
+    visitors ``people`` ``(N, 2)`` (world) the people tracker estimates at that time."""
 
     image: NDArray[np.uint8]
     pose: FloatArray
     endpoints: FloatArray
     returned: NDArray[np.bool_]
+    people: FloatArray = field(default_factory=lambda: np.zeros((0, 2)))
 
 
 @dataclass(frozen=True)
@@ -156,6 +168,15 @@ class VisionDetector:
         points[~finite] = 0.0
         warped, valid = back_project(prev.image, points, rot_p, pos_p, m.fx, m.fy, m.cx, m.cy)
         valid &= finite
+        # the tracker's visitors: on a body in image t, or sampled from a body in image t-1
+        body_prev = body_mask(
+            self._rays @ rot_p.T.astype(np.float32), pos_p, prev.people, cfg.person_radius, cfg.person_height
+        )
+        body = body_mask(rays, pos_c, cur.people, cfg.person_radius, cfg.person_height)
+        from_body = np.zeros_like(body)
+        if body_prev.any():
+            sampled, _ = back_project(body_prev.astype(np.uint8), points, rot_p, pos_p, m.fx, m.fy, m.cx, m.cy)
+            from_body = sampled > 0.0
         # the estimated motion is a little off (the odometry's turn above all): the residual shift of
         # the floor between the two images, by phase correlation, is taken out
         current = cur.image.astype(np.float32)
@@ -172,10 +193,15 @@ class VisionDetector:
                 dtype=np.float32,
             )
             valid = cv2.warpAffine(valid.astype(np.uint8), move, valid.shape[::-1], flags=flags) > 0
+            if from_body.any():
+                from_body = (
+                    cv2.warpAffine(from_body.astype(np.uint8), move, from_body.shape[::-1], flags=flags) > 0
+                )
+        body |= from_body
         # 2. local correlation: disagreement where both are textured
         ncc, s_warp, s_cur = local_ncc(warped, current, cfg.window)
         textured = (s_warp >= cfg.min_std) & (s_cur >= cfg.min_std) & valid
-        masked = self._moving_mask(prev, cur, az, pos_c)
+        masked = self._moving_mask(prev, cur, az, pos_c) | body
         inconsistent = textured & (ncc < cfg.inconsistent) & ~masked
         agree = textured & (ncc > cfg.agree) & ~masked & on_floor
         if inconsistent.sum() > cfg.max_inconsistent * max(int(textured.sum()), 1):
@@ -184,7 +210,7 @@ class VisionDetector:
             return Detection(none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked)
         # 3. along the epipolar lines
         obstacles, heights, pixels = self._search(
-            prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift
+            prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift, body_prev
         )
         s = cfg.stride
         sub = np.zeros_like(agree)
@@ -256,6 +282,7 @@ class VisionDetector:
         rot_p: FloatArray,
         pos_p: FloatArray,
         shift: tuple[float, float],
+        body_prev: NDArray[np.bool_],
     ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
         """Depth along each inconsistent pixel's ray that best matches image t-1 (patch NCC)."""
         import cv2
@@ -307,7 +334,13 @@ class VisionDetector:
             borderValue=0.0,
         ).reshape(n, cfg.depths + 1, -1)
         score = patch_ncc(a, np.asarray(b, dtype=np.float32))
-        score = np.where(inside, score, -1.0)
+        # a candidate on a visitor's body in image t-1 is no match for a point of the world
+        on_body = np.zeros(inside.shape, dtype=bool)
+        if body_prev.any():
+            iu = np.clip(np.round(uv[..., 0]), 0, wid - 1).astype(np.int64)
+            iv = np.clip(np.round(uv[..., 1]), 0, hgt - 1).astype(np.int64)
+            on_body = body_prev[iv, iu] & inside
+        score = np.where(inside & ~on_body, score, -1.0)
         best = np.argmax(score[:, :-1], axis=1)
         rows = np.arange(len(vv))
         top = score[rows, best]
@@ -319,6 +352,12 @@ class VisionDetector:
         good &= top >= second + cfg.unique
         # a best depth at the end of the range is no depth: the match is not bracketed
         good &= (best > 0) & (best < cfg.depths - 1)
+        # the depth's spread: how far the point moves along its ray per pixel of disparity in
+        # image t-1 (the neighbouring depths' distance over their pixels' distance)
+        lo, hi = np.clip(best - 1, 0, cfg.depths - 1), np.clip(best + 1, 0, cfg.depths - 1)
+        disparity = np.hypot(*(uv[rows, hi] - uv[rows, lo]).T)
+        spread = np.abs(dist[rows, hi] - dist[rows, lo]) / np.maximum(disparity, 1e-6)
+        good &= spread <= cfg.max_depth_spread
         p3 = pts[rows, best][good]
         px = np.stack([uu, vv], axis=-1)[good]
         z = p3[:, 2]
@@ -338,6 +377,50 @@ class VisionDetector:
                 far = ~np.isfinite(dd)
                 p3, px = p3[far], px[far]
         return p3[:, :2].copy(), p3[:, 2].copy(), px.astype(np.int64)
+
+
+def body_mask(
+    rays: Float32Array | FloatArray,
+    origin: FloatArray,
+    people: FloatArray,
+    radius: float,
+    height: float,
+    step: int = 4,
+) -> NDArray[np.bool_]:
+    """The pixels ``(H, W)`` whose rays (world directions ``(H, W, 3)`` from ``origin``) meet an
+    upright cylinder of ``radius`` and ``height`` standing on the floor at one of ``people``
+    ``(N, 2)`` before the floor: a visitor's body. Computed on every ``step``-th pixel, each
+    answer held for its ``step`` x ``step`` block."""
+    h, w = rays.shape[:2]
+    if not len(people):
+        return np.zeros((h, w), dtype=bool)
+    half = step // 2
+    sub = np.asarray(rays[half::step, half::step], dtype=np.float64)
+    dx, dy, dz = sub[..., 0], sub[..., 1], sub[..., 2]
+    a = dx * dx + dy * dy
+    hit = np.zeros(sub.shape[:2], dtype=bool)
+    ox0, oy0, oz = (float(v) for v in origin[:3])
+    for px, py in np.asarray(people, dtype=np.float64).reshape(-1, 2):
+        ox, oy = ox0 - px, oy0 - py
+        b = dx * ox + dy * oy  # half the quadratic's b
+        c = ox * ox + oy * oy - radius * radius
+        disc = b * b - a * c
+        ok = (disc > 0.0) & (a > 1e-12)
+        root = np.sqrt(np.maximum(disc, 0.0))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t_out = (-b + root) / a
+            t_in = np.maximum((-b - root) / a, 0.0)
+        z_in, z_out = oz + t_in * dz, oz + t_out * dz
+        hit |= ok & (t_out > 0.0) & (z_in >= 0.0) & (np.minimum(z_in, z_out) <= height)
+    full = np.repeat(np.repeat(hit, step, axis=0), step, axis=1)
+    out = np.zeros((h, w), dtype=bool)
+    rows, cols = min(h, full.shape[0]), min(w, full.shape[1])
+    out[:rows, :cols] = full[:rows, :cols]
+    if rows < h:
+        out[rows:] = out[rows - 1]
+    if cols < w:
+        out[:, cols:] = out[:, cols - 1 : cols]
+    return out
 
 
 def _in_arc(azimuths: FloatArray, lo: float, hi: float) -> NDArray[np.bool_]:
