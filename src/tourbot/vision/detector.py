@@ -93,7 +93,7 @@ class VisionConfig:
     azimuth_step: float = math.radians(0.1)
     person_radius: float = 0.4
     person_height: float = 2.0
-    max_depth_spread: float = 0.1
+    max_depth_spread: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -114,7 +114,7 @@ class Detection:
     """What one image pair gave: ``obstacles`` ``(K, 2)`` world points (with their ``heights`` and
     the ``pixels`` ``(K, 2)`` of image t they were seen at), ``floor`` ``(F, 2)`` world points the
     images agree on, ``inconsistent`` ``(H, W)`` the disagreeing pixels, ``masked`` the pixels of
-    moving visitors."""
+    moving visitors, ``spread`` ``(K,)`` each obstacle's depth spread (m per pixel of disparity)."""
 
     obstacles: FloatArray
     heights: FloatArray
@@ -122,6 +122,7 @@ class Detection:
     floor: FloatArray
     inconsistent: NDArray[np.bool_]
     masked: NDArray[np.bool_]
+    spread: FloatArray
 
 
 class VisionDetector:
@@ -207,9 +208,11 @@ class VisionDetector:
         if inconsistent.sum() > cfg.max_inconsistent * max(int(textured.sum()), 1):
             # most of the image disagrees: the motion is wrong (a slip, a bump), not the model
             none = np.zeros((0, 2))
-            return Detection(none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked)
+            return Detection(
+                none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked, np.zeros(0)
+            )
         # 3. along the epipolar lines
-        obstacles, heights, pixels = self._search(
+        obstacles, heights, pixels, spread = self._search(
             prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift, body_prev
         )
         s = cfg.stride
@@ -217,7 +220,7 @@ class VisionDetector:
         sub[::s, ::s] = True
         fl = points[agree & sub][:, :2].astype(np.float64)
         near = np.hypot(fl[:, 0] - pos_c[0], fl[:, 1] - pos_c[1]) <= cfg.max_distance
-        return Detection(obstacles, heights, pixels, fl[near], inconsistent, masked)
+        return Detection(obstacles, heights, pixels, fl[near], inconsistent, masked, spread)
 
     def _residual_shift(
         self, warped: Float32Array, current: Float32Array, valid: NDArray[np.bool_]
@@ -283,7 +286,7 @@ class VisionDetector:
         pos_p: FloatArray,
         shift: tuple[float, float],
         body_prev: NDArray[np.bool_],
-    ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    ) -> tuple[FloatArray, FloatArray, NDArray[np.int64], FloatArray]:
         """Depth along each inconsistent pixel's ray that best matches image t-1 (patch NCC)."""
         import cv2
 
@@ -292,7 +295,7 @@ class VisionDetector:
         sub = np.zeros_like(inconsistent)
         sub[s // 2 :: s, s // 2 :: s] = True
         vv, uu = np.nonzero(inconsistent & sub)
-        empty = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64))
+        empty = (np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2), dtype=np.int64), np.zeros(0))
         if not len(vv):
             return empty
         if len(vv) > cfg.max_pixels:
@@ -360,6 +363,7 @@ class VisionDetector:
         good &= spread <= cfg.max_depth_spread
         p3 = pts[rows, best][good]
         px = np.stack([uu, vv], axis=-1)[good]
+        spread = spread[good]
         z = p3[:, 2]
         # triangulation angle: near the epipole the depth is not determined by the images
         ra = p3 - pos_c
@@ -369,14 +373,14 @@ class VisionDetector:
         )
         parallax = np.arccos(np.clip(cosang, -1.0, 1.0))
         keep = (z >= cfg.min_height) & (z <= cfg.max_height) & (parallax >= cfg.min_parallax)
-        p3, px = p3[keep], px[keep]
+        p3, px, spread = p3[keep], px[keep], spread[keep]
         if len(p3):
             laser = cur.endpoints[cur.returned]
             if len(laser):
                 dd, _ = cKDTree(laser).query(p3[:, :2], distance_upper_bound=cfg.laser_explains)
                 far = ~np.isfinite(dd)
-                p3, px = p3[far], px[far]
-        return p3[:, :2].copy(), p3[:, 2].copy(), px.astype(np.int64)
+                p3, px, spread = p3[far], px[far], spread[far]
+        return p3[:, :2].copy(), p3[:, 2].copy(), px.astype(np.int64), spread
 
 
 def body_mask(
