@@ -80,8 +80,9 @@ class VisionEstimatorConfig:
     """``detector``: the detector's parameters; ``min_baseline`` (m): travel needed between paired
     images; ``max_turn`` (rad): images farther apart in heading are not paired (the robot turns on
     the spot; the odometry's turn is its least exact part); ``footprint``: radius (m) about the
-    robot's centre where vision cells are forgotten: it stands there, and the camera, blind nearer
-    than ``detector.min_distance``, could never clear a phantom that close; ``map_margin``:
+    robot's centre where vision cells are forgotten: the robot's own radius, where it stands (a
+    wider circle erased the obstacles just beside the robot, the ones it was about to hit, while
+    the camera, blind nearer than ``detector.min_distance``, could not see them again); ``map_margin``:
     detections this close to the static map's obstacles are the map's (m); ``camera``: the images
     it takes; ``pose_tolerance`` (m): the displacement by the pose's error within which a point
     still counts as where it is placed (the 10 cm of the detection target); ``min_pose_weight``:
@@ -91,7 +92,7 @@ class VisionEstimatorConfig:
     detector: VisionConfig = field(default_factory=VisionConfig)
     min_baseline: float = 0.08
     max_turn: float = math.radians(4.0)
-    footprint: float = 0.45
+    footprint: float = 0.3
     map_margin: float = 0.2
     camera: str = "forward"
     pose_tolerance: float = 0.1
@@ -178,23 +179,31 @@ class VisionObstacleEstimator:
             return None
         # the two images placed by one estimate and the odometry between them (short-term exact)
         view = View(image.pixels, compose(prev.pose, motion), endpoints, returned, visitors)
+        det = self.add_pair(prev, view, placed)
+        self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned, visitors), odom
+        self._prev_cov = cov
+        return det
+
+    def add_pair(self, prev: View, cur: View, covariance: FloatArray) -> Detection:
+        """Detect in one pair of views placed by an estimate of covariance ``covariance`` ``(3, 3)``
+        and accumulate the detection into the map (what :meth:`on_image` does with each pair; a
+        replay of recorded pairs calls it directly)."""
+        cfg = self.config
         t0 = time.perf_counter()
-        det = self.detector.detect(prev, view)
+        det = self.detector.detect(prev, cur)
         obstacles = self._off_map(det.obstacles)
         self.map.update(
             obstacles,
             det.floor,
-            evidence_weights(prev.pose, placed, obstacles, cfg.pose_tolerance),
-            evidence_weights(prev.pose, placed, det.floor, cfg.pose_tolerance),
+            evidence_weights(prev.pose, covariance, obstacles, cfg.pose_tolerance),
+            evidence_weights(prev.pose, covariance, det.floor, cfg.pose_tolerance),
         )
-        self.map.clear(view.pose[:2], cfg.footprint)
+        self.map.clear(cur.pose[:2], cfg.footprint)
         self.seconds += time.perf_counter() - t0
         self.pairs += 1
-        self.last = (prev, view, det)
+        self.last = (prev, cur, det)
         if self.best is None or len(det.obstacles) > len(self.best[2].obstacles):
             self.best = self.last
-        self._prev, self._prev_odom = View(image.pixels, pose, endpoints, returned, visitors), odom
-        self._prev_cov = cov
         return det
 
     def _off_map(self, points: FloatArray) -> FloatArray:
