@@ -95,7 +95,7 @@ def replay(files: list[Path], mode: str, overrides: dict[str, Any]) -> list[dict
     out = []
     for f in files:
         with f.open("rb") as fh:
-            pairs = pickle.load(fh)  # noqa: S301 (our own recordings)
+            pairs = pickle.load(fh)  # our own recordings
         est = VisionObstacleEstimator(site.grid, ForwardCamera(), config)
         path = []
         for prev, cur, ip, ic, cov in pairs:
@@ -108,7 +108,13 @@ def replay(files: list[Path], mode: str, overrides: dict[str, Any]) -> list[dict
         false = int((vm.occupied() & ~near_real).sum())
         seen = int((vm.floor_seen & ~near_real).sum())
         outline = bench._outline_found(site, np.asarray(path), vm.obstacle_points(), robot.laser_height)
-        row = {"file": f.name, "pairs": len(pairs), "false": false, "seen": seen, "share": false / max(seen, 1)}
+        row = {
+            "file": f.name,
+            "pairs": len(pairs),
+            "false": false,
+            "seen": seen,
+            "share": false / max(seen, 1),
+        }
         row["outline"] = outline
         out.append(row)
         print(json.dumps(row), flush=True)

@@ -73,7 +73,9 @@ def test_a_moving_laser_return_masks_its_columns(room: Site) -> None:
     assert 200 < cols.mean() < 440  # straight ahead: the middle of the image
 
 
-def _body_brute(rays: np.ndarray, origin: np.ndarray, people: np.ndarray, radius: float, height: float) -> np.ndarray:
+def _body_brute(
+    rays: np.ndarray, origin: np.ndarray, people: np.ndarray, radius: float, height: float
+) -> np.ndarray:
     """The twin of body_mask: each ray stepped by 1 cm until it leaves the floor's height range."""
     t = np.arange(0.0, 15.0, 0.01)
     out = np.zeros(rays.shape[:-1], dtype=bool)

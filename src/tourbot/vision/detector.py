@@ -173,7 +173,9 @@ class VisionDetector:
         body = body_mask(rays, pos_c, cur.people, cfg.person_radius, cfg.person_height)
         from_body = np.zeros_like(body)
         if body_prev.any():
-            sampled, _ = back_project(body_prev.astype(np.uint8), points, rot_p, pos_p, m.fx, m.fy, m.cx, m.cy)
+            sampled, _ = back_project(
+                body_prev.astype(np.uint8), points, rot_p, pos_p, m.fx, m.fy, m.cx, m.cy
+            )
             from_body = sampled > 0.0
         # the estimated motion is a little off (the odometry's turn above all): the residual shift of
         # the floor between the two images, by phase correlation, is taken out
