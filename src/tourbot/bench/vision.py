@@ -276,6 +276,9 @@ def register(bench: typer.Typer) -> None:
     @bench.command("vision")
     def vision(
         seeds: Annotated[int, typer.Option(help="Seeds (>= 5 for the intervals).")] = 5,
+        first_seed: Annotated[
+            int, typer.Option(help="The first seed (seeds not used to choose the parameters).")
+        ] = 0,
         max_time: Annotated[
             float, typer.Option(help="Simulated seconds before a tour counts as failed.")
         ] = 240.0,
@@ -300,6 +303,8 @@ def register(bench: typer.Typer) -> None:
 
         if seeds < 1:
             raise InputError(f"must be at least 1, got {seeds}", field="--seeds")
+        if first_seed < 0:
+            raise InputError(f"must be 0 or more, got {first_seed}", field="--first-seed")
         if jobs < 1:
             raise InputError(f"must be at least 1, got {jobs}", field="--jobs")
         console = Console()
@@ -308,7 +313,11 @@ def register(bench: typer.Typer) -> None:
         runs: list[tuple[Run, Any]] = []
         # the rendered (vision) tours first: the longest tasks start first
         tasks = sorted(
-            ((seed, crowd, mode, max_time) for seed in range(seeds) for crowd, mode in plan),
+            (
+                (seed, crowd, mode, max_time)
+                for seed in range(first_seed, first_seed + seeds)
+                for crowd, mode in plan
+            ),
             key=lambda t: (t[2] != "vision", t[0]),
         )
         partial = (output or default_output("vision")).with_suffix(".runs.jsonl")
@@ -321,7 +330,7 @@ def register(bench: typer.Typer) -> None:
             task = progress.add_task("tours", total=len(tasks))
             for future in as_completed([pool.submit(_task, *t) for t in tasks]):
                 run, extra = future.result()
-                runs.append((run, extra if run.seed == 0 else None))
+                runs.append((run, extra if run.seed == first_seed else None))
                 with partial.open("a") as fh:  # each tour as it ends: a cut run keeps what it measured
                     fh.write(json.dumps(dict(run.__dict__)) + "\n")
                 progress.advance(task)
@@ -331,7 +340,13 @@ def register(bench: typer.Typer) -> None:
             ["figure", "crowd", "method", "mean", "±", "target", "met"],
         )
         report.meta.update(
-            {"site": "fhw", "tour": TOUR, "dwell_scale": DWELL_SCALE, "seeds": seeds, "max_time": max_time}
+            {
+                "site": "fhw",
+                "tour": TOUR,
+                "dwell_scale": DWELL_SCALE,
+                "seeds": list(range(first_seed, first_seed + seeds)),
+                "max_time": max_time,
+            }
         )
 
         def add(
