@@ -14,7 +14,8 @@ al. 2002): read :meth:`VisionDetector.detect` first.
 4. visitors leave no phantom: the people tracker's estimates (Burgard et al., Sec. 4) at each
    image's time are upright bodies (:func:`body_mask`); a pixel of image t on a body, a pixel of
    ``î_t`` sampled from a body in image t-1, and an epipolar candidate that falls on a body in
-   image t-1 are not used; visitors the tracker has not yet taken up are masked by the laser
+   image t-1 are not used (a track on laser returns all narrower than a leg is a table's legs
+   and masks nothing); visitors the tracker has not yet taken up are masked by the laser
    alone (endpoints of ``s_t`` with no endpoint of ``s_{t-1}`` near them, and the other way round:
    the image columns of their bodies). The floor points where the images agree are returned too
    (free space for the map).
@@ -168,9 +169,13 @@ class VisionDetector:
         valid &= finite
         # the tracker's visitors: on a body in image t, or sampled from a body in image t-1
         body_prev = body_mask(
-            self._rays @ rot_p.T.astype(np.float32), pos_p, prev.people, cfg.person_radius, cfg.person_height
+            self._rays @ rot_p.T.astype(np.float32),
+            pos_p,
+            self._visitors(prev),
+            cfg.person_radius,
+            cfg.person_height,
         )
-        body = body_mask(rays, pos_c, cur.people, cfg.person_radius, cfg.person_height)
+        body = body_mask(rays, pos_c, self._visitors(cur), cfg.person_radius, cfg.person_height)
         from_body = np.zeros_like(body)
         if body_prev.any():
             sampled, _ = back_project(
@@ -239,6 +244,25 @@ class VisionDetector:
         if response < 0.05 or not 0.5 <= math.hypot(du, dv) <= cfg.max_shift:
             return (0.0, 0.0)  # weak, below half a pixel, or too large to be a small error
         return (float(du), float(dv))
+
+    def _visitors(self, view: View) -> FloatArray:
+        """The tracker's visitors of ``view`` that its scan does not show to be posts: a track whose
+        laser returns (within ``person_radius``) are all runs narrower than ``min_leg`` stands on
+        a table's legs, not on a visitor's; a track with no return near it (hidden from the
+        laser) is kept."""
+        cfg = self.config
+        people = np.asarray(view.people, dtype=np.float64).reshape(-1, 2)
+        if not len(people):
+            return people
+        ret = view.endpoints[view.returned]
+        if not len(ret):
+            return people
+        wide = view.endpoints[view.returned & _wide_clusters(view.endpoints, view.returned, cfg.min_leg)]
+        near_any = np.isfinite(cKDTree(ret).query(people, distance_upper_bound=cfg.person_radius)[0])
+        near_wide = np.zeros(len(people), dtype=bool)
+        if len(wide):
+            near_wide = np.isfinite(cKDTree(wide).query(people, distance_upper_bound=cfg.person_radius)[0])
+        return people[near_wide | ~near_any]
 
     def _moving_mask(
         self, prev: View, cur: View, azimuth: FloatArray, position: FloatArray
