@@ -91,7 +91,7 @@ def replay(files: list[Path], mode: str, overrides: dict[str, Any]) -> list[dict
     cv2.setNumThreads(1)
     site = load_site(site_path("fhw"))
     robot = DiffDriveConfig()
-    config = VisionEstimatorConfig(detector=replace(VisionConfig(), **overrides), footprint=robot.radius)
+    config = VisionEstimatorConfig(detector=replace(VisionConfig(), **overrides))
     out = []
     for f in files:
         with f.open("rb") as fh:

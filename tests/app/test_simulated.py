@@ -186,8 +186,7 @@ def test_with_the_object_estimator_a_door_found_closed_is_planned_around(tmp_pat
 
 def test_vision_runs_with_the_robots_one_tracker(hall: Site) -> None:
     """The forward camera's detector masks the visitors of the robot's own people tracker: one
-    tracker in the runtime (asked for or not), handed to the detector; the map forgets vision cells
-    only under the robot's own footprint."""
+    tracker in the runtime (asked for or not), handed to the detector."""
     from tourbot.people.estimator import PeopleEstimator
     from tourbot.runtime.vision import VisionObstacleEstimator
 
@@ -199,6 +198,5 @@ def test_vision_runs_with_the_robots_one_tracker(hall: Site) -> None:
         (vision,) = [e for e in robot.runtime.estimators if isinstance(e, VisionObstacleEstimator)]
         assert len(trackers) == 1
         assert vision._people is trackers[0]
-        assert vision.config.footprint == SimulationSettings().navigation.robot.radius
     plain = simulated_runtime(hall, SimulationSettings(crowd="empty"), record=False)
     assert not [e for e in plain.runtime.estimators if isinstance(e, PeopleEstimator)]

@@ -126,13 +126,12 @@ def simulated_runtime(
         tracker = PeopleEstimator(grid_map=site.grid, rng=np.random.default_rng(s.seed))
         estimators.append(tracker)
     if s.vision:
-        from tourbot.runtime.vision import VisionEstimatorConfig, VisionObstacleEstimator
+        from tourbot.runtime.vision import VisionObstacleEstimator
         from tourbot.sim.camera import ForwardCameraSim
 
         forward = ForwardCameraSim(site, seed=s.seed)
         cameras.append(forward)
-        vision = VisionEstimatorConfig(footprint=s.navigation.robot.radius)
-        estimators.append(VisionObstacleEstimator(site.grid, forward.camera, vision, people=tracker))
+        estimators.append(VisionObstacleEstimator(site.grid, forward.camera, people=tracker))
     from tourbot.localization.mcl import MonteCarloLocalization
 
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras, fleet=fleet)
