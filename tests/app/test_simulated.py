@@ -182,3 +182,21 @@ def test_with_the_object_estimator_a_door_found_closed_is_planned_around(tmp_pat
     last = Recorder.read(file)[-1]
     assert [d.name for d in last.doors] == ["south-door", "north-door"]
     assert np.isclose(last.doors[0].angle, snap.doors[0].angle, atol=0.05)
+
+
+def test_vision_runs_with_the_robots_one_tracker(hall: Site) -> None:
+    """The forward camera's detector masks the visitors of the robot's own people tracker: one
+    tracker in the runtime (asked for or not), handed to the detector."""
+    from tourbot.people.estimator import PeopleEstimator
+    from tourbot.runtime.vision import VisionObstacleEstimator
+
+    for people in (False, True):
+        robot = simulated_runtime(
+            hall, SimulationSettings(crowd="empty", vision=True, people=people), record=False
+        )
+        trackers = [e for e in robot.runtime.estimators if isinstance(e, PeopleEstimator)]
+        (vision,) = [e for e in robot.runtime.estimators if isinstance(e, VisionObstacleEstimator)]
+        assert len(trackers) == 1
+        assert vision._people is trackers[0]
+    plain = simulated_runtime(hall, SimulationSettings(crowd="empty"), record=False)
+    assert not [e for e in plain.runtime.estimators if isinstance(e, PeopleEstimator)]

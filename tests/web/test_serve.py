@@ -186,6 +186,21 @@ def test_the_simulated_robot_takes_a_high_resolution_picture() -> None:
     assert corr(turned, reference.frame(0.0, away).image) > 0.9
 
 
+def test_a_served_robot_has_one_people_tracker() -> None:
+    """The pages' people and the forward camera's masks come from one tracker per robot (serve once
+    added its own beside the runtime's)."""
+    from tourbot.localization.mcl import MCLConfig
+    from tourbot.people.estimator import PeopleEstimator
+    from tourbot.web.runtime_link import RuntimeLink
+    from tourbot.web.serve import SimulatedRobotFactory
+
+    for cameras in ((), ("forward",)):
+        link = SimulatedRobotFactory("fhw", "empty", 0, MCLConfig().with_samples(100), cameras=cameras)()
+        assert isinstance(link, RuntimeLink)
+        trackers = [e for e in link.runtime.estimators if isinstance(e, PeopleEstimator)]
+        assert len(trackers) == 1
+
+
 @pytest.mark.slow
 def test_served_robots_in_their_processes_share_one_crowd() -> None:
     """``serve --robots 2`` as it runs them (each robot in its own process, the museum's world in

@@ -72,6 +72,9 @@ class SimulationSettings:
     vision: bool = False
     # the doors' and furniture's states estimated and fed back to MCL's and the navigator's map
     objects: bool = False
+    # the people tracker on the laser (its tracks in the snapshot); always on with ``vision``,
+    # whose detector masks the tracker's visitors: one tracker per robot
+    people: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
 
 
@@ -114,13 +117,21 @@ def simulated_runtime(
         cameras.append(CeilingCameraSim(site, rig, seed=s.seed))  # an error if the site has no lights
         lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)
         ceiling = CeilingSensor(rig, lights, site.grid, seed=s.seed)
+    tracker = None
+    if s.people or s.vision:
+        import numpy as np
+
+        from tourbot.people.estimator import PeopleEstimator
+
+        tracker = PeopleEstimator(grid_map=site.grid, rng=np.random.default_rng(s.seed))
+        estimators.append(tracker)
     if s.vision:
         from tourbot.runtime.vision import VisionObstacleEstimator
         from tourbot.sim.camera import ForwardCameraSim
 
         forward = ForwardCameraSim(site, seed=s.seed)
         cameras.append(forward)
-        estimators.append(VisionObstacleEstimator(site.grid, forward.camera))
+        estimators.append(VisionObstacleEstimator(site.grid, forward.camera, people=tracker))
     from tourbot.localization.mcl import MonteCarloLocalization
 
     simulator = Simulator(site, sim_cfg, seed=s.seed, start=start, cameras=cameras, fleet=fleet)

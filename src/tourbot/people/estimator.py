@@ -8,6 +8,7 @@ snapshot, from where the web view draws them as avatars and the navigator avoids
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tourbot.interfaces import EstimatorOutput, PoseBelief, ScanShare
 from tourbot.maps.grid import OccupancyGrid
@@ -39,6 +40,7 @@ class PeopleEstimator:
         self.tracker = PeopleTracker(config, grid_map=grid_map, rng=rng)
         self.include_tentative = include_tentative
         self._tracks: list[Track] = []
+        self._time: float | None = None
 
     def on_odometry(self, odom: Odometry) -> None:
         """Odometry is not used: the pose comes with each scan's belief."""
@@ -46,6 +48,20 @@ class PeopleEstimator:
 
     def on_scan(self, scan: Scan, belief: PoseBelief) -> None:
         self._tracks = self.tracker.update(scan, np.asarray(belief.estimate.pose, dtype=np.float64))
+        self._time = float(scan.timestamp)
+
+    def positions(self, time: float | None = None) -> NDArray[np.float64]:
+        """The confirmed visitors' positions ``(N, 2)`` (world), moved on with their estimated
+        velocities from the last scan to ``time`` (the constant-velocity model of the tracker's
+        prediction, Burgard et al. Sec. 4); as of the last scan when ``time`` is None."""
+        tracks = [t for t in self._tracks if t.confirmed]
+        if not tracks:
+            return np.zeros((0, 2))
+        pos = np.array([t.position for t in tracks], dtype=np.float64)
+        if time is not None and self._time is not None:
+            vel = np.array([t.velocity for t in tracks], dtype=np.float64)
+            pos += vel * max(0.0, float(time) - self._time)
+        return pos
 
     def state(self) -> EstimatorOutput:
         people = tuple(

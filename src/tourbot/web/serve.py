@@ -139,10 +139,7 @@ class SimulatedRobotFactory:
         return replace(self, start=pose)
 
     def __call__(self) -> RobotLink:
-        import numpy as np
-
         from tourbot.app.simulated import SimulationSettings, simulated_runtime
-        from tourbot.people.estimator import PeopleEstimator
         from tourbot.site.default import site_path
         from tourbot.site.model import load_site
         from tourbot.web.runtime_link import RuntimeLink
@@ -154,6 +151,7 @@ class SimulatedRobotFactory:
             seed=self.seed,
             mcl=self.mcl,
             objects=True,
+            people=True,  # the pages show the people the robot perceives: its tracker on its laser
             ceiling="ceiling" in self.cameras,
             vision="forward" in self.cameras,
         )
@@ -167,9 +165,6 @@ class SimulatedRobotFactory:
             if start is None and site.exhibits:  # robot k starts at exhibit k, not on another robot
                 start = site.exhibits[index % len(site.exhibits)].viewing_pose
         robot = simulated_runtime(site, sim_settings, start=start, record=False, fleet=fleet)
-        # the people the pages show are the ones the robot perceives: its tracker on its laser
-        rng = np.random.default_rng(self.seed)
-        robot.runtime.add_estimator(PeopleEstimator(grid_map=site.grid, rng=rng))
         if self.foxglove is not None:
             from tourbot.app.ros2_publishing import RunPublisher
             from tourbot.io.foxglove_live import FoxgloveLive
