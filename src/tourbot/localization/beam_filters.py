@@ -26,8 +26,8 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from tourbot.maps.beam_model import _FAR, shorter_than_expected_one
-from tourbot.maps.raycast import RayCaster, _angles, _rays_in_cells
+from tourbot.maps.beam_model import FAR_SIGMAS, shorter_than_expected_one
+from tourbot.maps.raycast import RayCaster, beam_angles, rays_in_cells
 from tourbot.maps.traversal import cast_ray
 
 __all__ = [
@@ -288,10 +288,10 @@ def novelty_filter_cast(
     """
     w = _normalized(weights)
     n = w.shape[0]
-    ox, oy, oth = _rays_in_cells(caster.grid, np.asarray(laser_poses, dtype=np.float64).reshape(-1, 3))
+    ox, oy, oth = rays_in_cells(caster.grid, np.asarray(laser_poses, dtype=np.float64).reshape(-1, 3))
     if ox.shape[0] != n:
         raise ValueError(f"{ox.shape[0]} laser poses for {n} weights")
-    a = _angles(angles)
+    a = beam_angles(angles)
     z = np.ascontiguousarray(np.asarray(measured, dtype=np.float64))
     if z.shape != a.shape:
         raise ValueError(f"{z.shape[0]} readings for {a.shape[0]} beam angles")
@@ -352,9 +352,10 @@ def _novelty_cast_kernel(
         if z >= max_range:  # no return: never shorter than expected
             keep[b] = theta >= 0.0
             continue
-        # Beyond this many cells the expected range e exceeds z + _FAR sigma (and _FAR sigma), where
-        # Eq. 5 is 1 to double precision: a ray that gets that far need not be cast further.
-        reach = min(max_cells, (max(z, 0.0) + _FAR * sigma_hit) / scale + 2.0)
+        # Beyond this many cells the expected range e exceeds z + FAR_SIGMAS sigma (and FAR_SIGMAS
+        # sigma), where Eq. 5 is 1 to double precision: a ray that gets that far need not be cast
+        # further.
+        reach = min(max_cells, (max(z, 0.0) + FAR_SIGMAS * sigma_hit) / scale + 2.0)
         total = 0.0
         for i in range(n):
             # the ray of tourbot.maps.raycast.cast_rays_kernel, rounded to float32 metres as it is

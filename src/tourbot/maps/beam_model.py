@@ -36,6 +36,7 @@ from scipy.special import ndtr
 from tourbot.errors import TourbotError
 
 __all__ = [
+    "FAR_SIGMAS",
     "BeamModel",
     "BeamModelError",
     "beam_probabilities_kernel",
@@ -114,14 +115,14 @@ def p_shorter_than_expected(
     return np.asarray(np.where(z >= max_range, 0.0, sf), dtype=np.float64)
 
 
-_FAR = 9.0  # standard deviations beyond which the normal CDF is 0 or 1 to double precision (~1e-19)
+FAR_SIGMAS = 9.0  # standard deviations beyond which the normal CDF is 0 or 1 to double precision (~1e-19)
 
 
 @numba.njit(cache=True, inline="always")
 def _ndtr(x: float) -> float:
-    if x > _FAR:
+    if x > FAR_SIGMAS:
         return 1.0
-    if x < -_FAR:
+    if x < -FAR_SIGMAS:
         return 0.0
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
 

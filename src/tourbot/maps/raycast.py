@@ -53,12 +53,14 @@ __all__ = [
     "DistanceCaster",
     "RangeCaster",
     "RayCaster",
+    "beam_angles",
     "blocking_mask",
     "cast_circles_reference",
     "cast_rays_kernel",
     "cast_rays_reference",
     "circle_ranges",
     "padded_table",
+    "rays_in_cells",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -75,7 +77,7 @@ def blocking_mask(grid: OccupancyGrid, unknown_blocks: bool = True) -> NDArray[n
     return mask
 
 
-def _rays_in_cells(grid: OccupancyGrid, poses: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+def rays_in_cells(grid: OccupancyGrid, poses: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
     """World laser poses ``(N, 3)`` -> origins in cell units (x along columns) and headings."""
     p = np.asarray(poses, dtype=np.float64)
     if p.ndim != 2 or p.shape[1] != 3:
@@ -93,7 +95,8 @@ def _rays_in_cells(grid: OccupancyGrid, poses: ArrayLike) -> tuple[FloatArray, F
     )
 
 
-def _angles(angles: ArrayLike) -> FloatArray:
+def beam_angles(angles: ArrayLike) -> FloatArray:
+    """Beam angles (relative to the laser) as a contiguous 1-D float array; a clear error otherwise."""
     a = np.ascontiguousarray(np.asarray(angles, dtype=np.float64))
     if a.ndim != 1:
         raise MapError(f"beam angles must be (B,), got shape {a.shape}")
@@ -367,8 +370,8 @@ class RayCaster:
 
     def cast(self, poses: ArrayLike, angles: ArrayLike) -> Float32Array:
         """Ranges ``(N, B)`` of beams at ``angles`` (laser frame) from laser ``poses`` ``(N, 3)``."""
-        ox, oy, oth = _rays_in_cells(self.grid, poses)
-        a = _angles(angles)
+        ox, oy, oth = rays_in_cells(self.grid, poses)
+        a = beam_angles(angles)
         out = np.empty((ox.shape[0], a.shape[0]), dtype=np.float32)
         if out.size:
             rows, cols = self.grid.shape
@@ -413,7 +416,7 @@ class RayCaster:
                 np.ascontiguousarray(p[:, 0]),
                 np.ascontiguousarray(p[:, 1]),
                 np.ascontiguousarray(p[:, 2]),
-                _angles(angles),
+                beam_angles(angles),
                 np.ascontiguousarray(c[:, 0]),
                 np.ascontiguousarray(c[:, 1]),
                 r,
@@ -422,8 +425,8 @@ class RayCaster:
 
     def cast_reference(self, poses: ArrayLike, angles: ArrayLike) -> Float32Array:
         """:meth:`cast` computed by :func:`cast_rays_reference` (slow; for tests)."""
-        ox, oy, oth = _rays_in_cells(self.grid, poses)
-        a = _angles(angles)
+        ox, oy, oth = rays_in_cells(self.grid, poses)
+        a = beam_angles(angles)
         n, nb = ox.shape[0], a.shape[0]
         r = cast_rays_reference(
             self.blocked,
