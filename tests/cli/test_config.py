@@ -13,7 +13,7 @@ def test_config_show_prints_the_effective_configuration(capsys: pytest.CaptureFi
     main(["config", "show"])
     defaults = yaml.safe_load(capsys.readouterr().out)
     assert defaults["mcl"]["sampling"]["max_samples"] == 2000
-    assert defaults["mcl"]["sensor"]["field"]["sigma_hit"] == 0.2
+    assert defaults["mcl"]["sensor"]["field"]["sigma_hit"] == 0.05
     assert defaults["grid"]["cell_size"] == 0.15
     main(["config", "show", "--config", str(FHW_PROFILE)])
     fhw = yaml.safe_load(capsys.readouterr().out)

@@ -23,7 +23,7 @@ def test_defaults_are_the_papers_and_the_data() -> None:
     # learned from the data as PR Sec. 6.3 and Fox et al. 1998 (Eq. 5) do: bench sensor-model
     assert cfg.sensor.field == LikelihoodFieldParams(sigma_hit=0.05, distance="surface")
     assert cfg.sensor.novelty_sigma == 0.05
-    assert cfg.sensor.likelihood_exponent == 0.1  # 8-20 neighbouring beams err together
+    assert cfg.sensor.likelihood_exponent == 1.0  # the product (PR Eq. 6.2): see the docstring
     assert (cfg.recovery.alpha_slow, cfg.recovery.alpha_fast, cfg.recovery.ratio) == (0.001, 0.1, 1.0)
     assert cfg.recovery.verify_period is None
     assert cfg.sensor.entropy_cell == (0.15, math.radians(2.0))
