@@ -35,10 +35,17 @@ class WalkingModel:
     accel_std: float = 1.0
     max_speed: float = 2.0
     position_std: float = 0.02
+    manoeuvre_probability: float = 0.0
+    manoeuvre_accel_std: float = 5.0
+    stop_probability: float = 0.0
 
     def noise(self, rng: np.random.Generator, shape: tuple[int, int]) -> FloatArray:
-        """Standard normal draws ``shape + (4,)`` for :func:`predict_samples` (2 accel, 2 jitter)."""
-        return rng.standard_normal((*shape, 4))
+        """Draws ``shape + (6,)`` for :func:`predict_samples`: 2 accelerations and 2 jitters
+        (standard normal), then 2 uniform draws in [0, 1) that pick the manoeuvre and the stop."""
+        out = np.empty((*shape, 6))
+        out[..., 0:4] = rng.standard_normal((*shape, 4))
+        out[..., 4:6] = rng.random((*shape, 2))
+        return out
 
 
 def predict_samples_reference(
@@ -49,8 +56,10 @@ def predict_samples_reference(
     ``v' = v + a dt`` with ``a ~ N(0, accel_std^2)`` per axis, speed capped at ``max_speed``;
     ``p' = p + (v + v') dt / 2 + jitter``.
     """
-    a = noise[..., 0:2] * model.accel_std
+    manoeuvre = noise[..., 4:5] < model.manoeuvre_probability
+    a = noise[..., 0:2] * np.where(manoeuvre, model.manoeuvre_accel_std, model.accel_std)
     v = samples[..., 2:4] + a * dt
+    v = np.where(noise[..., 5:6] < model.stop_probability, 0.0, v)
     speed = np.linalg.norm(v, axis=-1, keepdims=True)
     scale = np.where(speed > model.max_speed, model.max_speed / np.maximum(speed, 1e-12), 1.0)
     v = v * scale
@@ -66,13 +75,20 @@ def _predict_kernel(
     accel_std: float,
     max_speed: float,
     position_std: float,
+    manoeuvre_probability: float,
+    manoeuvre_accel_std: float,
+    stop_probability: float,
 ) -> FloatArray:
     K, N = samples.shape[0], samples.shape[1]
     out = np.empty_like(samples)
     for k in range(K):
         for n in range(N):
-            vx = samples[k, n, 2] + noise[k, n, 0] * accel_std * dt
-            vy = samples[k, n, 3] + noise[k, n, 1] * accel_std * dt
+            acc = manoeuvre_accel_std if noise[k, n, 4] < manoeuvre_probability else accel_std
+            vx = samples[k, n, 2] + noise[k, n, 0] * acc * dt
+            vy = samples[k, n, 3] + noise[k, n, 1] * acc * dt
+            if noise[k, n, 5] < stop_probability:
+                vx = 0.0
+                vy = 0.0
             speed = np.sqrt(vx * vx + vy * vy)
             if speed > max_speed:
                 s = max_speed / speed
@@ -100,4 +116,7 @@ def predict_samples(samples: FloatArray, noise: FloatArray, dt: float, model: Wa
         model.accel_std,
         model.max_speed,
         model.position_std,
+        model.manoeuvre_probability,
+        model.manoeuvre_accel_std,
+        model.stop_probability,
     )
