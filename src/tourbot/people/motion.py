@@ -35,9 +35,9 @@ class WalkingModel:
     accel_std: float = 1.0
     max_speed: float = 2.0
     position_std: float = 0.02
-    manoeuvre_probability: float = 0.0
+    manoeuvre_probability: float = 0.1
     manoeuvre_accel_std: float = 5.0
-    stop_probability: float = 0.0
+    stop_probability: float = 0.05
 
     def noise(self, rng: np.random.Generator, shape: tuple[int, int]) -> FloatArray:
         """Draws ``shape + (6,)`` for :func:`predict_samples`: 2 accelerations and 2 jitters
