@@ -137,7 +137,6 @@ class SJPDAFConfig:
     min_evidence: float = -4.0
     max_evidence: float = 8.0
     confirm_existence: float = 0.95
-    confirm_travel: float = 0.0
     end_existence: float = 0.1
     max_position_std: float = 1.0
     max_unseen: float = 1.5
@@ -181,8 +180,6 @@ class _TrackState:
     confirmed: bool = False
     occluded: bool = False
     unseen: float = 0.0  # seconds since the last detection
-    origin: tuple[float, float] = (0.0, 0.0)  # where it was born, world frame
-    travelled: float = 0.0  # the farthest its mean has been from ``origin`` (m)
 
     def log_odds(self, config: SJPDAFConfig) -> float:
         prior = math.log(config.existence_prior / (1.0 - config.existence_prior))
@@ -454,8 +451,7 @@ class PeopleTracker:
             said = gained_confirmed[k] if st.confirmed else gained[k]
             st.evidence = float(np.clip(st.evidence + said + missed, cfg.min_evidence, cfg.max_evidence))
             odds = st.log_odds(cfg)
-            st.travelled = max(st.travelled, math.dist(st.origin, mean[k]))
-            if odds >= confirm and st.travelled >= cfg.confirm_travel:
+            if odds >= confirm:
                 st.confirmed = True
             lost = spread[k] > cfg.max_position_std or st.unseen > cfg.max_unseen
             if odds < end or lost or far[k]:
@@ -490,12 +486,6 @@ class PeopleTracker:
             self._samples = np.concatenate([self._samples, s], axis=0)
             for j in new.tolist():
                 self._states.append(
-                    _TrackState(
-                        id=self._next_id,
-                        evidence=float(evidence[j]),
-                        shape=float(shape[j]),
-                        hits=1,
-                        origin=(float(features.points[j, 0]), float(features.points[j, 1])),
-                    )
+                    _TrackState(id=self._next_id, evidence=float(evidence[j]), shape=float(shape[j]), hits=1)
                 )
                 self._next_id += 1
