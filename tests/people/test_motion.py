@@ -8,6 +8,8 @@ from hypothesis import strategies as st
 
 from tourbot.people.motion import WalkingModel, predict_samples, predict_samples_reference
 
+NO_NOISE = np.array([[[0.0, 0.0, 0.0, 0.0, 1.0]]])  # no acceleration, no jitter, no manoeuvre
+
 
 @settings(max_examples=40, deadline=None)
 @given(
@@ -33,13 +35,13 @@ def test_kernel_matches_reference(k: int, n: int, dt: float, seed: int, accel: f
 
 def test_without_noise_people_keep_walking() -> None:
     samples = np.array([[[1.0, 2.0, 0.5, -1.0]]])
-    out = predict_samples(samples, np.zeros((1, 1, 5)) + [0, 0, 0, 0, 1], 0.4, WalkingModel())
+    out = predict_samples(samples, NO_NOISE, 0.4, WalkingModel())
     np.testing.assert_allclose(out[0, 0], [1.2, 1.6, 0.5, -1.0])
 
 
 def test_speed_is_capped() -> None:
     samples = np.array([[[0.0, 0.0, 5.0, 0.0]]])
-    out = predict_samples(samples, np.zeros((1, 1, 5)) + [0, 0, 0, 0, 1], 0.1, WalkingModel(max_speed=2.0))
+    out = predict_samples(samples, NO_NOISE, 0.1, WalkingModel(max_speed=2.0))
     assert np.hypot(out[0, 0, 2], out[0, 0, 3]) == np.float64(2.0)
 
 
