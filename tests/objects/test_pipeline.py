@@ -65,7 +65,7 @@ def test_the_path_is_the_localizers_estimate_and_recoverys_guesses_stay_out(
 ) -> None:
     """The bench's pose error is MCL's: the estimate it reports, not the mean of its samples
     (recovery's guesses far away pulled that mean metres off a track that was right)."""
-    import tourbot.objects.pipeline as pipeline
+    from tourbot.objects import pipeline
 
     scene = corridor_scene(states_deg=(0, 45, 90, 30))
     run = run_scene(replace(scene, drive=[(0.5, 0.0, 0.0), (9.0, 0.7, 0.0)]), seed=1)

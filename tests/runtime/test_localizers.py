@@ -30,5 +30,6 @@ def test_the_belief_leaves_out_recoverys_guesses_but_the_display_shows_them() ->
         assert belief.samples.shape[0] == len(mcl.samples) - int(fresh.sum())
         assert np.isclose(belief.weights.sum(), 1.0)
         # the displayed samples are the filter's, guesses and all
-        assert belief.summary is not None and belief.summary.count == len(mcl.samples)
+        assert belief.summary is not None
+        assert belief.summary.count == len(mcl.samples)
     assert guesses > 0  # the guesses were taken (and not one won)

@@ -140,4 +140,3 @@ def estimate_log(
     run.final = estimator.estimates()
     run.redraws = objects.redraws if objects is not None else 0
     return run
-
