@@ -397,6 +397,9 @@ def register(bench: typer.Typer) -> None:
     @bench.command("objects")
     def objects(
         seeds: Annotated[int, typer.Option(help="Seeds per scenario (>= 5 for the intervals).")] = 5,
+        first_seed: Annotated[
+            int, typer.Option(help="The first seed (a long run split over several invocations).")
+        ] = 0,
         scenarios: Annotated[
             str, typer.Option(help="Comma-separated: doors, ushape, desks, real, changed, tours, viewpoint.")
         ] = ",".join(SCENARIOS),
@@ -428,15 +431,18 @@ def register(bench: typer.Typer) -> None:
             raise TourbotError(f"unknown --share {share!r}; choose alternate, all or both")
         if seeds < 1:
             raise TourbotError("--seeds must be at least 1")
+        if first_seed < 0:
+            raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         console = Console()
         report = BenchReport("objects", ["scenario", "share", "figure", "mean", "ci95"])
         report.notes += [f"targets, {k}: {v}" for k, v in TARGETS.items() if k in names]
         report.meta["seeds"] = seeds
+        report.meta["first_seed"] = first_seed
         report.meta["targets"] = TARGETS
         for name in names:
             for sh in [ScanShare.ALL] if name in SINGLE_SHARE else shares:
                 trials = []
-                for seed in range(seeds):
+                for seed in range(first_seed, first_seed + seeds):
                     fig = figures / f"{name}-{sh}.png" if figures is not None and seed == 0 else None
                     trial = _run(name, seed, sh, fig)
                     trials.append(trial)
