@@ -51,3 +51,12 @@ def test_invisible_obstacles_are_planned_around() -> None:
     assert path[:, 1].min() < 1.5 - 0.3
     plain = CostMap(grid).plan((1.0, 3.0), (4.0, 3.0))
     assert len(plain) < len(path)
+
+
+def test_clearance_at_is_the_distance_to_the_nearest_blocked_cell_and_inf_off_the_map() -> None:
+    cm = CostMap(_room_with_wall())
+    d = cm.clearance_at([[3.0, 1.0], [5.0, 1.0], [25.0, 1.0], [-1.0, 2.0]])
+    assert d[0] == pytest.approx(1.0, abs=cm.resolution * 1.5)  # the bottom wall, 1 m below
+    assert d[1] == 0.0  # on the wall at x = 5 m
+    assert np.isinf(d[2])
+    assert np.isinf(d[3])

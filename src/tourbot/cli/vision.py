@@ -38,6 +38,7 @@ def register(app: typer.Typer) -> None:
         from rich.console import Console
 
         from tourbot.errors import InputError
+        from tourbot.io import load_log
         from tourbot.io.images import read_image_stream
         from tourbot.io.mapserver import check_map_output, write_map
         from tourbot.localization.mcl import MonteCarloLocalization
@@ -60,7 +61,8 @@ def register(app: typer.Typer) -> None:
                 "no forward images beside the log (tourbot simulate --camera forward)", path=images_path
             )
         times, images = read_image_stream(images_path)
-        source = LogSource.from_path(log)
+        the_log = load_log(log)
+        source = LogSource(the_log, name=str(log))
         the_site = load_site(site_path(site))
         rig = ForwardCamera()
         if images.shape[1:] != (rig.height, rig.width):
@@ -69,7 +71,7 @@ def register(app: typer.Typer) -> None:
                 f"the forward camera's {rig.width}x{rig.height}",
                 path=images_path,
             )
-        scans = source._log.scans
+        scans = the_log.scans
         if not scans or scans[0].reference is None:
             raise InputError("the log's first scan has no reference pose to start tracking from", path=log)
         mcl = MonteCarloLocalization(the_site.grid, MCLConfig(), seed=seed)

@@ -331,10 +331,7 @@ class SiteNavigator:
         if not len(points):
             return points
         world = transform_points(np.asarray(pose), points)
-        cells = self.costmap._frame.world_to_cell(world)
-        ok = self.costmap._frame.inside(cells)
-        on_map = np.zeros(len(points), dtype=bool)
-        on_map[ok] = self.costmap.clearance[cells[ok, 0], cells[ok, 1]] <= self.config.map_tolerance
+        on_map = self.costmap.clearance_at(world) <= self.config.map_tolerance
         return np.ascontiguousarray(points[on_map])
 
     def _carrot(self, pose: tuple[float, float, float]) -> tuple[float, float]:

@@ -124,6 +124,16 @@ class CostMap:
         r, c = self.cell(xy)
         return bool(self._frame.inside(np.array([r, c])) and np.isfinite(self.cost[r, c]))
 
+    def clearance_at(self, points: ArrayLike) -> FloatArray:
+        """The distance (m) from each world point ``(K, 2)`` to the nearest blocked cell; ``inf``
+        for a point off the map."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        cells = self._frame.world_to_cell(pts)
+        ok = self._frame.inside(cells)
+        out = np.full(len(pts), np.inf)
+        out[ok] = self.clearance[cells[ok, 0], cells[ok, 1]]
+        return out
+
     def with_obstacles(self, points: ArrayLike) -> CostMap:
         """A copy where the cells of ``points`` (world, ``(K, 2)``: people seen blocking the way, a
         closed door) are obstacles too, inflated like the map's."""

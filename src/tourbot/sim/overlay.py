@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from tourbot.errors import InputError, TourbotError
-from tourbot.geometry import compose, wrap_angle
+from tourbot.geometry import compose, interpolate_poses
 from tourbot.io.output import write_text_whole
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.raycast import circle_ranges
@@ -113,22 +113,6 @@ class OverlayResult:
     truth: CrowdTruth
 
 
-def _interpolate(ref: FloatArray, times: FloatArray, t: float) -> FloatArray:
-    """Reference pose at time ``t``, linear in position and (shortest-arc) heading."""
-    i = int(np.searchsorted(times, t, side="right")) - 1
-    if i < 0:
-        return ref[0]
-    if i >= len(times) - 1:
-        return ref[-1]
-    span = times[i + 1] - times[i]
-    a = 0.0 if span <= 0 else (t - times[i]) / span
-    d = ref[i + 1] - ref[i]
-    d[2] = float(wrap_angle(d[2]))
-    out = ref[i] + a * d
-    out[2] = float(wrap_angle(out[2]))
-    return out
-
-
 def overlay_crowd(
     log: RobotLog,
     grid: OccupancyGrid,
@@ -181,7 +165,7 @@ def overlay_crowd(
         t = times[i]
         while t - t_prev > 1e-9:
             dt = min(cfg.robot_step, t - t_prev)
-            crowd.step(dt, _interpolate(ref, times, t_prev + dt), crowd_rng)
+            crowd.step(dt, interpolate_poses(times, ref, np.array([t_prev + dt]))[0], crowd_rng)
             t_prev += dt
         t_prev = t
         ranges, hit = _cut(scan, ref[i], crowd, cfg.range_noise, noise_rng)
