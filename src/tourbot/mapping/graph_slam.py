@@ -396,9 +396,9 @@ class GraphSlam:
         """Add the loop edges of ``group`` if the graph can take them: optimised with them (plain
         quadratic cost), the total squared whitened error may grow by at most the chi-square
         quantile ``gate`` of ``3 * len(group)`` degrees of freedom (a group that contradicts the
-        chain's uncertainty is rejected); accepted edges keep the robust kernel from then on. When
-        the new edges' own error at the current poses is already within the gate, the growth is
-        too (the current poses bound the optimum) and no optimisation is run."""
+        chain's uncertainty is rejected); accepted edges keep dynamic covariance scaling from then
+        on. When the new edges' own error at the current poses is already within the gate, the
+        growth is too (the current poses bound the optimum) and no optimisation is run."""
         from scipy.stats import chi2
 
         p = self.params
