@@ -24,9 +24,9 @@ two closures and the graph's two short chains between their scans and between th
 a cycle that must close). Geometric consistency with the whole graph then decides whether an
 agreeing group stays: optimised with GTSAM with the group's edges under the plain quadratic cost,
 the total squared whitened error may grow by a chi-square quantile at most (no optimisation is
-needed when the edges already fit the current poses that well); an accepted closure keeps a
-robust (Cauchy) kernel from then on, so that a wrong one that slipped through cannot wreck the
-map.
+needed when the edges already fit the current poses that well); an accepted closure keeps
+dynamic covariance scaling (DCS, :mod:`tourbot.mapping.pose_graph`) from then on, so that a
+wrong one that slipped through cannot wreck the map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
 PeopleFilteredMapper` as front end, the beams it leaves out as people are left out of the submaps,
@@ -396,9 +396,9 @@ class GraphSlam:
         """Add the loop edges of ``group`` if the graph can take them: optimised with them (plain
         quadratic cost), the total squared whitened error may grow by at most the chi-square
         quantile ``gate`` of ``3 * len(group)`` degrees of freedom (a group that contradicts the
-        chain's uncertainty is rejected); accepted edges keep the robust kernel from then on. When
-        the new edges' own error at the current poses is already within the gate, the growth is
-        too (the current poses bound the optimum) and no optimisation is run."""
+        chain's uncertainty is rejected); accepted edges keep dynamic covariance scaling from then
+        on. When the new edges' own error at the current poses is already within the gate, the
+        growth is too (the current poses bound the optimum) and no optimisation is run."""
         from scipy.stats import chi2
 
         p = self.params

@@ -7,18 +7,23 @@ frame). The poses that best explain every edge minimise
     sum_edges rho( e_ij^T Omega_ij e_ij ),   e_ij = delta_ij^-1 (+) (x_i^-1 (+) x_j)
 
 (Lu and Milios 1997; Grisetti et al., "A tutorial on graph-based SLAM", 2010, Eq. 11). Loop-closure
-edges get a robust kernel ``rho`` (Cauchy or Huber, Agarwal et al. 2013 compare them with
-switchable constraints): a wrong closure is paid for with a bounded, slowly growing cost, so it
-cannot drag a whole building out of shape; the optimiser is GTSAM's Levenberg-Marquardt on the
-sparse factor graph (Dellaert and Kaess 2017). Odometry and scan-matching edges keep the plain
-quadratic cost. :func:`edge_errors` recomputes the whitened errors in numpy, to judge edges after
-an optimisation (the geometric consistency check of loop closures).
+edges get dynamic covariance scaling (DCS: Agarwal, Tipaldi, Spinello, Stachniss and Burgard,
+"Robust map optimization using dynamic covariance scaling", ICRA 2013): a loop edge of squared
+whitened error ``chi2`` has its information scaled by ``s^2``, ``s = min(1, 2 Phi / (Phi + chi2))``,
+the closed-form optimum of the switch variable of switchable constraints (Sunderhauf and Protzel
+2012) with its prior of weight ``Phi``; its cost is bounded (it tends to ``Phi`` as ``chi2``
+grows: the edge is switched off), so a wrong closure cannot drag a whole building out of shape,
+where a Cauchy kernel's cost keeps growing (logarithmically) and a stretch of slack edges still
+bends to it (measured on Freiburg 079, ``docs/results/loopclosure.md``); the optimiser is
+GTSAM's Levenberg-Marquardt on the sparse factor graph (Dellaert and Kaess 2017). Odometry and
+scan-matching edges keep the plain quadratic cost. :func:`edge_errors` recomputes the whitened
+errors in numpy, to judge edges after an optimisation (the geometric consistency check of loop
+closures).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,12 +42,11 @@ class PoseGraphError(TourbotError):
 
 @dataclass(frozen=True)
 class OptimizerParams:
-    """The robust kernel of loop-closure edges (``scale`` in whitened units: about how many
-    standard deviations an error may reach before it counts less than quadratically) and the
-    Levenberg-Marquardt stopping rules."""
+    """DCS's ``Phi`` for loop-closure edges (``dcs_phi``, in squared whitened units; 1, the value
+    Agarwal et al. 2013 recommend and use for all their data sets) and the Levenberg-Marquardt
+    stopping rules."""
 
-    kernel: Literal["cauchy", "huber"] = "cauchy"
-    scale: float = 1.0
+    dcs_phi: float = 1.0
     max_iterations: int = 100
     relative_tolerance: float = 1e-6
 
@@ -106,7 +110,7 @@ class PoseGraph:
             )
         )
         m = gtsam.noiseModel.mEstimator
-        kernel = m.Cauchy.Create(p.scale) if p.kernel == "cauchy" else m.Huber.Create(p.scale)
+        kernel = m.DCS.Create(p.dcs_phi)
         for e in self.edges:
             gauss = gtsam.noiseModel.Gaussian.Information(e.information)
             noise = gtsam.noiseModel.Robust.Create(kernel, gauss) if e.robust else gauss
