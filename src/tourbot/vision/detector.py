@@ -55,7 +55,8 @@ class VisionConfig:
     of the textured pixels disagree is dropped (the motion is wrong, not the model); ``max_shift``:
     the largest residual shift (px) taken out between the images; ``max_gap``: endpoints farther apart
     are not joined by a wall; ``min_distance``/``max_distance``: horizontal range of detections
-    (m); ``in_front``: how far in front of the model's surface a detection must lie (m);
+    (m); ``in_front``: how far in front of the model's walls a detection must lie (m; in front of the
+    model's floor it must stand ``min_height`` above it);
     ``laser_explains``: a detection this close to a laser endpoint is the laser's (m);
     ``min_height``/``max_height``: the heights that matter to the robot (m); ``min_parallax``: the
     smallest angle between the two cameras' rays to a detection (rad: near the epipole of a forward
@@ -216,7 +217,7 @@ class VisionDetector:
             return Detection(none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked)
         # 3. along the epipolar lines
         obstacles, heights, pixels = self._search(
-            prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift, body_prev
+            prev, cur, inconsistent, rays, pos_c, t_model, on_floor, rot_p, pos_p, shift, body_prev
         )
         s = cfg.stride
         sub = np.zeros_like(agree)
@@ -304,6 +305,7 @@ class VisionDetector:
         rays: Float32Array,
         pos_c: FloatArray,
         t_model: Float32Array,
+        on_floor: NDArray[np.bool_],
         rot_p: FloatArray,
         pos_p: FloatArray,
         shift: tuple[float, float],
@@ -326,7 +328,11 @@ class VisionDetector:
         d = rays[vv, uu].astype(np.float64)  # (M, 3)
         h = np.hypot(d[:, 0], d[:, 1])
         s_model = t_model[vv, uu] * h
-        s_hi = np.minimum(cfg.max_distance, s_model - cfg.in_front)
+        # in front of a wall of the model by ``in_front``; in front of the floor the ray's point
+        # at horizontal distance s stands z_c (1 - s / s_model) high: at least ``min_height``
+        # (a base rail or a low bench is nearer the floor behind it than any fixed margin)
+        floor_hi = s_model * (1.0 - cfg.min_height / max(float(pos_c[2]), 1e-6))
+        s_hi = np.minimum(cfg.max_distance, np.where(on_floor[vv, uu], floor_hi, s_model - cfg.in_front))
         ok = (s_hi > cfg.min_distance) & (h > 1e-6)
         vv, uu, d, h, s_hi, s_model = vv[ok], uu[ok], d[ok], h[ok], s_hi[ok], s_model[ok]
         if not len(vv):
