@@ -57,7 +57,8 @@ class VisionConfig:
     are not joined by a wall; ``min_distance``/``max_distance``: horizontal range of detections
     (m); ``in_front``: how far in front of the model's walls a detection must lie (m; in front of the
     model's floor it must stand ``min_height`` above it);
-    ``laser_explains``: a detection this close to a laser endpoint is the laser's (m);
+    ``laser_explains``: a detection this close to a laser endpoint is the laser's (m; an
+    endpoint of a run narrower than ``min_leg``, a table's leg, explains none);
     ``min_height``/``max_height``: the heights that matter to the robot (m); ``min_parallax``: the
     smallest angle between the two cameras' rays to a detection (rad: near the epipole of a forward
     motion depth is not determined); ``moving``: a laser
@@ -396,7 +397,10 @@ class VisionDetector:
         keep = (z >= cfg.min_height) & (z <= cfg.max_height) & (parallax >= cfg.min_parallax)
         p3, px = p3[keep], px[keep]
         if len(p3):
-            laser = cur.endpoints[cur.returned]
+            # what the laser sees is the laser's; a thin post (a table's leg, narrower than
+            # ``min_leg``) explains itself, not the table top over it
+            wide = _wide_clusters(cur.endpoints, cur.returned, cfg.min_leg)
+            laser = cur.endpoints[cur.returned & wide]
             if len(laser):
                 dd, _ = cKDTree(laser).query(p3[:, :2], distance_upper_bound=cfg.laser_explains)
                 far = ~np.isfinite(dd)
