@@ -166,7 +166,9 @@ def test_what_the_laser_sees_of_an_obstacle_comes_from_its_heights() -> None:
 def test_glass_case_parts_must_fit(extra: dict[str, object], message: str) -> None:
     data = {
         **ROOM,
-        "invisible_obstacles": [{"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "height": [0, 1], **extra}],
+        "invisible_obstacles": [
+            {"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "height": [0, 1], **extra}
+        ],
     }
     with pytest.raises(SiteError) as err:
         site_from_dict(data, base_dir=Path("."))

@@ -747,7 +747,9 @@ def _obstacle_prisms(site: Site, rng: np.random.Generator) -> list[Prism]:
         if obs.kind == "glass":
             # the panes between the opaque base rail and lid (dark lacquered metal, finely grained)
             out.append(
-                Prism(fp, (lo + obs.base, hi - obs.lid), Surface(210.0, 40.0, 0.01, 5.0 * (k + 1)), alpha=0.35)
+                Prism(
+                    fp, (lo + obs.base, hi - obs.lid), Surface(210.0, 40.0, 0.01, 5.0 * (k + 1)), alpha=0.35
+                )
             )
             for n, part in enumerate(obs.solid_parts()):
                 out.append(Prism(fp, part, Surface(70.0, 35.0, 0.008, 3.0 * (k + 1) + n)))
