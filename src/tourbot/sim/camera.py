@@ -18,8 +18,9 @@ Deterministic for a seed.
 :class:`ForwardCameraSim` renders what the robot's forward grey camera sees in the site's 2.5D world
 (:class:`Scene`, ray cast per pixel behind the patches): the map's walls as vertical textured
 planes, a textured floor and ceiling, the site's obstacles with their height ranges (low benches
-under the laser plane, cabinets and fire extinguishers over it, tables on thin legs, glass cases
-that show their reflections over what is behind them), and the visitors as textured bodies; the
+under the laser plane, cabinets and fire extinguishers over it, tables on thin legs, glass cases:
+see-through panes with a faint pattern of their own over what is behind them, on an opaque base
+rail and under an opaque lid if the site gives them), and the visitors as textured bodies; the
 exposure varies a little from frame to frame and sensor noise is added (no motion blur).
 """
 

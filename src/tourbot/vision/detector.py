@@ -8,9 +8,10 @@ al. 2002): read :meth:`VisionDetector.detect` first.
    and both are textured, the model is wrong there: something the laser missed;
 3. each inconsistent pixel is taken along its epipolar line: the depths along its ray from camera
    ``t`` are tried in image ``t-1`` and the best-matching one (patch NCC) gives the obstacle's 3D
-   point, kept when it lies in front of the model's surface, between the floor and the robot's
-   height, within ``max_distance``, and away from every laser endpoint (what the laser sees is
-   the laser's);
+   point, kept when it lies in front of the model's surface (``in_front`` before its walls,
+   ``min_height`` over its floor: a low rail stands close to the floor behind it), between the
+   floor and the robot's height, within ``max_distance``, and away from every laser endpoint
+   but a thin post's (what the laser sees is the laser's; a table leg is not its top);
 4. visitors leave no phantom: the people tracker's estimates (Burgard et al., Sec. 4) at each
    image's time are upright bodies (:func:`body_mask`); a pixel of image t on a body, a pixel of
    ``î_t`` sampled from a body in image t-1, and an epipolar candidate that falls on a body in
