@@ -136,6 +136,8 @@ def test_what_the_laser_sees_of_an_obstacle_comes_from_its_heights() -> None:
                 {**base, "name": "cabinet", "height": [0.7, 1.3]},
                 {**base, "name": "case", "height": [0.0, 1.0], "kind": "glass"},
                 {**base, "name": "table", "height": [0.0, 0.75], "kind": "table"},
+                {**base, "name": "railed", "height": [0.0, 1.0], "kind": "glass", "base": 0.12, "lid": 0.05},
+                {**base, "name": "on-plinth", "height": [0.0, 1.6], "kind": "glass", "base": 0.8},
             ],
         },
         base_dir=Path("."),
@@ -147,10 +149,30 @@ def test_what_the_laser_sees_of_an_obstacle_comes_from_its_heights() -> None:
         "cabinet": (False, 0),
         "case": (False, 0),
         "table": (False, 4),
+        "railed": (False, 0),
+        "on-plinth": (True, 0),
     }
-    assert [o.name for o in site.laser_missed(0.4)] == ["old", "cabinet", "case", "table"]
+    assert [o.name for o in site.laser_missed(0.4)] == ["old", "cabinet", "case", "table", "railed"]
+    parts = site.invisible_obstacles[5].solid_parts()
+    assert np.allclose(parts, [(0.0, 0.12), (0.95, 1.0)])
     legs = np.asarray(site.invisible_obstacles[4].leg_centres())
     assert np.allclose(legs, [[0.05, 0.05], [0.95, 0.05], [0.95, 0.55], [0.05, 0.55]], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [({"kind": "box", "base": 0.1}, "glass case"), ({"kind": "glass", "base": 0.8, "lid": 0.3}, "fit")],
+)
+def test_glass_case_parts_must_fit(extra: dict[str, object], message: str) -> None:
+    data = {
+        **ROOM,
+        "invisible_obstacles": [
+            {"name": "x", "outline": [[0, 0], [1, 0], [1, 1]], "height": [0, 1], **extra}
+        ],
+    }
+    with pytest.raises(SiteError) as err:
+        site_from_dict(data, base_dir=Path("."))
+    assert message in str(err.value)
 
 
 def test_unknown_obstacle_kind_names_the_field(tmp_path: Path) -> None:

@@ -18,8 +18,9 @@ Deterministic for a seed.
 :class:`ForwardCameraSim` renders what the robot's forward grey camera sees in the site's 2.5D world
 (:class:`Scene`, ray cast per pixel behind the patches): the map's walls as vertical textured
 planes, a textured floor and ceiling, the site's obstacles with their height ranges (low benches
-under the laser plane, cabinets and fire extinguishers over it, tables on thin legs, glass cases
-that show their reflections over what is behind them), and the visitors as textured bodies; the
+under the laser plane, cabinets and fire extinguishers over it, tables on thin legs, glass cases:
+see-through panes with a faint pattern of their own over what is behind them, on an opaque base
+rail and under an opaque lid if the site gives them), and the visitors as textured bodies; the
 exposure varies a little from frame to frame and sensor noise is added (no motion blur).
 """
 
@@ -735,7 +736,8 @@ class ForwardCameraSim:
 
 
 def _obstacle_prisms(site: Site, rng: np.random.Generator) -> list[Prism]:
-    """The site's invisible obstacles as solids: a box, a glass case, a table (top and four legs)."""
+    """The site's invisible obstacles as solids: a box, a glass case (its panes, and its base rail
+    and lid if it has them), a table (top and four legs)."""
     from tourbot.site.model import TABLE_LEG_RADIUS, TABLE_TOP
 
     out: list[Prism] = []
@@ -744,7 +746,14 @@ def _obstacle_prisms(site: Site, rng: np.random.Generator) -> list[Prism]:
         lo, hi = obs.height
         look = Surface(float(rng.uniform(60.0, 200.0)), float(rng.uniform(30.0, 50.0)), 0.008, 11.0 * (k + 1))
         if obs.kind == "glass":
-            out.append(Prism(fp, (lo, hi), Surface(210.0, 40.0, 0.01, 5.0 * (k + 1)), alpha=0.35))
+            # the panes between the opaque base rail and lid (dark lacquered metal, finely grained)
+            out.append(
+                Prism(
+                    fp, (lo + obs.base, hi - obs.lid), Surface(210.0, 40.0, 0.01, 5.0 * (k + 1)), alpha=0.35
+                )
+            )
+            for n, part in enumerate(obs.solid_parts()):
+                out.append(Prism(fp, part, Surface(70.0, 35.0, 0.008, 3.0 * (k + 1) + n)))
         elif obs.kind == "table":
             out.append(Prism(fp, (max(lo, hi - TABLE_TOP), hi), look))
             r = TABLE_LEG_RADIUS

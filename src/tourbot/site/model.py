@@ -150,15 +150,20 @@ class InvisibleObstacle(_Model):
 
     ``kind`` says what it is made of: ``box`` (solid from ``height[0]`` to ``height[1]``: a low bench
     or platform below the laser plane, a wall cabinet or fire extinguisher above it), ``glass`` (a
-    glass case: the laser passes through, the camera sees its reflections) or ``table`` (a top
-    :data:`TABLE_TOP` thick at ``height[1]`` on four thin legs). What a laser at a given height sees
-    of it is derived from these (:meth:`laser_outline`, :meth:`laser_legs`), never drawn twice.
+    glass case: the laser passes through its panes, the camera sees through them) or ``table`` (a
+    top :data:`TABLE_TOP` thick at ``height[1]`` on four thin legs). A glass case may stand on an
+    opaque base rail (plinth) ``base`` metres high and carry an opaque top frame (lid) ``lid``
+    metres thick, both on its whole outline; the panes fill the rest (0 and 0: a frameless case of
+    glued panes). What a laser at a given height sees of it is derived from these heights
+    (:meth:`laser_outline`, :meth:`laser_legs`), never drawn twice.
     """
 
     name: str = Field(min_length=1)
     outline: Polygon
     height: tuple[float, float] = (0.0, 0.3)
     kind: Literal["box", "glass", "table"] = "box"
+    base: float = Field(default=0.0, ge=0.0)
+    lid: float = Field(default=0.0, ge=0.0)
 
     @field_validator("height")
     @classmethod
@@ -167,9 +172,28 @@ class InvisibleObstacle(_Model):
             raise ValueError("height must be (low, high) with low <= high")
         return v
 
+    @model_validator(mode="after")
+    def _parts(self) -> InvisibleObstacle:
+        if (self.base or self.lid) and self.kind != "glass":
+            raise ValueError("base and lid are the parts of a glass case (kind: glass)")
+        if self.base + self.lid > self.height[1] - self.height[0]:
+            raise ValueError("base + lid must fit within the height range")
+        return self
+
+    def solid_parts(self) -> list[tuple[float, float]]:
+        """The height ranges of the opaque parts: the whole box, or a glass case's base rail and lid
+        (a table's top and legs are :data:`TABLE_TOP` and :meth:`leg_centres`)."""
+        lo, hi = self.height
+        if self.kind == "box":
+            return [(lo, hi)]
+        if self.kind != "glass":
+            return []
+        return [p for p in ((lo, lo + self.base), (hi - self.lid, hi)) if p[1] > p[0]]
+
     def laser_outline(self, laser_height: float) -> bool:
-        """Whether a laser at ``laser_height`` sees the outline (a box spanning its plane)."""
-        return self.kind == "box" and self.height[0] <= laser_height <= self.height[1]
+        """Whether a laser at ``laser_height`` sees the outline: an opaque part (a box, a glass
+        case's base rail or lid) spans its plane."""
+        return any(lo <= laser_height <= hi for lo, hi in self.solid_parts())
 
     def laser_legs(self, laser_height: float) -> list[Point]:
         """Centres of the table legs a laser at ``laser_height`` sees (none for boxes and glass)."""

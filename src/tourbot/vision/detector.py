@@ -8,9 +8,10 @@ al. 2002): read :meth:`VisionDetector.detect` first.
    and both are textured, the model is wrong there: something the laser missed;
 3. each inconsistent pixel is taken along its epipolar line: the depths along its ray from camera
    ``t`` are tried in image ``t-1`` and the best-matching one (patch NCC) gives the obstacle's 3D
-   point, kept when it lies in front of the model's surface, between the floor and the robot's
-   height, within ``max_distance``, and away from every laser endpoint (what the laser sees is
-   the laser's);
+   point, kept when it lies in front of the model's surface (``in_front`` before its walls,
+   ``min_height`` over its floor: a low rail stands close to the floor behind it), between the
+   floor and the robot's height, within ``max_distance``, and away from every laser endpoint
+   but a thin post's (what the laser sees is the laser's; a table leg is not its top);
 4. visitors leave no phantom: the people tracker's estimates (Burgard et al., Sec. 4) at each
    image's time are upright bodies (:func:`body_mask`); a pixel of image t on a body, a pixel of
    ``î_t`` sampled from a body in image t-1, and an epipolar candidate that falls on a body in
@@ -55,8 +56,10 @@ class VisionConfig:
     of the textured pixels disagree is dropped (the motion is wrong, not the model); ``max_shift``:
     the largest residual shift (px) taken out between the images; ``max_gap``: endpoints farther apart
     are not joined by a wall; ``min_distance``/``max_distance``: horizontal range of detections
-    (m); ``in_front``: how far in front of the model's surface a detection must lie (m);
-    ``laser_explains``: a detection this close to a laser endpoint is the laser's (m);
+    (m); ``in_front``: how far in front of the model's walls a detection must lie (m; in front of the
+    model's floor it must stand ``min_height`` above it);
+    ``laser_explains``: a detection this close to a laser endpoint is the laser's (m; an
+    endpoint of a run narrower than ``min_leg``, a table's leg, explains none);
     ``min_height``/``max_height``: the heights that matter to the robot (m); ``min_parallax``: the
     smallest angle between the two cameras' rays to a detection (rad: near the epipole of a forward
     motion depth is not determined); ``moving``: a laser
@@ -216,7 +219,7 @@ class VisionDetector:
             return Detection(none, np.zeros(0), np.zeros((0, 2), dtype=np.int64), none, inconsistent, masked)
         # 3. along the epipolar lines
         obstacles, heights, pixels = self._search(
-            prev, cur, inconsistent, rays, pos_c, t_model, rot_p, pos_p, shift, body_prev
+            prev, cur, inconsistent, rays, pos_c, t_model, on_floor, rot_p, pos_p, shift, body_prev
         )
         s = cfg.stride
         sub = np.zeros_like(agree)
@@ -304,6 +307,7 @@ class VisionDetector:
         rays: Float32Array,
         pos_c: FloatArray,
         t_model: Float32Array,
+        on_floor: NDArray[np.bool_],
         rot_p: FloatArray,
         pos_p: FloatArray,
         shift: tuple[float, float],
@@ -326,7 +330,11 @@ class VisionDetector:
         d = rays[vv, uu].astype(np.float64)  # (M, 3)
         h = np.hypot(d[:, 0], d[:, 1])
         s_model = t_model[vv, uu] * h
-        s_hi = np.minimum(cfg.max_distance, s_model - cfg.in_front)
+        # in front of a wall of the model by ``in_front``; in front of the floor the ray's point
+        # at horizontal distance s stands z_c (1 - s / s_model) high: at least ``min_height``
+        # (a base rail or a low bench is nearer the floor behind it than any fixed margin)
+        floor_hi = s_model * (1.0 - cfg.min_height / max(float(pos_c[2]), 1e-6))
+        s_hi = np.minimum(cfg.max_distance, np.where(on_floor[vv, uu], floor_hi, s_model - cfg.in_front))
         ok = (s_hi > cfg.min_distance) & (h > 1e-6)
         vv, uu, d, h, s_hi, s_model = vv[ok], uu[ok], d[ok], h[ok], s_hi[ok], s_model[ok]
         if not len(vv):
@@ -390,7 +398,10 @@ class VisionDetector:
         keep = (z >= cfg.min_height) & (z <= cfg.max_height) & (parallax >= cfg.min_parallax)
         p3, px = p3[keep], px[keep]
         if len(p3):
-            laser = cur.endpoints[cur.returned]
+            # what the laser sees is the laser's; a thin post (a table's leg, narrower than
+            # ``min_leg``) explains itself, not the table top over it
+            wide = _wide_clusters(cur.endpoints, cur.returned, cfg.min_leg)
+            laser = cur.endpoints[cur.returned & wide]
             if len(laser):
                 dd, _ = cKDTree(laser).query(p3[:, :2], distance_upper_bound=cfg.laser_explains)
                 far = ~np.isfinite(dd)
