@@ -440,6 +440,32 @@ async def _watch(
     await asyncio.gather(*(v.close() for v in viewers))
 
 
+async def _drive_far(server: ServedSite, site: dict[str, Any], timeout: float = 30.0) -> None:
+    """Send the robot to the exhibit farthest from where it stands (FHW: 30 m or more, a minute
+    of driving, localizing and planning) and return once the stream shows it moving.
+
+    A tour would start with a stop: the first exhibit's presentation, 8 s or more standing, and
+    a standing robot sends a frame every 5 s (its refresh), so the viewers would measure little.
+    """
+    if not site["exhibits"]:
+        return
+    robot = site["robots"][0]
+    driver = _Viewer(server.port, robot, site["stream"])
+    await driver.open(server.base)
+    await driver.send({"type": "book"})
+    await driver.run(time.monotonic() + 0.5)  # the keyframe: where the robot is
+    here = driver.decoder.scene().robot
+    far = max(site["exhibits"], key=lambda e: math.hypot(e["x"] - here.x, e["y"] - here.y))
+    await driver.send({"type": "exhibit", "exhibit": far["slug"]})
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        await driver.run(time.monotonic() + 0.2)
+        robot_now = driver.decoder.scene().robot
+        if math.hypot(robot_now.vx, robot_now.vy) > 0.05:
+            break
+    await driver.close()  # the robot goes on to the exhibit
+
+
 def _cpu_between(samples: list[tuple[float, float]], start: float, end: float) -> float:
     """CPU seconds used between ``start`` and ``end`` from (wall, cpu) samples."""
     inside = [c for t, c in samples if start <= t <= end]
@@ -462,13 +488,6 @@ async def _viewers(
 
     site = await _site(server.base)
     robot = site["robots"][0]
-    if site["tours"]:  # the robot on a tour (moving, localizing, planning) while it is watched
-        driver = _Viewer(server.port, robot, site["stream"])
-        await driver.open(server.base)
-        await driver.send({"type": "book"})
-        await driver.send({"type": "tour", "tour": site["tours"][0]["slug"]})
-        await asyncio.sleep(1.0)
-        await driver.close()  # the robot goes on with the tour
     ctx = multiprocessing.get_context("spawn")
     ready, results, stop = ctx.Queue(), ctx.Queue(), ctx.Event()
     shares = [n // processes + (1 if k < n % processes else 0) for k in range(processes)]
@@ -487,6 +506,7 @@ async def _viewers(
         w.start()
     for _ in workers:
         await asyncio.to_thread(ready.get, True, 600)
+    await _drive_far(server, site)  # the robot moving while it is watched
     await asyncio.sleep(2.0)  # keyframes and joining out of the way
     await _staff(server, "DELETE", robot)  # the server's own delays from here on
     robots = _children(pid)
