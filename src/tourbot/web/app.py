@@ -81,7 +81,7 @@ from tourbot.web.middleware import BodyLimit, SameOrigin
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
 from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
-from tourbot.web.stream import StreamConfig
+from tourbot.web.stream import FRAME_KEY, StreamConfig
 
 __all__ = ["WebConfig", "create_app", "find_node_modules", "known_bounds", "pooled", "wall_boxes"]
 
@@ -781,10 +781,10 @@ async def _send_loop(
         scene = hub.scene
         if scene is None:
             continue
-        message = hub.stream.message_for(held)
+        framed = hub.stream.frame_for(held)
         held = hub.stream.version
-        if message is not None:
-            await ws.send_bytes(message)
+        if framed is not None:  # the bytes shared by every viewer, framed once (web.shared_frames)
+            await ws.send({"type": "websocket.send", "bytes": framed[0], FRAME_KEY: framed[1]})
             hub.send_delays.append(time.time() - scene.t)
         now = time.time()
         key = (hub.status_version, hub.arbiter.onboard_active(now))
