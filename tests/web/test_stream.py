@@ -167,10 +167,12 @@ def test_broadcast_frames_each_state_once_for_every_viewer() -> None:
             continue
         up_to_date = [broadcast.frame_for(broadcast.version - 1) for _ in range(2)]
         for first, second in (behind, up_to_date):
-            assert first is not None and second is not None
+            assert first is not None
+            assert second is not None
             assert first[1] is second[1]
             assert first[1] == websocket_frame(first[0])
-        assert behind[0][0][0] == 1 and up_to_date[0][0][0] == 2  # keyframe, delta
+        assert behind[0][0][0] == 1  # a keyframe
+        assert up_to_date[0][0][0] == 2  # a delta
         assert broadcast.frame_for(broadcast.version) is None
 
 
