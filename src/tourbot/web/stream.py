@@ -78,9 +78,9 @@ MAX_BODIES = 255  # bodies in one message (the count is a byte)
 
 OBJECT_TOLERANCE = 0.03  # m: an outline vertex moved this far is sent again
 
-#: The key of an ASGI ``websocket.send`` message that carries the message's prebuilt WebSocket
-#: frame (:func:`websocket_frame`), for a server that can write it as it is
-#: (:class:`tourbot.web.shared_frames.SharedFrameProtocol`); other servers ignore it.
+#: The ASGI extension of a WebSocket scope under which a server offers ``{"write": f}``, ``f(frame)``
+#: writing a prebuilt frame (:func:`websocket_frame`) as it is and saying whether it could
+#: (:class:`tourbot.web.shared_frames.SharedFrameProtocol`).
 FRAME_KEY = "tourbot.frame"
 
 
