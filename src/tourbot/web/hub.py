@@ -226,9 +226,16 @@ class RobotHub:
             self._stop.wait(max(0.0, delay))
 
     async def _ticker(self) -> None:
+        """:meth:`refresh` at ``rate_hz``, paced to the clock (a refresh that writes to many
+        viewers on a loaded machine does not slow the rate), never in a burst to catch up."""
         period = 1.0 / self.rate_hz
+        next_time = time.monotonic()
         while not self._stop.is_set():
-            await asyncio.sleep(period)
+            next_time += period
+            delay = next_time - time.monotonic()
+            if delay < -period:  # far behind: start afresh
+                next_time, delay = time.monotonic(), 0.0
+            await asyncio.sleep(max(0.0, delay))
             try:
                 await self.refresh()
             except Exception:
