@@ -9,7 +9,15 @@ from pathlib import Path
 
 import pytest
 
-from tourbot.app.simulated import SimulationSettings, crowd_config, simulated_runtime, time_to_recover
+from tourbot.app.simulated import (
+    SimulationSettings,
+    camera_names,
+    carry_destination,
+    crowd_config,
+    simulated_runtime,
+    time_to_recover,
+)
+from tourbot.errors import InputError
 from tourbot.localization.mcl import MCLConfig
 from tourbot.localization.profile import FHW_PROFILE, LocalizationProfile
 from tourbot.runtime import RuntimeControlError
@@ -25,6 +33,33 @@ HALL = json.loads((Path(__file__).parent / "hall.json").read_text())
 @pytest.fixture(scope="module")
 def hall() -> Site:
     return site_from_dict(HALL, base_dir=Path("."))
+
+
+def test_camera_names_are_checked_split_and_kept_once_in_order() -> None:
+    assert camera_names(["forward,ceiling", " forward"]) == ("forward", "ceiling")
+    assert camera_names([]) == ()
+    why = r"field --camera: unknown camera 'sideways'; choose ceiling or forward"
+    with pytest.raises(InputError, match=why):
+        camera_names(["ceiling,sideways"], field="--camera")
+    carried = SimulationSettings(ceiling=True).carrying(["forward"])
+    assert (carried.ceiling, carried.vision) == (False, True)
+    assert SimulationSettings().carrying(camera_names(["ceiling"])).ceiling
+
+
+def test_a_robot_is_carried_to_a_pose_it_can_stand_at(hall: Site) -> None:
+    import numpy as np
+
+    from tourbot.navigation.planner import CostMap
+
+    rng = np.random.default_rng(4)
+    here = (2.0, 6.0, 0.0)
+    costmap = CostMap(hall.grid)
+    for _ in range(20):
+        there = carry_destination(hall.grid, here, 3.0, rng)
+        assert 2.5 <= math.hypot(there[0] - here[0], there[1] - here[1]) <= 3.5
+        assert costmap.traversable(there)
+    with pytest.raises(ValueError, match=r"no free pose 300\.0 m"):
+        carry_destination(hall.grid, here, 300.0, rng)
 
 
 def test_crowd_config_by_name_or_number() -> None:

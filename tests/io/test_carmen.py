@@ -413,7 +413,7 @@ def test_streaming_matches_whole_stream_interpolation(
     """The streaming matcher gives what interpolating over the whole odometry stream gives."""
     import tempfile
 
-    from tourbot.io._interp import interpolate_poses
+    from tourbot.geometry import interpolate_poses
 
     rng = np.random.default_rng(seed)
     odom_t = np.cumsum(odom_steps)

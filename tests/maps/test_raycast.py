@@ -196,3 +196,25 @@ def test_reference_matches_dense_sampling(seed: int, outside_blocks: bool) -> No
     # sampling can miss a clip of a cell corner shorter than its step, never invent a hit
     assert np.all(ref <= first + 1.1e-3)
     assert np.mean(np.abs(ref - first) <= 1.1e-3) >= 0.9
+
+
+@settings(max_examples=20, deadline=None)
+@given(seed=st.integers(0, 10_000), n_beams=st.integers(1, 11))
+@pytest.mark.parametrize("caster_cls", CASTERS)
+def test_beams_cast_side_by_side_equal_beams_cast_alone(
+    caster_cls: type[DDACaster], seed: int, n_beams: int
+) -> None:
+    # the kernel casts beams four at a time and the rest (fewer than four) one by one: any number
+    # of beams gives each beam the range it has alone, to the bit, and the reference's
+    grid = random_grid(seed)
+    rng = np.random.default_rng(seed + 2)
+    local = np.column_stack(
+        [rng.uniform(0, grid.width, 5), rng.uniform(0, grid.height, 5), rng.uniform(-np.pi, np.pi, 5)]
+    )
+    poses = grid.grid_to_world(local)
+    angles = rng.uniform(-np.pi, np.pi, n_beams)
+    caster = caster_cls(grid, 6.0)
+    together = caster.cast(poses, angles)
+    alone = np.column_stack([caster.cast(poses, angles[b : b + 1])[:, 0] for b in range(n_beams)])
+    assert np.array_equal(together, alone)
+    np.testing.assert_allclose(together, caster.cast_reference(poses, angles), atol=1e-4)

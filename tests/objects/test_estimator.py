@@ -118,3 +118,20 @@ def test_a_desk_seen_on_one_face_only_is_not_pinned_down() -> None:
     corner = np.array([1.6, 0.6, 2.0])  # from the side: the south and the east face
     z = readings(corner)
     assert belief._constrained(corner, angles, z, state, np.full(angles.size, 8.0))
+
+
+def test_a_converged_door_in_plain_view_stays_observed(room: Site) -> None:
+    """Once the samples agree (no jump drawn: none of them tells a beam apart from the others), the
+    beams on the leaf still discriminate its range: the estimate stays observed, not few-beams."""
+    from dataclasses import replace
+
+    est = _run(room, math.radians(35.0))
+    assert est.estimates()[0].quality.status == Observation.OBSERVED
+    belief = est.beliefs[0]
+    belief.config = replace(belief.config, jump_min=0.0)  # no jump in the next prediction
+    belief.samples = np.full_like(belief.samples, math.radians(35.0))
+    est = _run(room, math.radians(35.0), steps=1, est=est, t0=3.85, start=1.0)  # the next scan, 50 ms on
+    e = est.estimates()[0]
+    assert e.quality.status == Observation.OBSERVED, e.quality
+    assert e.quality.beams >= 5
+    assert abs(e.state[0] - math.radians(35.0)) < math.radians(1.0)

@@ -51,7 +51,6 @@ def test_the_navigator_goes_to_look_and_the_door_is_then_observed() -> None:
     the estimate, from the scans there, is observed and right."""
     from tourbot.app.simulated import SimulationSettings, simulated_runtime
     from tourbot.localization.mcl import MCLConfig
-    from tourbot.maps.likelihood_field import LikelihoodFieldParams
     from tourbot.objects.estimator import Observation
     from tourbot.objects.runtime import ObjectsEstimator
     from tourbot.objects.viewpoint import inspect_object
@@ -59,11 +58,7 @@ def test_the_navigator_goes_to_look_and_the_door_is_then_observed() -> None:
     from tourbot.snapshot import NavMode
 
     site = door_tour_site()
-    # the sensor model this test was written with (field 0.2 m to the cells' centres, novelty 0.2 m):
-    # with the measured 5 cm defaults, 6 of the last 10 estimates were observed, not 7 (reported)
-    base = MCLConfig()
-    old = replace(base.sensor, field=LikelihoodFieldParams(), novelty_sigma=0.2)
-    mcl = replace(base, sensor=old).with_samples(300)
+    mcl = MCLConfig().with_samples(300)  # MCL's defaults (its measured 5 cm sensor model)
     settings = SimulationSettings(crowd="empty", seed=4, mcl=mcl, objects=True)
     settings = replace(settings, sim=replace(settings.sim, dynamic_objects=False))
     robot = simulated_runtime(site, settings, start=(3.0, 9.0, 0.0), record=False)

@@ -56,6 +56,14 @@ def test_objects_shorten_beams_in_front_only() -> None:
     np.testing.assert_array_equal(near.scans[0].ranges, np.full(181, 1.0))
 
 
+def test_the_overlaid_log_keeps_what_its_odometry_is() -> None:
+    log = _log()
+    log.odometry_kind, log.notes = "rebuilt", ["odometry: rebuilt from the increments"]
+    out, _ = overlay_objects(log, SHAPES, POSES, seed=1)
+    assert out.odometry_kind == "rebuilt"
+    assert out.notes == log.notes
+
+
 def test_truth_round_trips(tmp_path) -> None:  # type: ignore[no-untyped-def]
     _, truth = overlay_objects(_log(), SHAPES, POSES, seed=2)
     path = object_truth_path(tmp_path / "x.log.gz")

@@ -19,7 +19,8 @@ from tourbot.errors import TourbotError
 from tourbot.web.app import WebConfig, create_app
 from tourbot.web.db import Database
 from tourbot.web.link import RobotLink
-from tourbot.web.process_link import ProcessLink, RobotProcessError
+from tourbot.web.process_link import ProcessLink
+from tourbot.web.supervised import RobotProcessError
 
 
 class _PickyRobot(FakeRobot):

@@ -10,8 +10,8 @@ import pytest
 
 from tourbot.sim.fleet import FleetPoses
 from tourbot.site.default import default_site
-from tourbot.web.process_link import RobotProcessError
 from tourbot.web.serve import SimulatedWorldFactory
+from tourbot.web.supervised import RobotProcessError
 from tourbot.web.world_process import WorldProcess
 
 

@@ -14,13 +14,18 @@ MCL's samples, and both MCL and the navigator use the map with them drawn in the
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from tourbot.errors import InputError
 from tourbot.geometry import wrap_angle
 from tourbot.interfaces import Estimator, Sink
 from tourbot.localization.mcl.config import MCLConfig
 from tourbot.navigation.navigator import NavigationConfig, SiteNavigator
+from tourbot.navigation.planner import CostMap
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 from tourbot.runtime.loop import Runtime, RuntimeConfig
 from tourbot.runtime.sinks import MetricsSink, Recorder
@@ -31,10 +36,26 @@ from tourbot.site.model import Site
 
 if TYPE_CHECKING:
     from tourbot.localization.mcl import MonteCarloLocalization
+    from tourbot.maps.grid import OccupancyGrid
     from tourbot.objects.world import ObjectWorld
     from tourbot.sim.camera import SimCamera
 
-__all__ = ["SimulatedRobot", "SimulationSettings", "crowd_config", "simulated_runtime", "time_to_recover"]
+__all__ = [
+    "CAMERAS",
+    "KidnapRun",
+    "SimulatedRobot",
+    "SimulationSettings",
+    "camera_names",
+    "carry_destination",
+    "crowd_config",
+    "kidnap_run",
+    "simulated_runtime",
+    "time_to_recover",
+]
+
+# The cameras a simulated robot can carry: the upward camera of Gamallo et al. (its images fused
+# into MCL) and the forward obstacle camera (its detector beside the laser).
+CAMERAS = ("ceiling", "forward")
 
 
 def crowd_config(crowd: str | int) -> CrowdConfig | None:
@@ -51,6 +72,20 @@ def crowd_config(crowd: str | int) -> CrowdConfig | None:
     cfg = CrowdConfig.preset(str(crowd))
     empty = (cfg.density is None and cfg.num_people == 0) or cfg.density == 0
     return None if empty else cfg
+
+
+def camera_names(values: Iterable[str], *, field: str = "cameras") -> tuple[str, ...]:
+    """The camera names in ``values`` (each one name or a comma list), checked against
+    :data:`CAMERAS`, each once, in the order given; an unknown one is an :class:`InputError` of
+    ``field``."""
+    out: list[str] = []
+    for value in values:
+        for name in (v.strip() for v in value.split(",")):
+            if name not in CAMERAS:
+                raise InputError(f"unknown camera {name!r}; choose {' or '.join(CAMERAS)}", field=field)
+            if name not in out:
+                out.append(name)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -76,6 +111,12 @@ class SimulationSettings:
     # whose detector masks the tracker's visitors: one tracker per robot
     people: bool = False
     record_every: int = 5  # keep every 5th snapshot (0.5 s): enough for the animation, small files
+
+    def carrying(self, cameras: Iterable[str]) -> SimulationSettings:
+        """These settings with the robot carrying (and using) the named cameras of :data:`CAMERAS`
+        and no other."""
+        names = camera_names(cameras)
+        return replace(self, ceiling="ceiling" in names, vision="forward" in names)
 
 
 @dataclass
@@ -215,3 +256,69 @@ def time_to_recover(
         if snap.time - since >= hold:
             return since - start
     return None
+
+
+@dataclass(frozen=True)
+class KidnapRun:
+    """One kidnap in the simulator: where from and to, and the seconds until the robot was found
+    again (None: not within the window)."""
+
+    seed: int
+    touring: bool
+    time: float
+    source: tuple[float, float, float]
+    destination: tuple[float, float, float]
+    recovered: float | None
+    collisions: int
+
+
+def carry_destination(
+    world: OccupancyGrid, pose: tuple[float, float, float], distance: float, rng: np.random.Generator
+) -> tuple[float, float, float]:
+    """A pose the robot could stand at in ``world`` (the site with its doors and furniture as they
+    are now: a traversable cell of the planner's :class:`CostMap`), ``distance`` +- 0.5 m from
+    ``pose``, any heading."""
+    costmap = CostMap(world)
+    for _ in range(100_000):
+        r = distance + rng.uniform(-0.5, 0.5)
+        bearing = rng.uniform(-math.pi, math.pi)
+        cand = (
+            pose[0] + r * math.cos(bearing),
+            pose[1] + r * math.sin(bearing),
+            float(rng.uniform(-math.pi, math.pi)),
+        )
+        if costmap.traversable(cand):
+            return cand
+    raise ValueError(f"no free pose {distance} m from {pose}")
+
+
+def kidnap_run(
+    site: Site,
+    settings: SimulationSettings,
+    start: tuple[float, float, float],
+    tour: str | None,
+    at: float,
+    spread: float,
+    distance: float,
+    window: float,
+) -> KidnapRun:
+    """A kidnap experiment: stand (``tour`` None) or tour until ``at`` + U(0, ``spread``) seconds
+    (the kidnap falls anywhere between two of the localizer's verifications), carry the robot
+    ``distance`` metres off (:meth:`Simulator.carry`, to :func:`carry_destination`), and time its
+    recovery (:func:`time_to_recover`, up to ``window`` seconds). Its draws come from
+    ``settings.seed`` and whether it tours."""
+    rng = np.random.default_rng([settings.seed, int(tour is None)])
+    at += rng.uniform(0.0, spread)
+    robot = simulated_runtime(site, settings, start=start, record=False)
+    rt = robot.runtime
+    if tour is not None:
+        rt.start_tour(tour)
+    while rt.source.time < at and rt.step() is not None:
+        pass
+    here = robot.simulator.robot.pose
+    there = carry_destination(robot.simulator.world, here, distance, rng)
+    robot.simulator.carry(there)
+    recovered = time_to_recover(robot, window)
+    c = robot.simulator.collisions
+    rt.close()
+    return KidnapRun(settings.seed, tour is not None, at, here, there, recovered, c.person + c.invisible)

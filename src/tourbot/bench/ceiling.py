@@ -38,6 +38,7 @@ import typer
 from numpy.typing import NDArray
 
 from tourbot.bench._report import BenchReport
+from tourbot.geometry import wrap_angle
 
 FloatArray = NDArray[np.float64]
 
@@ -89,7 +90,7 @@ class Run:
 
 def _errors(est: FloatArray, truth: FloatArray) -> tuple[FloatArray, FloatArray]:
     pos = np.hypot(est[:, 0] - truth[:, 0], est[:, 1] - truth[:, 1])
-    ang = np.degrees(np.abs(np.remainder(est[:, 2] - truth[:, 2] + math.pi, 2 * math.pi) - math.pi))
+    ang = np.degrees(np.abs(wrap_angle(est[:, 2] - truth[:, 2])))
     pos = np.where(np.isfinite(est[:, 0]), pos, np.inf)
     return pos, np.where(np.isfinite(est[:, 0]), ang, np.inf)
 
@@ -510,8 +511,7 @@ def fusion_seed(site: Any, mcl: Any, seed: int, duration: float) -> FusionRun:
     """Laser only, camera only and both on one seed: a ``duration`` s tour in the peak crowd, then
     a 5 m kidnap touring and standing for the laser alone and for both."""
     from tourbot.app.demo import start_pose_for
-    from tourbot.app.simulated import SimulationSettings, simulated_runtime
-    from tourbot.bench.sim import _kidnap
+    from tourbot.app.simulated import SimulationSettings, kidnap_run, simulated_runtime
     from tourbot.ceiling.minimize import CeilingLocalizer
     from tourbot.ceiling.rig import CeilingCamera
     from tourbot.ceiling.tracking import CeilingTracker
@@ -545,7 +545,7 @@ def fusion_seed(site: Any, mcl: Any, seed: int, duration: float) -> FusionRun:
     for fused in (False, True):
         settings = SimulationSettings(crowd="peak", seed=seed, mcl=mcl, ceiling=fused)
         for touring in (True, False):
-            k = _kidnap(
+            k = kidnap_run(
                 site, settings, start, tour if touring else None, 30.0 if touring else 20.0, 5.0, 5.0, 60.0
             )
             kidnaps[f"{'both' if fused else 'laser'} {'touring' if touring else 'standing'}"] = k.recovered

@@ -62,12 +62,6 @@ FloatArray = NDArray[np.float64]
 KIDNAP_SEED_OFFSET = 10_000
 PARTS = ("sparse", "peak", "kidnaps", "global")
 METHODS = ("mcl-none", "mcl-entropy", "mcl-novelty", "grid-none", "grid-entropy", "grid-novelty", "amcl")
-LOGS = {
-    "fhw": "fhw-corrected.log.gz",
-    "intel": "intel-corrected.log.gz",
-    "aces": "aces-corrected.log.gz",
-    "freiburg-079": "freiburg-079-corrected.log.gz",
-}
 _GRIDS: dict[int, Any] = {}
 
 
@@ -422,18 +416,6 @@ def _run_on_dask(
 # --------------------------------------------------------------------------------------------
 
 
-def _map(log: Any, name: str, cache: Path) -> Any:
-    from tourbot.io.mapserver import read_map, write_map
-    from tourbot.maps.reference import build_reference_map
-
-    path = cache / f"{name}-map.yaml"
-    if path.exists():
-        return read_map(path)
-    grid = build_reference_map(log, 0.05)
-    write_map(grid, path)
-    return read_map(path)
-
-
 def _crowded(log: Any, grid: Any, name: str, preset: str, seed: int, cache: Path) -> tuple[Any, Any]:
     name = f"{name}{len(log.scans)}"
     from tourbot.io import read_carmen, write_carmen
@@ -509,8 +491,8 @@ def register(bench: typer.Typer) -> None:
         """Failures, errors, kidnap recovery, global localization and speed in crowds, vs Nav2 AMCL."""
         from rich.console import Console
 
+        from tourbot.bench.logs import chosen_logs, reference_map
         from tourbot.bench.peers.amcl_adapter import amcl_available
-        from tourbot.data import data_dir
         from tourbot.io import read_carmen
         from tourbot.io.progress import ScanProgress
         from tourbot.sim.kidnap import KidnapConfig, apply_kidnaps, plan_kidnaps
@@ -523,13 +505,8 @@ def register(bench: typer.Typer) -> None:
             raise TourbotError(f"--first-seed must be >= 0, not {first_seed}")
         if workers < 1:
             raise TourbotError(f"--workers must be >= 1, not {workers}")
-        root = data_dir()
-        if root is None:
-            raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
-        names = [n.strip() for n in logs.split(",") if n.strip()]
-        for n in names:
-            if n not in LOGS:
-                raise TourbotError(f"unknown log {n!r}; choose from {', '.join(LOGS)}")
+        files = chosen_logs(logs)
+        names = list(files)
         chosen = [m.strip() for m in methods.split(",") if m.strip()]
         runs = tuple(p.strip() for p in parts.split(",") if p.strip())
         for p in runs:
@@ -583,8 +560,8 @@ def register(bench: typer.Typer) -> None:
         bases: dict[str, Any] = {}
         seed_list = list(range(first_seed, first_seed + n_seeds))
         for name in names:
-            base = read_carmen(root / "carmen" / LOGS[name])
-            grid = _map(base, name, cache)  # the whole log's reference map
+            base = read_carmen(files[name])
+            grid = reference_map(base, name, cache)  # the whole log's reference map
             if limit:
                 base = replace(base, scans=base.scans[:limit])
             bases[name] = base

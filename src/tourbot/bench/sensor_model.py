@@ -157,19 +157,12 @@ def register(bench: typer.Typer) -> None:
         from rich.console import Console
 
         from tourbot.bench._report import BenchReport
-        from tourbot.bench.localization import LOGS, _map
-        from tourbot.data import data_dir
+        from tourbot.bench.logs import chosen_logs, reference_map
         from tourbot.io import read_carmen
 
         if scans < 10:
             raise TourbotError(f"--scans must be >= 10, not {scans}")
-        root = data_dir()
-        if root is None:
-            raise TourbotError("the real robot logs (../shared/data) are needed for this benchmark")
-        names = [n.strip() for n in logs.split(",") if n.strip()]
-        for n in names:
-            if n not in LOGS:
-                raise TourbotError(f"unknown log {n!r}; choose from {', '.join(LOGS)}")
+        files = chosen_logs(logs)
         cache.mkdir(parents=True, exist_ok=True)
         report = BenchReport(
             "sensor-model",
@@ -185,9 +178,9 @@ def register(bench: typer.Typer) -> None:
                 "exponent 1/L",
             ],
         )
-        for name in names:
-            log = read_carmen(root / "carmen" / LOGS[name])
-            fit = measure(log, _map(log, name, cache), scans)
+        for name, file in files.items():
+            log = read_carmen(file)
+            fit = measure(log, reference_map(log, name, cache), scans)
             report.add(
                 log=name,
                 beams=fit.beams,

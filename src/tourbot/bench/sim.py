@@ -9,7 +9,7 @@ and the localization error along the way (mean, 99th percentile, share of time w
 Kidnaps (``--kidnap-seeds``): per crowd and seed, the robot is carried ``--kidnap-distance`` metres
 to a free pose (any heading) once while it stands before its tour and once while it tours, and the
 time until its estimate is within 0.3 m and 10 deg of the truth for 3 s is measured
-(:func:`tourbot.app.simulated.time_to_recover`), up to ``--kidnap-window`` seconds.
+(:func:`tourbot.app.simulated.kidnap_run`), up to ``--kidnap-window`` seconds.
 """
 
 from __future__ import annotations
@@ -25,9 +25,7 @@ import typer
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
-    from tourbot.app.simulated import SimulationSettings
     from tourbot.bench._report import BenchReport
-    from tourbot.maps.grid import OccupancyGrid
     from tourbot.site.model import Site
 
 __all__ = ["register"]
@@ -58,71 +56,6 @@ class TourRun:
         d.pop("errors")
         d["within_15cm"] = float(np.mean(self.errors <= 0.15)) if self.errors.size else math.nan
         return d
-
-
-@dataclass
-class KidnapRun:
-    """One kidnap: where from and to, and the seconds until the robot was found again (None: not)."""
-
-    seed: int
-    touring: bool
-    time: float
-    source: tuple[float, float, float]
-    destination: tuple[float, float, float]
-    recovered: float | None
-    collisions: int
-
-
-def _carry_destination(
-    world: OccupancyGrid, pose: tuple[float, float, float], distance: float, rng: np.random.Generator
-) -> tuple[float, float, float]:
-    """A pose the robot could stand at in ``world`` (the site with its doors and furniture as they
-    are now), ``distance`` +- 0.5 m from ``pose``, any heading."""
-    from tourbot.navigation.planner import CostMap
-
-    costmap = CostMap(world)
-    for _ in range(100_000):
-        r = distance + rng.uniform(-0.5, 0.5)
-        bearing = rng.uniform(-math.pi, math.pi)
-        cand = (
-            pose[0] + r * math.cos(bearing),
-            pose[1] + r * math.sin(bearing),
-            float(rng.uniform(-math.pi, math.pi)),
-        )
-        if costmap.traversable(cand):
-            return cand
-    raise ValueError(f"no free pose {distance} m from {pose}")
-
-
-def _kidnap(
-    site: Site,
-    settings: SimulationSettings,
-    start: tuple[float, float, float],
-    tour: str | None,
-    at: float,
-    spread: float,
-    distance: float,
-    window: float,
-) -> KidnapRun:
-    """Stand (``tour`` None) or tour until ``at`` + U(0, ``spread``) seconds (the kidnap falls
-    anywhere between two of the localizer's verifications), carry the robot off, time its recovery."""
-    from tourbot.app.simulated import simulated_runtime, time_to_recover
-
-    rng = np.random.default_rng([settings.seed, int(tour is None)])
-    at += rng.uniform(0.0, spread)
-    robot = simulated_runtime(site, settings, start=start, record=False)
-    rt = robot.runtime
-    if tour is not None:
-        rt.start_tour(tour)
-    while rt.source.time < at and rt.step() is not None:
-        pass
-    here = robot.simulator.robot.pose
-    there = _carry_destination(robot.simulator.world, here, distance, rng)
-    robot.simulator.carry(there)
-    recovered = time_to_recover(robot, window)
-    c = robot.simulator.collisions
-    rt.close()
-    return KidnapRun(settings.seed, tour is not None, at, here, there, recovered, c.person + c.invisible)
 
 
 def _sim_speed(site: Site, people: int, steps: int, seed: int = 0) -> tuple[float, float, float]:
@@ -175,7 +108,7 @@ def register(bench: typer.Typer) -> None:
         from rich.progress import Progress
 
         from tourbot.app.demo import start_pose_for
-        from tourbot.app.simulated import SimulationSettings, simulated_runtime
+        from tourbot.app.simulated import KidnapRun, SimulationSettings, kidnap_run, simulated_runtime
         from tourbot.bench._report import BenchReport
         from tourbot.site.default import default_site
         from tourbot.snapshot import NavMode
@@ -294,7 +227,7 @@ def register(bench: typer.Typer) -> None:
                     for seed in range(kidnap_seeds):
                         settings = replace(base, crowd=crowd, seed=seed)
                         kidnaps.append(
-                            _kidnap(
+                            kidnap_run(
                                 site,
                                 settings,
                                 start,

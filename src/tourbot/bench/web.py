@@ -310,12 +310,7 @@ async def _browser_bandwidth(server: ServedSite, seconds: float, warmup: float =
     site = await _site(server.base)
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
-    driver = _Viewer(server.port, robot, site["stream"])
-    await driver.open(server.base)
-    await driver.send({"type": "book"})
-    tour = site["tours"][0]["slug"] if site["tours"] else None
-    if tour:
-        await driver.send({"type": "tour", "tour": tour})
+    driver, tour = await _on_tour(server, site, robot)
     async with async_playwright() as p:
         browser = await p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_FLAGS, headless=True)
         page = await browser.new_page()
@@ -358,6 +353,18 @@ async def _browser_bandwidth(server: ServedSite, seconds: float, warmup: float =
     }
 
 
+async def _on_tour(server: ServedSite, site: dict[str, Any], robot: str) -> tuple[_Viewer, str | None]:
+    """A viewer of ``robot`` (straight to the server, not relayed) that books it and sends it on
+    the site's first tour, if it has one; with that tour's slug."""
+    driver = _Viewer(server.port, robot, site["stream"])
+    await driver.open(server.base)
+    await driver.send({"type": "book"})
+    tour = site["tours"][0]["slug"] if site["tours"] else None
+    if tour:
+        await driver.send({"type": "tour", "tour": tour})
+    return driver, tour
+
+
 async def _site(base: str) -> dict[str, Any]:
     import httpx
 
@@ -370,13 +377,8 @@ async def _bandwidth(server: ServedSite, seconds: float) -> dict[str, Any]:
     robot = site["robots"][0]
     port, down, relay = await _relay(server.port)
     viewer = _Viewer(port, robot, site["stream"], naive=True)  # as if the page came through the relay
-    driver = _Viewer(server.port, robot, site["stream"])
     await viewer.open(server.base)
-    await driver.open(server.base)
-    await driver.send({"type": "book"})
-    tour = site["tours"][0]["slug"] if site["tours"] else None
-    if tour:
-        await driver.send({"type": "tour", "tour": tour})
+    driver, tour = await _on_tour(server, site, robot)
     start = time.monotonic()
     wire_start = down[0]
     await asyncio.gather(viewer.run(start + seconds), driver.run(start + seconds))

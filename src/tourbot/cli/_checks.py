@@ -17,6 +17,7 @@ import numpy as np
 import typer
 
 from tourbot.errors import InputError
+from tourbot.geometry import wrap_angle
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import RobotLog
 
@@ -70,7 +71,7 @@ def log_problems(log: RobotLog, checks: LogChecks = LogChecks()) -> list[str]:
     odom = odom[~np.isnan(odom).any(axis=1)]
     if len(odom) >= 2:
         moved = float(np.hypot(*np.diff(odom[:, :2], axis=0).T).sum())
-        turned = float(np.abs(np.angle(np.exp(1j * np.diff(odom[:, 2])))).sum())
+        turned = float(np.abs(wrap_angle(np.diff(odom[:, 2]))).sum())
         if moved < checks.min_motion_m and turned < checks.min_turn_rad:
             problems.append(
                 f"the odometry does not move ({moved:.3f} m, {math.degrees(turned):.1f} deg over {n} scans)"

@@ -310,7 +310,7 @@ class _ImageFeed:
 
         from tourbot.ceiling.likelihood import CeilingSensor
         from tourbot.ceiling.rig import CeilingCamera
-        from tourbot.io._interp import interpolate_poses
+        from tourbot.geometry import interpolate_poses
 
         times, self.images, site = ceiling
         lights = np.array([light.position for light in site.ceiling_lights], dtype=np.float64)

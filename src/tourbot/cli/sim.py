@@ -55,7 +55,7 @@ def register(app: typer.Typer) -> None:
         from rich.progress import Progress
 
         from tourbot.app.demo import start_pose_for
-        from tourbot.app.simulated import SimulationSettings, simulated_runtime
+        from tourbot.app.simulated import SimulationSettings, camera_names, simulated_runtime
         from tourbot.errors import InputError
         from tourbot.io.carmen import write_carmen
         from tourbot.io.output import write_text_whole
@@ -67,6 +67,7 @@ def register(app: typer.Typer) -> None:
 
         if not duration > 0:
             raise InputError(f"must be positive (simulated seconds), got {duration}", field="--duration")
+        cameras = camera_names(camera or [], field="--camera")
         if mcap is not None:
             from tourbot.io.mcap_out import check_mcap_output
 
@@ -74,7 +75,6 @@ def register(app: typer.Typer) -> None:
         console = Console()
         the_site = load_site(site_path(site))
         mcl = LocalizationProfile.for_site(site_path(site), config)[0].mcl
-        cameras = _cameras(camera)
         # the robot carries the cameras asked for, and uses them: the ceiling camera inside MCL, the
         # forward camera's obstacle detector beside the laser; the images it took are written
         settings = SimulationSettings(
@@ -82,9 +82,7 @@ def register(app: typer.Typer) -> None:
             seed=seed,
             mcl=mcl,
             sim=SimConfig(record=True),
-            ceiling="ceiling" in cameras,
-            vision="forward" in cameras,
-        )
+        ).carrying(cameras)
         robot = simulated_runtime(the_site, settings, start=start_pose_for(the_site, tour), record=False)
         rt = robot.runtime
         rt.start_tour(tour)
@@ -125,20 +123,3 @@ def register(app: typer.Typer) -> None:
         )
         if mcap is not None:
             console.print(f"wrote {mcap}: the run as MCAP (ROS 2 messages)")
-
-
-CAMERAS = ("ceiling", "forward")
-
-
-def _cameras(values: list[str] | None) -> list[str]:
-    """The camera names of ``--camera`` (repeated or comma lists), checked."""
-    from tourbot.errors import InputError
-
-    out: list[str] = []
-    for value in values or []:
-        for name in (v.strip() for v in value.split(",")):
-            if name not in CAMERAS:
-                raise InputError(f"unknown camera {name!r}; choose {' or '.join(CAMERAS)}", field="--camera")
-            if name not in out:
-                out.append(name)
-    return out

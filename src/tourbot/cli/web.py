@@ -158,7 +158,7 @@ def register(app: typer.Typer) -> None:
         Several servers can share the viewers of the same robots: one runs them with ``--broker``,
         the others show them with ``--follow`` (the same site, and best the same ``--database``).
         """
-        from tourbot.app.simulated import crowd_config
+        from tourbot.app.simulated import camera_names, crowd_config
         from tourbot.errors import InputError
         from tourbot.localization.profile import LocalizationProfile
         from tourbot.site.default import site_path
@@ -173,9 +173,7 @@ def register(app: typer.Typer) -> None:
         if foxglove is not None and not 0 < foxglove <= 65535 - robots:
             raise InputError(f"must be a TCP port (1-{65535 - robots}), got {foxglove}", field="--foxglove")
         crowd_config(crowd)
-        from tourbot.cli.sim import _cameras
-
-        cameras = tuple(_cameras(camera))
+        cameras = camera_names(camera or [], field="--camera")
         if broker and follow:
             raise InputError(
                 "give --broker (publish) or --follow (show another server's), not both", field="--follow"

@@ -56,8 +56,7 @@ from typing import IO, cast
 
 import numpy as np
 
-from tourbot.geometry import relative, wrap_angle
-from tourbot.io._interp import interpolate_pose
+from tourbot.geometry import interpolate_pose, relative, wrap_angle
 from tourbot.io.errors import LogFormatError
 from tourbot.io.output import output_file
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan

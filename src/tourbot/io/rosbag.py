@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.io._interp import interpolate_poses
+from tourbot.geometry import interpolate_poses
 from tourbot.io.errors import BagError
 from tourbot.records import LaserGeometry, Odometry, RobotLog, Scan
 

@@ -251,7 +251,7 @@ def cast_step(
     with ``done`` and the range once the cast ends. A blocking cell that the ray only clips at a
     corner (for less than ``EPS``) is stepped through, as in trace mode.
 
-    Because the step is pure, :func:`tourbot.maps.raycast.cast_rays_kernel` can advance two rays
+    Because the step is pure, :func:`tourbot.maps.raycast.cast_rays_kernel` can advance four rays
     in turn. Their table reads do not depend on each other, so the CPU overlaps them.
     """
     if 0 < v < OUTSIDE:  # a safe jump, in fixed point

@@ -19,6 +19,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from tourbot.geometry import wrap_angle
+
 __all__ = ["DWAConfig", "DynamicWindow", "arc_clearance", "arc_clearance_reference"]
 
 FloatArray = NDArray[np.float64]
@@ -164,7 +166,7 @@ class DynamicWindow:
         xe = np.where(straight, V * t_end, V / safe_w * np.sin(th))
         ye = np.where(straight, 0.0, V / safe_w * (1.0 - np.cos(th)))
         bearing = np.arctan2(carrot[1] - ye, carrot[0] - xe) - th
-        heading = 1.0 - np.abs(np.angle(np.exp(1j * bearing))) / math.pi
+        heading = 1.0 - np.abs(wrap_angle(bearing)) / math.pi
         dist_goal = math.hypot(*carrot)
         score = (
             cfg.heading_weight * heading

@@ -299,7 +299,16 @@ class ObjectBelief:
         # how well it was seen, from the likeliest pose sample
         top = int(np.argmax(pose_weights))
         expected = segment_ranges(laser_poses[top : top + 1], angles, segs, base[top : top + 1])[0]  # (S, W)
-        quality = self._quality(expected, z, weights)
+        probes = None
+        if shape.kind == "door":
+            # the door's range in the paper's 10-degree steps: a converged belief (its samples all
+            # within a degree, no jump drawn this scan) still tells which beams would see a change
+            n_probe = max(2, math.ceil(abs(shape.high - shape.low) / math.radians(10.0)) + 1)
+            states = np.linspace(shape.low, shape.high, n_probe)[:, None]
+            probes = segment_ranges(
+                laser_poses[top : top + 1], angles, shape.segments(states), base[top : top + 1]
+            )[0]
+        quality = self._quality(expected, z, weights, probes)
         if quality.status == Observation.OBSERVED and shape.kind != "door":
             best = self.samples[int(np.argmax(weights))]
             if not self._constrained(laser_poses[top], angles, z, best, base[top]):
@@ -344,15 +353,23 @@ class ObjectBelief:
         eig = np.linalg.eigvalsh(jac.T @ jac)
         return bool(eig[0] >= cfg.min_constraint * eig[-1])
 
-    def _quality(self, expected: NDArray[np.float32], z: FloatArray, weights: FloatArray) -> Quality:
-        """Discriminating beams (the states ``(S, W)`` disagree by more than 3 sigma), how many the
-        estimate explains (within 3 sigma at the best state), how many read shorter than every state."""
+    def _quality(
+        self,
+        expected: NDArray[np.float32],
+        z: FloatArray,
+        weights: FloatArray,
+        probes: NDArray[np.float32] | None = None,
+    ) -> Quality:
+        """Discriminating beams (the states ``(S, W)``, with the ``probes`` states ``(K, W)`` when
+        given, disagree by more than 3 sigma), how many the estimate explains (within 3 sigma at
+        the best state), how many read shorter than every state."""
         cfg = self.config
         tol = 3.0 * cfg.beam.sigma_hit
-        discriminating = (expected.max(axis=0) - expected.min(axis=0)) > tol
+        states = expected if probes is None else np.vstack([expected, probes])
+        discriminating = (states.max(axis=0) - states.min(axis=0)) > tol
         at_best = expected[int(np.argmax(weights))]
         explained = discriminating & (np.abs(z - at_best) < tol)
-        occluded = discriminating & (z < expected.min(axis=0) - tol)
+        occluded = discriminating & (z < states.min(axis=0) - tol)
         nb, ne, no = int(discriminating.sum()), int(explained.sum()), int(occluded.sum())
         if nb and no >= cfg.occluded_fraction * nb:
             status = Observation.OCCLUDED

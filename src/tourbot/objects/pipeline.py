@@ -48,7 +48,8 @@ class ObjectRun:
     """What a replay produced: every object update, the robot's estimated path, the costs."""
 
     updates: list[tuple[int, ObjectEstimate]] = field(default_factory=list)  # (scan index, estimate)
-    path: list[tuple[float, float, float, float]] = field(default_factory=list)  # (t, x, y, theta)
+    # (t, x, y, theta): the localizer's estimate, carried to the scan by the odometry
+    path: list[tuple[float, float, float, float]] = field(default_factory=list)
     path_scans: list[int] = field(default_factory=list)  # the scan index of each pose of ``path``
     path_covariances: list[FloatArray] = field(default_factory=list)  # (3, 3) of x, y, theta, per pose
     update_seconds: list[float] = field(default_factory=list)
@@ -101,6 +102,7 @@ def estimate_log(
             objects = ObjectWorld(grid, shapes, [mcl], hold=HOLD)
     samples: FloatArray | None = None
     weights: FloatArray | None = None
+    track: FloatArray | None = None  # the localizer's estimate at its last update
     belief_odom: FloatArray | None = None
     n = len(log.scans)
     for k, scan in enumerate(log.scans):
@@ -109,16 +111,21 @@ def estimate_log(
         for_objects = share == ScanShare.ALL or k % 2 == 1
         if trajectory is not None:
             samples, weights, belief_odom = trajectory[k][None, :], np.ones(1), odom
+            track = trajectory[k]
         elif for_pose and localizer is not None:
             belief = localizer.on_scan(scan)
             if belief is not None:
                 samples, weights, belief_odom = belief.samples, belief.weights, odom
-        if samples is None or weights is None or belief_odom is None:
+                e = belief.estimate
+                track = np.array([e.x, e.y, e.theta])
+        if samples is None or weights is None or belief_odom is None or track is None:
             continue
         # the belief carried to this scan by the odometry since its update (Eq. 7, no noise)
-        here = compose(samples, relative(belief_odom, odom)) if trajectory is None else samples
-        mean = _mean_pose(here, weights)
-        run.path.append((scan.timestamp, *mean))
+        step = relative(belief_odom, odom)
+        here = compose(samples, step) if trajectory is None else samples
+        # the path is what the localizer reports (its track), not the mean of its samples
+        pose = compose(track, step) if trajectory is None else track
+        run.path.append((scan.timestamp, float(pose[0]), float(pose[1]), float(pose[2])))
         run.path_scans.append(k)
         run.path_covariances.append(weighted_mean_cov(here, weights)[1])
         if for_objects:
@@ -133,11 +140,3 @@ def estimate_log(
     run.final = estimator.estimates()
     run.redraws = objects.redraws if objects is not None else 0
     return run
-
-
-def _mean_pose(samples: FloatArray, weights: FloatArray) -> tuple[float, float, float]:
-    w = weights / weights.sum()
-    x = float(w @ samples[:, 0])
-    y = float(w @ samples[:, 1])
-    th = math.atan2(float(w @ np.sin(samples[:, 2])), float(w @ np.cos(samples[:, 2])))
-    return (x, y, th)

@@ -7,6 +7,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from tourbot.geometry import wrap_angle
 from tourbot.interfaces import PoseBelief
@@ -119,9 +120,12 @@ class MCLLocalizer:
         self.updates += 1
         est = self.mcl.update(odom, self._decimate(scan))
         samples = np.asarray(self.mcl.samples, dtype=np.float64)
-        weights = np.asarray(self.mcl.weights, dtype=np.float64)
-        total = weights.sum()
-        weights = weights / total if total > 0 else np.full(len(weights), 1.0 / max(len(weights), 1))
+        weights = _normalised(np.asarray(self.mcl.weights, dtype=np.float64))
+        # The belief integrated over (Schulz & Burgard, Eq. 8) is the track's: recovery's guesses
+        # (fresh samples, up to a fifth and more of the set, anywhere on the map) have not won yet
+        # and are no part of it; they stay in the displayed samples.
+        fresh = self.mcl.recovery.fresh
+        kept = ~fresh if fresh.shape == weights.shape and fresh.any() and not fresh.all() else None
         cov = np.asarray(est.covariance, dtype=np.float64)
         estimate = PoseEstimate(
             float(est.pose[0]),
@@ -140,5 +144,12 @@ class MCLLocalizer:
             n_effective=float(1.0 / np.sum(weights**2)) if len(weights) else 0.0,
             poses=tuple(tuple(p) for p in samples[idx].tolist()),
         )
+        if kept is not None:
+            samples, weights = samples[kept], _normalised(weights[kept])
         self._belief = PoseBelief(estimate, samples, weights, summary)
         return self._belief
+
+
+def _normalised(weights: NDArray[np.float64]) -> NDArray[np.float64]:
+    total = weights.sum()
+    return weights / total if total > 0 else np.full(len(weights), 1.0 / max(len(weights), 1))

@@ -123,7 +123,14 @@ def overlay_objects(
         )
         scans.append(replace(scan, ranges=ranges))
         changed.append(n)
-    out = RobotLog(source=log.source, scans=scans, odometry=list(log.odometry), warnings=list(log.warnings))
+    out = RobotLog(
+        source=log.source,
+        scans=scans,
+        odometry=list(log.odometry),
+        warnings=list(log.warnings),
+        odometry_kind=log.odometry_kind,
+        notes=list(log.notes),
+    )
     return out, ObjectTruth([s.name for s in shapes], times, states, changed)
 
 

@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from tourbot.geometry import wrap_angle
 from tourbot.vision.camera import ForwardCamera
 from tourbot.vision.correlation import local_ncc, patch_ncc
 from tourbot.vision.model import back_project, model_points, model_profile
@@ -155,7 +156,7 @@ class VisionDetector:
         rays = self._rays @ rot_c.T.astype(np.float32)
         # 1. the 2.5D model of s_{t-1} seen from camera t, and i_{t-1} back-projected through it
         th = float(cur.pose[2])
-        az = np.asarray(np.mod(self._az + th + math.pi, 2 * math.pi) - math.pi, dtype=np.float64)
+        az = wrap_angle(self._az + th)
         seen = _in_arc(self._azimuths, th + self._fov[0], th + self._fov[1])
         profile = np.full(self._n_az, np.inf)
         profile[seen] = model_profile(

@@ -22,12 +22,7 @@ shuts down first, then closes the robot (:meth:`ProcessLink.close`).
 
 from __future__ import annotations
 
-import atexit
-import contextlib
 import logging
-import multiprocessing
-import signal
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -36,70 +31,47 @@ from typing import Any, Protocol, runtime_checkable
 
 from tourbot.errors import TourbotError
 from tourbot.web.link import RobotLink, RobotView
+from tourbot.web.supervised import RobotProcessError, SupervisedProcess, run_child
 
-_exiting = threading.Event()
-
-
-@atexit.register
-def _interpreter_exits() -> None:
-    # Runs before multiprocessing's own exit handler (registered earlier) terminates the daemonic
-    # robot processes: a robot that stops because the server exits is not started again.
-    _exiting.set()
-
-
-__all__ = ["ProcessLink", "RestartableFactory", "RobotProcessError"]
+__all__ = ["ProcessLink", "RestartableFactory"]
 
 log = logging.getLogger(__name__)
 
 _COMMANDS = frozenset({"send_goal", "start_tour", "around", "photo", "stop"})
 
 
-class RobotProcessError(TourbotError):
-    """The robot's process could not start, or stopped."""
-
-
 def _robot_main(
     factory: Callable[[], RobotLink], speedup: float, state: Connection, control: Connection
 ) -> None:
     """The robot process: build the link, then step it at its period / ``speedup`` and serve commands."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    run_child(
+        "the robot",
+        factory,
+        state,
+        control,
+        ready=lambda link: (link.period, link.view()),
+        period=lambda link: float(link.period) / speedup,
+        step=_step,
+        serve=lambda link, message: _serve(link, control, message),
+    )
+
+
+def _step(link: RobotLink) -> tuple[str, RobotView]:
+    link.step()
+    return ("view", link.view())
+
+
+def _serve(link: RobotLink, control: Connection, message: tuple[int, str, tuple[Any, ...]]) -> None:
+    """Run a command on the robot; answer its number with ``ok`` and the result, or ``error``."""
+    seq, name, args = message
     try:
-        link = factory()
-        state.send(("ready", link.period, link.view()))
+        result = getattr(link, name)(*args)
+        control.send((seq, "ok", result))
+    except TourbotError as exc:
+        control.send((seq, "error", str(exc)))
     except Exception as exc:
-        state.send(("failed", f"{type(exc).__name__}: {exc}"))
-        return
-    period = float(link.period) / speedup
-    next_time = time.monotonic()
-    while True:
-        try:
-            link.step()
-            state.send(("view", link.view()))
-        except (BrokenPipeError, EOFError, OSError):
-            return  # the server has gone
-        except Exception as exc:
-            log.exception("the robot's step failed")
-            state.send(("failed", f"{type(exc).__name__}: {exc}"))
-            return
-        next_time += period
-        if next_time < time.monotonic() - 1.0:  # far behind (slow machine): no burst to catch up
-            next_time = time.monotonic()
-        while control.poll(max(0.0, next_time - time.monotonic())):
-            try:
-                message = control.recv()
-            except (EOFError, OSError):
-                return
-            if message is None:  # close
-                return
-            seq, name, args = message
-            try:
-                result = getattr(link, name)(*args)
-                control.send((seq, "ok", result))
-            except TourbotError as exc:
-                control.send((seq, "error", str(exc)))
-            except Exception as exc:
-                log.exception("robot command %s failed", name)
-                control.send((seq, "error", f"{type(exc).__name__}: {exc}"))
+        log.exception("robot command %s failed", name)
+        control.send((seq, "error", f"{type(exc).__name__}: {exc}"))
 
 
 @runtime_checkable
@@ -111,7 +83,7 @@ class RestartableFactory(Protocol):
     def at(self, pose: tuple[float, float, float]) -> Callable[[], RobotLink]: ...
 
 
-class ProcessLink:
+class ProcessLink(SupervisedProcess):
     """A :class:`RobotLink` built by ``factory`` in a child process (``spawn``: ``factory`` must be
     picklable, e.g. a frozen dataclass with ``__call__``).
 
@@ -119,11 +91,12 @@ class ProcessLink:
     :meth:`view` returns the latest state the robot sent; commands wait for the robot's answer (at
     most ``command_timeout`` seconds) and raise its error as a :class:`TourbotError`.
 
-    Supervised: a robot process that dies (or whose step fails) is started again at once, from its
-    last estimated pose when the factory is a :class:`RestartableFactory`. The server's side (the
-    slots, the queue, the viewers) never notices more than a pause and a "restarting" status. At
-    most ``max_restarts`` restarts in ``restart_window`` seconds; past that the robot stays failed
-    (a robot that cannot run is not restarted forever).
+    Supervised (:class:`tourbot.web.supervised.SupervisedProcess`): a robot process that dies (or
+    whose step fails) is started again at once, from its last estimated pose when the factory is a
+    :class:`RestartableFactory`. The server's side (the slots, the queue, the viewers) never
+    notices more than a pause and a "restarting" status. At most ``max_restarts`` restarts in
+    ``restart_window`` seconds; past that the robot stays failed (a robot that cannot run is not
+    restarted forever).
     """
 
     def __init__(
@@ -136,110 +109,32 @@ class ProcessLink:
         max_restarts: int = 5,
         restart_window: float = 60.0,
     ) -> None:
-        self._ctx = multiprocessing.get_context("spawn")
         self._factory = factory
         self._speedup = speedup
         self.name = name
         self.period = 0.1
         self.command_timeout = command_timeout
-        self.max_restarts = max_restarts
-        self.restart_window = restart_window
-        self.failure: str | None = None
-        self.restarts: list[float] = []  # monotonic times of the restarts
-        self.restarting = False
-        self._closing = False
         self._view: RobotView | None = None
-        self._command_lock = threading.Lock()
         self._seq = 0  # the number of the last command sent
-        self._reader: threading.Thread | None = None
-        self._spawn(factory)
+        super().__init__(f"robot {name}", max_restarts=max_restarts, restart_window=restart_window)
 
-    def _spawn(self, factory: Callable[[], RobotLink]) -> None:
-        self._state, child_state = self._ctx.Pipe(duplex=False)
-        self._control, child_control = self._ctx.Pipe()
-        self._process = self._ctx.Process(
-            target=_robot_main,
-            args=(factory, self._speedup, child_state, child_control),
-            name=f"tourbot-robot-{self.name}",
-            daemon=True,
-        )
-        self._process.start()
-        child_state.close()
-        child_control.close()
-
-    def _ready(self, timeout: float) -> None:
-        """The first message of a new process: ``ready`` with its period and first view."""
-        if not self._state.poll(timeout):
-            raise RobotProcessError(f"robot {self.name}: not ready within {timeout:.0f} s")
-        try:
-            message = self._state.recv()
-        except (EOFError, OSError):
-            raise RobotProcessError(f"robot {self.name}: its process stopped while starting") from None
-        if message[0] != "ready":
-            raise RobotProcessError(f"robot {self.name} could not start: {message[1]}")
-        _, self.period, self._view = message
-
-    def wait_ready(self, timeout: float = 600.0) -> None:
-        """Wait until the robot has been built (the first run compiles kernels); then follow it."""
-        if self._reader is not None:
-            return
-        try:
-            self._ready(timeout)
-        except RobotProcessError:
-            self.close()
-            raise
-        self._reader = threading.Thread(target=self._read, name=f"robot-{self.name}-state", daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        """Follow the robot's states; restart a robot whose process stopped or whose step failed."""
-        while True:
-            try:
-                message = self._state.recv()
-            except (EOFError, OSError):
-                message = ("failed", "the robot's process stopped")
-            if message[0] == "view":
-                self._view = message[1]
-                continue
-            if self._closing or _exiting.is_set():
-                return
-            self.restarting = True  # until _restart decides otherwise: never shown "failed" meanwhile
-            self.failure = str(message[1])
-            log.error("robot %s stopped: %s", self.name, self.failure)
-            if not self._restart():
-                return
-
-    def _restart(self) -> bool:
-        """Start the robot again from its last estimated pose; False when it may not (or cannot)."""
-        now = time.monotonic()
-        self.restarts = [t for t in self.restarts if now - t < self.restart_window]
-        if len(self.restarts) >= self.max_restarts:
-            self.restarting = False
-            log.error("robot %s: %d restarts in %.0f s, it stays stopped", self.name, len(self.restarts),
-                      self.restart_window)  # fmt: skip
-            return False
-        self.restarts.append(now)
-        self.restarting = True
+    def _target(self) -> tuple[Callable[..., None], tuple[Any, ...], str]:
+        """The robot's loop, built where it last was (its last estimated pose) on a restart."""
         view = self._view
         factory = self._factory
         if view is not None and isinstance(factory, RestartableFactory):
             factory = factory.at((view.x, view.y, view.theta))
-        with self._command_lock:
-            self._stop_process(5.0)
-            self._state.close()
-            if self._closing or _exiting.is_set():
-                return False
-            self._spawn(factory)
-        try:
-            self._ready(120.0)
-        except RobotProcessError as exc:
-            self.failure = str(exc)
-            log.error("robot %s: restart failed: %s", self.name, exc)
-            return self._restart()
-        self.failure = None
-        self.restarting = False
-        log.warning("robot %s restarted", self.name)
-        return True
+        return _robot_main, (factory, self._speedup), f"tourbot-robot-{self.name}"
+
+    def _on_ready(self, message: tuple[Any, ...]) -> None:
+        """``ready`` with the robot's period and first view."""
+        _, self.period, self._view = message
+
+    def _on_message(self, message: tuple[Any, ...]) -> None:
+        if message[0] == "view":
+            self._view = message[1]
+        else:
+            super()._on_message(message)
 
     # --- RobotLink ------------------------------------------------------------------------------
     def step(self) -> None:
@@ -274,40 +169,22 @@ class ProcessLink:
     def _call(self, name: str, *args: Any) -> Any:
         assert name in _COMMANDS
         self.wait_ready()
-        with self._command_lock:
+        with self._lock:
             if self.failure is not None or not self._process.is_alive():
-                raise RobotProcessError(f"robot {self.name}: {self.failure or 'its process stopped'}")
+                raise RobotProcessError(f"{self.label}: {self.failure or 'its process stopped'}")
             try:
                 self._seq += 1
                 self._control.send((self._seq, name, args))
                 deadline = time.monotonic() + self.command_timeout
                 while True:  # answers to earlier commands that timed out are dropped
                     if not self._control.poll(max(0.0, deadline - time.monotonic())):
-                        raise RobotProcessError(f"robot {self.name}: no answer in {self.command_timeout} s")
+                        raise RobotProcessError(f"{self.label}: no answer in {self.command_timeout} s")
                     seq, *answer = self._control.recv()
                     if seq == self._seq:
                         break
             except (BrokenPipeError, EOFError, OSError):
-                raise RobotProcessError(f"robot {self.name}: its process stopped") from None
+                raise RobotProcessError(f"{self.label}: its process stopped") from None
         kind, result = answer
         if kind != "ok":
             raise TourbotError(str(result))
         return result
-
-    def _stop_process(self, timeout: float) -> None:
-        with contextlib.suppress(BrokenPipeError, OSError):
-            self._control.send(None)
-        self._process.join(timeout)
-        if self._process.is_alive():
-            self._process.terminate()
-            self._process.join(timeout)
-        self._control.close()
-
-    def close(self, timeout: float = 10.0) -> None:
-        """Stop the robot's process (idempotent); it is not restarted."""
-        self._closing = True
-        with self._command_lock:
-            self._stop_process(timeout)
-        if self._reader is not None and self._reader is not threading.current_thread():
-            self._reader.join(timeout)
-        self._state.close()

@@ -131,7 +131,8 @@ class SimulatedRobotFactory:
     foxglove_host: str = "127.0.0.1"  # ... on this address (the web server's)
     # several robots in one museum: (shared-memory name, robots, this robot's index), sim.fleet
     fleet: tuple[str, int, int] | None = None
-    # the cameras the robot carries and uses: "ceiling" (fused into MCL), "forward" (vision obstacles)
+    # the cameras the robot carries and uses (app.simulated.CAMERAS): "ceiling" (fused into MCL),
+    # "forward" (vision obstacles)
     cameras: tuple[str, ...] = ()
 
     def at(self, pose: tuple[float, float, float]) -> SimulatedRobotFactory:
@@ -152,9 +153,7 @@ class SimulatedRobotFactory:
             mcl=self.mcl,
             objects=True,
             people=True,  # the pages show the people the robot perceives: its tracker on its laser
-            ceiling="ceiling" in self.cameras,
-            vision="forward" in self.cameras,
-        )
+        ).carrying(self.cameras)
         fleet = None
         start = self.start
         if self.fleet is not None:
