@@ -510,7 +510,8 @@ async def _viewers(
         await asyncio.to_thread(ready.get, True, 600)
     await _drive_far(server, site)  # the robot moving while it is watched
     await asyncio.sleep(2.0)  # keyframes and joining out of the way
-    await _staff(server, "DELETE", robot)  # the server's own delays from here on
+    for at in spread:  # each server's own delays from here on (the followers', when they serve)
+        await _staff(at, "DELETE", robot)
     robots = _children(pid)
     others = [s.process.pid for s in spread if s is not server]
     start, wall0 = time.time(), time.monotonic()
@@ -526,7 +527,8 @@ async def _viewers(
         w.join(30)
     delays = sorted(d for found, _ in gathered for (at, d) in found if start <= at <= end)
     viewer_cpu = sum(_cpu_between(samples, start, end) for _, samples in gathered) / (end - start)
-    at_server = await _staff(server, "GET", robot)
+    # the worst server's own sampled -> written delays (the viewers' side adds their reading)
+    at_servers = [found for at in spread if (found := await _staff(at, "GET", robot)).get("frames")]
     if not delays:
         return {"viewers": n, "frames": 0}
     return {
@@ -542,8 +544,8 @@ async def _viewers(
         "viewer_cpu": viewer_cpu,
         "follower_cpu": (other1 - other0) / wall,
         "followers": len(others),
-        "server_p50_ms": at_server.get("p50_ms", math.nan),
-        "server_p99_ms": at_server.get("p99_ms", math.nan),
+        "server_p50_ms": max((found["p50_ms"] for found in at_servers), default=math.nan),
+        "server_p99_ms": max((found["p99_ms"] for found in at_servers), default=math.nan),
     }
 
 
@@ -774,7 +776,9 @@ def register(bench: typer.Typer) -> None:
             met=p99 <= TARGET_P99_MS,
         )
         report.add(
-            measure=f"  at the server: sampled -> sent p99 ({viewers})",
+            measure=f"  at the server (the worst follower's): sampled -> sent p99 ({viewers})"
+            if followers
+            else f"  at the server: sampled -> sent p99 ({viewers})",
             value=crowd.get("server_p99_ms", math.nan),
             unit="ms",
         )
