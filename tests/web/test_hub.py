@@ -65,3 +65,55 @@ def test_vision_obstacles_are_published_as_cells_on_change(db: Database) -> None
     assert hub.obstacles_message is second
     hub._publish_obstacles(robot.view(), 13.6)
     assert json.loads(hub.obstacles_message or "")["points"] == []
+
+
+def test_the_hub_writes_each_state_to_its_viewers_and_a_slow_one_catches_up(db: Database) -> None:
+    """Every viewer that can take a frame gets the one shared delta frame; a joining viewer gets a
+    keyframe at once; a viewer that could not take a frame (its buffer full) is skipped and then
+    gets one keyframe of the latest state, never the states it missed."""
+    import asyncio
+
+    from tourbot.web.hub import StreamViewer
+    from tourbot.web.stream import StreamDecoder
+
+    robot = FakeRobot()
+    # refreshed by the test only (the ticker's first tick is far away)
+    hub = RobotHub("lefkos", robot, db, db.robot_id("lefkos"), drive=False, rate_hz=1e-3)
+    got: dict[str, list[bytes]] = {"fast": [], "slow": []}
+    busy = {"fast": False, "slow": False}
+
+    def writer(name: str) -> StreamViewer:
+        def write(message: bytes, frame: bytes) -> bool:
+            if busy[name]:
+                return False
+            assert frame.endswith(message)
+            got[name].append(frame)
+            return True
+
+        return StreamViewer(write)
+
+    async def run() -> None:
+        await hub.start()
+        fast, slow = writer("fast"), writer("slow")
+        hub.watch(fast)
+        hub.watch(slow)
+        assert [f[2] for f in got["fast"] + got["slow"]] == [1, 1]  # keyframes at once
+        for k in range(6):
+            robot.x += 0.5  # a jump no viewer predicts: a delta at every state
+            busy["slow"] = k in (1, 2, 3)
+            await hub.refresh()
+        await hub.close()
+
+    asyncio.run(run())
+    assert [f[2] for f in got["fast"]] == [1, 2, 2, 2, 2, 2, 2]
+    for a, b in zip(got["fast"][1:], got["fast"][2:], strict=False):
+        assert a is not b
+    assert got["slow"][1] is got["fast"][1]  # the same bytes, framed once
+    assert [f[2] for f in got["slow"]] == [1, 2, 1, 2]  # three states missed: one keyframe
+    assert got["slow"][3] is got["fast"][6]
+    fast_view, slow_view = StreamDecoder(), StreamDecoder()
+    for frame in got["fast"]:
+        fast_view.feed(frame[2:])
+    for frame in got["slow"]:
+        slow_view.feed(frame[2:])
+    assert slow_view.scene().robot.x == fast_view.scene().robot.x

@@ -46,8 +46,19 @@ class _SlowCamera(FakeRobot):
         return super().photo()
 
 
-def test_a_late_answer_is_never_taken_for_the_next_commands() -> None:
+def test_a_picture_may_take_longer_than_a_command() -> None:
+    """Rendering the camera's 1280 x 960 picture took more than a command's 10 s on the loaded
+    machine (the page's picture never came): a picture has its own, longer wait."""
     link = ProcessLink(_SlowCamera, name="slow", command_timeout=0.5)
+    try:
+        link.wait_ready(60)
+        assert link.photo()[:2] == b"\xff\xd8"  # after 1.5 s, three times a command's wait
+    finally:
+        link.close()
+
+
+def test_a_late_answer_is_never_taken_for_the_next_commands() -> None:
+    link = ProcessLink(_SlowCamera, name="slow", command_timeout=0.5, photo_timeout=0.5)
     try:
         link.wait_ready(60)
         with pytest.raises(RobotProcessError, match=r"no answer in 0\.5 s"):

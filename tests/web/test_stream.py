@@ -17,6 +17,7 @@ from tourbot.web.stream import (
     StreamEncoder,
     StreamError,
     StreamFidelity,
+    websocket_frame,
 )
 
 coord = st.floats(-300.0, 300.0, allow_nan=False)
@@ -143,6 +144,36 @@ def test_broadcast_keeps_every_viewer_within_tolerance(
                 assert math.hypot(p.x - truth[p.id].x, p.y - truth[p.id].y) <= person_tol
             assert math.hypot(shown.robot.x - robot.x, shown.robot.y - robot.y) <= tol
             assert _angle_diff(shown.robot.theta, robot.theta) <= config.heading_tolerance + 0.01
+
+
+@pytest.mark.parametrize("size", [0, 1, 125, 126, 65535, 65536, 70000])
+def test_websocket_frame_is_the_protocols_own_unmasked_binary_frame(size: int) -> None:
+    from websockets.frames import Frame, Opcode
+
+    payload = bytes(k % 251 for k in range(size))
+    assert websocket_frame(payload) == Frame(Opcode.BINARY, payload).serialize(mask=False)
+
+
+def test_broadcast_frames_each_state_once_for_every_viewer() -> None:
+    """Up-to-date viewers share one delta frame, joining and late viewers one keyframe frame: the
+    same objects, built once per state, each the frame of its message."""
+    broadcast = StreamBroadcast(StreamConfig())
+    assert broadcast.frame_for(0) is None  # nothing pushed yet
+    for k in range(3):
+        t = 100.0 + k
+        broadcast.push(Scene(t, Body(0, 0.5 * k, 0.0), (_walk(t, 1),)))  # a robot never predicted
+        behind = [broadcast.frame_for(0), broadcast.frame_for(0)]
+        if k == 0:
+            continue
+        up_to_date = [broadcast.frame_for(broadcast.version - 1) for _ in range(2)]
+        for first, second in (behind, up_to_date):
+            assert first is not None
+            assert second is not None
+            assert first[1] is second[1]
+            assert first[1] == websocket_frame(first[0])
+        assert behind[0][0][0] == 1  # a keyframe
+        assert up_to_date[0][0][0] == 2  # a delta
+        assert broadcast.frame_for(broadcast.version) is None
 
 
 def test_broadcast_keyframe_after_the_counter_wrap() -> None:

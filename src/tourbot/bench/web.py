@@ -442,6 +442,32 @@ async def _watch(
     await asyncio.gather(*(v.close() for v in viewers))
 
 
+async def _drive_far(server: ServedSite, site: dict[str, Any], timeout: float = 30.0) -> None:
+    """Send the robot to the exhibit farthest from where it stands (FHW: 30 m or more, a minute
+    of driving, localizing and planning) and return once the stream shows it moving.
+
+    A tour would start with a stop: the first exhibit's presentation, 8 s or more standing, and
+    a standing robot sends a frame every 5 s (its refresh), so the viewers would measure little.
+    """
+    if not site["exhibits"]:
+        return
+    robot = site["robots"][0]
+    driver = _Viewer(server.port, robot, site["stream"])
+    await driver.open(server.base)
+    await driver.send({"type": "book"})
+    await driver.run(time.monotonic() + 0.5)  # the keyframe: where the robot is
+    here = driver.decoder.scene().robot
+    far = max(site["exhibits"], key=lambda e: math.hypot(e["x"] - here.x, e["y"] - here.y))
+    await driver.send({"type": "exhibit", "exhibit": far["slug"]})
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        await driver.run(time.monotonic() + 0.2)
+        robot_now = driver.decoder.scene().robot
+        if math.hypot(robot_now.vx, robot_now.vy) > 0.05:
+            break
+    await driver.close()  # the robot goes on to the exhibit
+
+
 def _cpu_between(samples: list[tuple[float, float]], start: float, end: float) -> float:
     """CPU seconds used between ``start`` and ``end`` from (wall, cpu) samples."""
     inside = [c for t, c in samples if start <= t <= end]
@@ -464,10 +490,6 @@ async def _viewers(
 
     site = await _site(server.base)
     robot = site["robots"][0]
-    if site["tours"]:  # the robot on a tour (moving, localizing, planning) while it is watched
-        driver, _ = await _on_tour(server, site, robot)
-        await asyncio.sleep(1.0)
-        await driver.close()  # the robot goes on with the tour
     ctx = multiprocessing.get_context("spawn")
     ready, results, stop = ctx.Queue(), ctx.Queue(), ctx.Event()
     shares = [n // processes + (1 if k < n % processes else 0) for k in range(processes)]
@@ -486,8 +508,10 @@ async def _viewers(
         w.start()
     for _ in workers:
         await asyncio.to_thread(ready.get, True, 600)
+    await _drive_far(server, site)  # the robot moving while it is watched
     await asyncio.sleep(2.0)  # keyframes and joining out of the way
-    await _staff(server, "DELETE", robot)  # the server's own delays from here on
+    for at in spread:  # each server's own delays from here on (the followers', when they serve)
+        await _staff(at, "DELETE", robot)
     robots = _children(pid)
     others = [s.process.pid for s in spread if s is not server]
     start, wall0 = time.time(), time.monotonic()
@@ -503,7 +527,8 @@ async def _viewers(
         w.join(30)
     delays = sorted(d for found, _ in gathered for (at, d) in found if start <= at <= end)
     viewer_cpu = sum(_cpu_between(samples, start, end) for _, samples in gathered) / (end - start)
-    at_server = await _staff(server, "GET", robot)
+    # the worst server's own sampled -> written delays (the viewers' side adds their reading)
+    at_servers = [found for at in spread if (found := await _staff(at, "GET", robot)).get("frames")]
     if not delays:
         return {"viewers": n, "frames": 0}
     return {
@@ -519,8 +544,8 @@ async def _viewers(
         "viewer_cpu": viewer_cpu,
         "follower_cpu": (other1 - other0) / wall,
         "followers": len(others),
-        "server_p50_ms": at_server.get("p50_ms", math.nan),
-        "server_p99_ms": at_server.get("p99_ms", math.nan),
+        "server_p50_ms": max((found["p50_ms"] for found in at_servers), default=math.nan),
+        "server_p99_ms": max((found["p99_ms"] for found in at_servers), default=math.nan),
     }
 
 
@@ -751,7 +776,9 @@ def register(bench: typer.Typer) -> None:
             met=p99 <= TARGET_P99_MS,
         )
         report.add(
-            measure=f"  at the server: sampled -> sent p99 ({viewers})",
+            measure=f"  at the server (the worst follower's): sampled -> sent p99 ({viewers})"
+            if followers
+            else f"  at the server: sampled -> sent p99 ({viewers})",
             value=crowd.get("server_p99_ms", math.nan),
             unit="ms",
         )

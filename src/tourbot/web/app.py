@@ -75,13 +75,13 @@ from tourbot.web.guard import (
     origin_allowed,
     parse_command,
 )
-from tourbot.web.hub import RobotHub
+from tourbot.web.hub import RobotHub, StreamViewer
 from tourbot.web.link import RobotLink
 from tourbot.web.middleware import BodyLimit, SameOrigin
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
 from tourbot.web.slots import SlotConfig
 from tourbot.web.speech import Speaker, SpeechConfig
-from tourbot.web.stream import StreamConfig
+from tourbot.web.stream import FRAME_KEY, StreamConfig
 
 __all__ = ["WebConfig", "create_app", "find_node_modules", "known_bounds", "pooled", "wall_boxes"]
 
@@ -733,16 +733,21 @@ def create_app(
         await hub.connect(client.session)
         hub.debug_viewers += debug
         phrasebook = _phrasebook(hub, cfg, db) if onboard else None
-        sender = asyncio.create_task(_send_loop(ws, hub, client, onboard, debug))
+        tasks = [asyncio.create_task(_send_loop(ws, hub, client, onboard, debug))]
+        viewer = _stream_viewer(ws, tasks)
         try:
             await ws.send_text(json.dumps({"type": "hello", "robot": name, "session": client.session}))
+            hub.watch(viewer)  # the stream's frames come from the hub from here on
             await _receive_loop(ws, hub, client, cfg, db, buckets, phrasebook, host)
         except WebSocketDisconnect:
             pass
         finally:
-            sender.cancel()
-            with suppress(asyncio.CancelledError, Exception):
-                await sender
+            hub.unwatch(viewer)
+            for task in tasks:
+                task.cancel()
+            for task in tasks:
+                with suppress(asyncio.CancelledError, Exception):
+                    await task
             hub.debug_viewers -= debug
             await hub.disconnect(client.session)
 
@@ -758,15 +763,54 @@ def _phrasebook(hub: RobotHub, cfg: WebConfig, db: Database) -> PhraseBook:
     )
 
 
+class _Mailbox:
+    """The stream of one connection whose server cannot write prebuilt frames (the test client,
+    another ASGI server): the connection's task sends one message at a time, and while one is on
+    its way the viewer does not take another (it is skipped as a full socket buffer is, and gets
+    a keyframe of a later state)."""
+
+    def __init__(self) -> None:
+        self.message: bytes | None = None
+        self.ready = asyncio.Event()
+
+    def offer(self, message: bytes, _frame: bytes) -> bool:
+        if self.message is not None:
+            return False
+        self.message = message
+        self.ready.set()
+        return True
+
+    async def run(self, ws: WebSocket) -> None:
+        while True:
+            await self.ready.wait()
+            self.ready.clear()
+            if self.message is not None:
+                await ws.send_bytes(self.message)
+                self.message = None
+
+
+def _stream_viewer(ws: WebSocket, tasks: list[asyncio.Task[None]]) -> StreamViewer:
+    """The connection as a viewer of the hub's stream: the server's frame writer
+    (:mod:`tourbot.web.shared_frames`) when it offers one, else a :class:`_Mailbox` and its task."""
+    offered = ws.scope.get("extensions", {}).get(FRAME_KEY)
+    if offered is not None:
+        write_frame = offered["write"]
+        return StreamViewer(lambda _message, frame: bool(write_frame(frame)))
+    mailbox = _Mailbox()
+    tasks.append(asyncio.create_task(mailbox.run(ws)))
+    return StreamViewer(mailbox.offer)
+
+
 async def _send_loop(
     ws: WebSocket, hub: RobotHub, client: _Client, onboard: bool, debug: bool = False
 ) -> None:
-    """Stream to one client: each round takes the hub's latest state, so nothing piles up.
+    """The JSON texts to one client (the stream's frames come from the hub, see
+    :meth:`RobotHub.watch`): woken when a text may have changed, or at every state for the on-board
+    screen (its face follows the robot), it sends what this client has not had yet.
 
-    Everything common to the viewers (the stream's bytes, the navigation status, the path message)
-    is made once per state by the hub; here only this client's slot is looked at.
+    Everything common to the viewers (the navigation status, the path message) is made once per
+    state by the hub; here only this client's slot is looked at.
     """
-    held = 0  # the stream state this client holds (0: none yet)
     seen = -1
     last_status: dict[str, Any] | None = None
     status_key: tuple[int, bool] | None = None  # what the last status was made from
@@ -777,15 +821,7 @@ async def _send_loop(
     said = hub.announcements[-1].seq if hub.announcements else 0
     chat_seen = 0  # this visitor's conversation is sent from its start (a reload keeps it)
     while ws.application_state == WebSocketState.CONNECTED:
-        seen = await hub.wait_change(seen)
-        scene = hub.scene
-        if scene is None:
-            continue
-        message = hub.stream.message_for(held)
-        held = hub.stream.version
-        if message is not None:
-            await ws.send_bytes(message)
-            hub.send_delays.append(time.time() - scene.t)
+        seen = await (hub.wait_change(seen) if onboard else hub.wait_texts(seen))
         now = time.time()
         key = (hub.status_version, hub.arbiter.onboard_active(now))
         if key != status_key or onboard:  # (the on-board face changes with every state)

@@ -2,9 +2,12 @@
 
 The hub keeps the robot's loop running (``link.step`` in a worker thread, paced to real time),
 samples the robot's view at the stream rate, arbitrates control (:mod:`tourbot.web.slots`) and
-records bookings and visits in the database. Each state is encoded once for all the viewers
-(:class:`~tourbot.web.stream.StreamBroadcast`). Clients never queue behind each other: each
-connection has its own task, which reads the hub's *latest* state when it is ready to send.
+records bookings and visits in the database. Each state is encoded and framed once for all the
+viewers (:class:`~tourbot.web.stream.StreamBroadcast`), and the hub itself writes that frame to
+every viewer (:class:`StreamViewer`) in one pass: no task per viewer wakes for the stream. A viewer
+that cannot take a frame at once (its socket's buffer full) is skipped and gets a keyframe of the
+latest state when it can: clients never queue behind each other, and nothing piles up. The JSON
+texts (status, path, speech) go through each connection's own task, woken only when one changed.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
 from tourbot.web.stream import MAX_BODIES, Body, ObjectsPayload, Scene, StreamBroadcast, StreamConfig
 
-__all__ = ["Announcement", "RobotHub", "nav_status", "path_moved", "path_points", "scene_of"]
+__all__ = ["Announcement", "RobotHub", "StreamViewer", "nav_status", "path_moved", "path_points", "scene_of"]
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -98,6 +101,16 @@ def path_moved(
     return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
 
 
+@dataclass(eq=False)
+class StreamViewer:
+    """One viewer's end of the stream: ``write(message, frame)`` hands it a message (and that
+    message's WebSocket frame) and says whether it took it at once; ``held`` is the stream state it
+    holds (0: none yet)."""
+
+    write: Callable[[bytes, bytes], bool]
+    held: int = 0
+
+
 @dataclass(frozen=True)
 class Announcement:
     """Something the robot says: the text, and the audio file's name when speech is available."""
@@ -153,6 +166,9 @@ class RobotHub:
         self.chat: list[MessageData] = []  # the text channel's latest messages, for delivery
         self.photo_at = float("-inf")  # when the last high-resolution picture was asked for
         self.send_delays: deque[float] = deque(maxlen=100_000)
+        self.viewers: set[StreamViewer] = set()  # the stream's viewers, written to by the hub
+        self.texts_version = 0  # changes when a text a page shows may have changed (see notify)
+        self._texts_key: tuple[object, ...] | None = None
         self.connections: dict[int, int] = {}
         self.museum: list[RobotHub] = [self]  # every robot of the server (a visitor books one at a time)
         self._bookings: dict[int, int] = {}
@@ -160,6 +176,7 @@ class RobotHub:
         self._thread: threading.Thread | None = None
         self._task: asyncio.Task[None] | None = None
         self._changed: asyncio.Event | None = None  # set at a change, then replaced by a fresh one
+        self._texts_changed: asyncio.Event | None = None  # the same, for the texts
         self._last_state: tuple[str, str | None] = ("idle", None)
         self._presented: tuple[str | None, str] | None = None
         self._pending_since: float | None = None
@@ -167,6 +184,7 @@ class RobotHub:
     # --- lifecycle --------------------------------------------------------------------------
     async def start(self) -> None:
         self._changed = asyncio.Event()
+        self._texts_changed = asyncio.Event()
         self._slot_lock = asyncio.Lock()
         self._pending: set[asyncio.Future[None]] = set()
         if self.drive:
@@ -208,9 +226,16 @@ class RobotHub:
             self._stop.wait(max(0.0, delay))
 
     async def _ticker(self) -> None:
+        """:meth:`refresh` at ``rate_hz``, paced to the clock (a refresh that writes to many
+        viewers on a loaded machine does not slow the rate), never in a burst to catch up."""
         period = 1.0 / self.rate_hz
+        next_time = time.monotonic()
         while not self._stop.is_set():
-            await asyncio.sleep(period)
+            next_time += period
+            delay = next_time - time.monotonic()
+            if delay < -period:  # far behind: start afresh
+                next_time, delay = time.monotonic(), 0.0
+            await asyncio.sleep(max(0.0, delay))
             try:
                 await self.refresh()
             except Exception:
@@ -224,6 +249,8 @@ class RobotHub:
         self.view = view
         self.scene = scene_of(view, now)
         self.stream.push(self.scene)
+        for viewer in tuple(self.viewers):
+            self._send_stream(viewer)
         self.nav_status = self._steady(nav_status(view), now)
         self._publish_path(view, now)
         self._publish_obstacles(view, now)
@@ -283,12 +310,51 @@ class RobotHub:
         message = {"type": "obstacles", "cell": size, "points": points}
         self.obstacles_message = json.dumps(message, separators=(",", ":"))
 
+    # --- the stream's viewers -----------------------------------------------------------------
+    def watch(self, viewer: StreamViewer) -> None:
+        """A new viewer of the stream: it gets a keyframe now (once there is a state), then every
+        state from the hub's :meth:`refresh`."""
+        self.viewers.add(viewer)
+        self._send_stream(viewer)
+
+    def unwatch(self, viewer: StreamViewer) -> None:
+        self.viewers.discard(viewer)
+
+    def _send_stream(self, viewer: StreamViewer) -> None:
+        """What ``viewer`` needs to hold the latest state, if it can take it now."""
+        scene = self.scene
+        if scene is None:
+            return
+        framed = self.stream.frame_for(viewer.held)
+        if framed is None:  # it holds the latest state already, or nothing changed
+            viewer.held = self.stream.version
+        elif viewer.write(*framed):
+            viewer.held = self.stream.version
+            self.send_delays.append(time.time() - scene.t)
+        # else: a slow viewer keeps what it held and gets a keyframe of a later state
+
     async def notify(self) -> None:
         self.version += 1
         a = self.arbiter
         key = (a.holder, tuple(a.queue), a.staff_stopped, self.nav_status)
         if key != self._status_key:
             self._status_key, self.status_version = key, self.status_version + 1
+        texts = (
+            self.status_version,
+            a.onboard_active(time.time()),
+            self.path_message,
+            self.obstacles_message,
+            self.objects.message,
+            self.truth_message,
+            self.announcements[-1] if self.announcements else None,
+            self.chat[-1] if self.chat else None,
+        )
+        old = self._texts_key
+        if old is None or any(x is not y for x, y in zip(texts, old, strict=True)):
+            self._texts_key, self.texts_version = texts, self.texts_version + 1
+            if self._texts_changed is not None:
+                changed, self._texts_changed = self._texts_changed, asyncio.Event()
+                changed.set()
         if self._changed is not None:
             changed, self._changed = self._changed, asyncio.Event()
             changed.set()  # wakes every waiting connection at once (no lock to pass along)
@@ -303,6 +369,15 @@ class RobotHub:
                 with contextlib.suppress(TimeoutError):
                     await asyncio.wait_for(self._changed.wait(), timeout)
         return self.version
+
+    async def wait_texts(self, seen: int) -> int:
+        """Wait until a text the pages show may have changed since ``texts_version`` ``seen``: the
+        status (slots, navigation, the on-board screen's presence), the path, the obstacles, the
+        objects, the debug overlay, an announcement or a chat line; the current texts version."""
+        assert self._texts_changed is not None
+        if self.texts_version == seen:
+            await self._texts_changed.wait()
+        return self.texts_version
 
     async def _arrived(self, exhibit: str) -> None:
         try:

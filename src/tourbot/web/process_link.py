@@ -89,7 +89,10 @@ class ProcessLink(SupervisedProcess):
 
     :meth:`step` does nothing: the robot steps itself, ``speedup`` times faster than its period.
     :meth:`view` returns the latest state the robot sent; commands wait for the robot's answer (at
-    most ``command_timeout`` seconds) and raise its error as a :class:`TourbotError`.
+    most ``command_timeout`` seconds) and raise its error as a :class:`TourbotError`. A picture
+    (:meth:`photo`) waits up to ``photo_timeout`` seconds: rendering the 1280 x 960 camera costs
+    the robot 0.7-2 s of CPU (the first one the most), which on a loaded machine took more than
+    the 10 s a command may take, and the visitor got no picture.
 
     Supervised (:class:`tourbot.web.supervised.SupervisedProcess`): a robot process that dies (or
     whose step fails) is started again at once, from its last estimated pose when the factory is a
@@ -106,6 +109,7 @@ class ProcessLink(SupervisedProcess):
         speedup: float = 1.0,
         name: str = "robot",
         command_timeout: float = 10.0,
+        photo_timeout: float = 30.0,
         max_restarts: int = 5,
         restart_window: float = 60.0,
     ) -> None:
@@ -114,6 +118,7 @@ class ProcessLink(SupervisedProcess):
         self.name = name
         self.period = 0.1
         self.command_timeout = command_timeout
+        self.photo_timeout = photo_timeout
         self._view: RobotView | None = None
         self._seq = 0  # the number of the last command sent
         super().__init__(f"robot {name}", max_restarts=max_restarts, restart_window=restart_window)
@@ -161,13 +166,16 @@ class ProcessLink(SupervisedProcess):
         self._call("around", exhibit, x, y, theta)
 
     def photo(self) -> bytes:
-        return bytes(self._call("photo"))
+        return bytes(self._call("photo", timeout=self.photo_timeout))
 
     def stop(self) -> None:
         self._call("stop")
 
-    def _call(self, name: str, *args: Any) -> Any:
+    def _call(self, name: str, *args: Any, timeout: float | None = None) -> Any:
+        """Run command ``name`` in the robot's process and wait for its answer, at most ``timeout``
+        seconds (``command_timeout`` by default)."""
         assert name in _COMMANDS
+        wait = self.command_timeout if timeout is None else timeout
         self.wait_ready()
         with self._lock:
             if self.failure is not None or not self._process.is_alive():
@@ -175,10 +183,10 @@ class ProcessLink(SupervisedProcess):
             try:
                 self._seq += 1
                 self._control.send((self._seq, name, args))
-                deadline = time.monotonic() + self.command_timeout
+                deadline = time.monotonic() + wait
                 while True:  # answers to earlier commands that timed out are dropped
                     if not self._control.poll(max(0.0, deadline - time.monotonic())):
-                        raise RobotProcessError(f"{self.label}: no answer in {self.command_timeout} s")
+                        raise RobotProcessError(f"{self.label}: no answer in {wait} s")
                     seq, *answer = self._control.recv()
                     if seq == self._seq:
                         break

@@ -445,6 +445,8 @@ def uvicorn_config(
     before any parsing."""
     import uvicorn
 
+    from tourbot.web.shared_frames import SharedFrameProtocol
+
     if (certfile is None) != (keyfile is None):
         raise TourbotError("TLS needs both --certfile and --keyfile")
     for path in (certfile, keyfile):
@@ -453,8 +455,9 @@ def uvicorn_config(
     return uvicorn.Config(
         app,
         log_level="warning",
+        ws=SharedFrameProtocol,  # the stream's frames built once, written to every viewer as they are
         ws_max_size=65536,
-        ws_per_message_deflate=True,
+        ws_per_message_deflate=True,  # the JSON texts; the stream's binary frames go uncompressed
         timeout_graceful_shutdown=5,
         proxy_headers=bool(trusted_proxies),
         forwarded_allow_ips=list(trusted_proxies) or None,

@@ -46,6 +46,7 @@ from tourbot.errors import TourbotError
 from tourbot.geometry import wrap_angle
 
 __all__ = [
+    "FRAME_KEY",
     "KEYFRAME",
     "MAX_BODIES",
     "OBJECT_TOLERANCE",
@@ -59,6 +60,7 @@ __all__ = [
     "StreamEncoder",
     "StreamError",
     "StreamFidelity",
+    "websocket_frame",
 ]
 
 KEYFRAME = 1
@@ -75,6 +77,24 @@ MAX_BODIES = 255  # bodies in one message (the count is a byte)
 
 
 OBJECT_TOLERANCE = 0.03  # m: an outline vertex moved this far is sent again
+
+#: The ASGI extension of a WebSocket scope under which a server offers ``{"write": f}``, ``f(frame)``
+#: writing a prebuilt frame (:func:`websocket_frame`) as it is and saying whether it could
+#: (:class:`tourbot.web.shared_frames.SharedFrameProtocol`).
+FRAME_KEY = "tourbot.frame"
+
+
+def websocket_frame(payload: bytes) -> bytes:
+    """``payload`` as one server-to-client binary WebSocket frame (RFC 6455, section 5.2): FIN,
+    opcode 2, no RSV bits (not compressed), unmasked, the 7-bit, 16-bit or 64-bit length."""
+    n = len(payload)
+    if n < 126:
+        head = bytes([0x82, n])
+    elif n < 65536:
+        head = bytes([0x82, 126]) + struct.pack(">H", n)
+    else:
+        head = bytes([0x82, 127]) + struct.pack(">Q", n)
+    return head + payload
 
 
 class _Object(Protocol):
@@ -470,7 +490,8 @@ class StreamBroadcast:
     or that skipped a state because it was slow, gets a keyframe of that same model instead (made
     at most once per state); the shared deltas then apply to it too. So a slow viewer gets the
     latest state in one message, never a backlog, and the cost per state does not grow with the
-    number of viewers (only the sending does).
+    number of viewers (only the sending does). Each message is also framed once
+    (:meth:`frame_for`): the server writes those bytes to every viewer.
     """
 
     config: StreamConfig = field(default_factory=StreamConfig)
@@ -478,6 +499,8 @@ class StreamBroadcast:
     _encoder: StreamEncoder = field(init=False)
     _delta: bytes | None = None
     _keyframe: bytes | None = None
+    _delta_frame: bytes | None = None
+    _keyframe_frame: bytes | None = None
     _t: float = 0.0
 
     def __post_init__(self) -> None:
@@ -491,6 +514,7 @@ class StreamBroadcast:
         self._t = scene.t
         self._keyframe = message if first else None
         self._delta = None if first else message
+        self._keyframe_frame = self._delta_frame = None
 
     @property
     def fidelity(self) -> StreamFidelity:
@@ -510,6 +534,20 @@ class StreamBroadcast:
         if self._keyframe is None:
             self._keyframe = self._encoder.keyframe(self._t)
         return self._keyframe
+
+    def frame_for(self, held: int) -> tuple[bytes, bytes] | None:
+        """:meth:`message_for` and that message as a WebSocket frame (:func:`websocket_frame`),
+        built once per state for every viewer that needs it."""
+        message = self.message_for(held)
+        if message is None:
+            return None
+        if message is self._delta:
+            if self._delta_frame is None:
+                self._delta_frame = websocket_frame(message)
+            return message, self._delta_frame
+        if self._keyframe_frame is None:
+            self._keyframe_frame = websocket_frame(message)
+        return message, self._keyframe_frame
 
 
 @dataclass
