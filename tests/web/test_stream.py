@@ -171,8 +171,11 @@ def test_broadcast_frames_each_state_once_for_every_viewer() -> None:
             assert second is not None
             assert first[1] is second[1]
             assert first[1] == websocket_frame(first[0])
-        assert behind[0][0][0] == 1  # a keyframe
-        assert up_to_date[0][0][0] == 2  # a delta
+        keyframe, delta = behind[0], up_to_date[0]
+        assert keyframe is not None
+        assert delta is not None
+        assert keyframe[0][0] == 1  # a keyframe
+        assert delta[0][0] == 2  # a delta
         assert broadcast.frame_for(broadcast.version) is None
 
 
