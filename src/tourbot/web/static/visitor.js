@@ -176,6 +176,7 @@ async function start() {
   $("leave").addEventListener("click", () => state.live.send({ type: "leave" }));
   $("stop").addEventListener("click", () => command({ type: "stop" }));
   $("photo-button").addEventListener("click", () => takePhoto().catch((e) => message(`No picture: ${e.message}`)));
+  for (const id of ["book", "leave", "stop", "photo-button"]) $(id).disabled = false;
   $("chat").addEventListener("submit", (event) => {
     event.preventDefault();
     const text = $("chat-text").value.trim();
@@ -191,6 +192,7 @@ async function start() {
       state.view3d.setObjects(map.objects);
       for (const b of document.querySelectorAll("[data-preset]")) {
         b.addEventListener("click", () => state.view3d.setPreset(b.dataset.preset));
+        b.disabled = false;
       }
     } catch (error) {
       message(`3D view unavailable: ${error.message}`);
