@@ -185,6 +185,7 @@ class _Viewer:
                 velocity_quantum=stream["velocity_quantum"],
                 turn_quantum=stream["turn_quantum"],
                 time_quantum=stream["time_quantum"],
+                horizon=stream["horizon"],
             )
         )
         self.delays: list[tuple[float, float]] = []  # (received at, delay)

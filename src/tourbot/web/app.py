@@ -488,6 +488,7 @@ def create_app(
                 "velocity_quantum": cfg.stream.velocity_quantum,
                 "turn_quantum": cfg.stream.turn_quantum,
                 "time_quantum": cfg.stream.time_quantum,
+                "horizon": cfg.stream.horizon,
             },
             "map": None
             if grid is None
