@@ -652,6 +652,7 @@ async def _latency(server: ServedSite, trials: int) -> dict[str, Any]:
     while holder.role != "holder" and time.monotonic() < deadline:
         await asyncio.sleep(0.2)
     acks, motions = [], []
+    refused: list[str] = []
     exhibits = site["exhibits"]
     for k in range(trials):
         await holder.send({"type": "stop"})
@@ -665,9 +666,10 @@ async def _latency(server: ServedSite, trials: int) -> dict[str, Any]:
         target = exhibits[k % len(exhibits)]
         sent = time.time()
         await holder.send({"type": "exhibit", "exhibit": target["slug"]})
-        reply = await asyncio.wait_for(holder.replies.get(), 10)
-        if reply.get("type") != "ack":
-            raise typer.BadParameter(f"command refused: {reply}")
+        reply = await asyncio.wait_for(holder.replies.get(), 20)
+        if reply.get("type") != "ack":  # a robot too slow to answer in time: counted, not fatal
+            refused.append(str(reply.get("message", reply)))
+            continue
         acks.append(time.time() - sent)
         with suppress(TimeoutError):
             motions.append(await asyncio.wait_for(moved.get(), 10) - sent)
@@ -679,10 +681,11 @@ async def _latency(server: ServedSite, trials: int) -> dict[str, Any]:
     motions.sort()
     return {
         "trials": trials,
-        "ack_p50_ms": 1000 * acks[len(acks) // 2],
+        "ack_p50_ms": 1000 * acks[len(acks) // 2] if acks else math.nan,
         "motion_p50_ms": 1000 * motions[len(motions) // 2] if motions else math.nan,
         "motion_max_ms": 1000 * motions[-1] if motions else math.nan,
         "moved": len(motions),
+        "refused": refused,
     }
 
 
@@ -793,9 +796,16 @@ def register(bench: typer.Typer) -> None:
             met=kbit <= TARGET_KBIT,
         )
         if browser:
+            http = bandwidth["http_kbit_s"]
+            report.add(measure="  of which plain HTTP (the page's API calls)", value=http, unit="kbit/s")
             report.add(
                 measure="  payload seen by the page", value=bandwidth["page_payload_kbit_s"], unit="kbit/s"
             )
+            for kind, tally in bandwidth["by_type"].items():
+                kind_row = f"    {kind} ({tally['per_minute']:.0f} a minute)"
+                report.add(measure=kind_row, value=tally["kbit_s"], unit="kbit/s")
+            clock = bandwidth["robot_seconds_per_second"]
+            report.add(measure="  robot's clock (s a wall second)", value=clock, unit="")
             report.add(measure="  tracked people shown (mean)", value=bandwidth["people_shown_mean"], unit="")
             report.add(measure="  tracked people shown (max)", value=bandwidth["people_shown_max"], unit="")
             report.add(
@@ -887,6 +897,7 @@ def register(bench: typer.Typer) -> None:
                 unit="% of a core",
             )
         report.add(measure="command acknowledged p50", value=latency["ack_p50_ms"], unit="ms")
+        report.add(measure="  commands refused (of the trials)", value=len(latency["refused"]), unit="")
         report.add(measure="command to motion seen p50", value=latency["motion_p50_ms"], unit="ms")
         report.add(measure="command to motion seen max", value=latency["motion_max_ms"], unit="ms")
         report.meta.update(
@@ -909,6 +920,8 @@ def register(bench: typer.Typer) -> None:
             "process; the viewers run in their own worker processes on the same 2 cores; a delay is a "
             "frame's arrival minus the server's sampling time written in it (+-5 ms: 10 ms time quantum)"
         )
+        if latency["refused"]:
+            report.notes.append(f"commands refused in the latency trials: {latency['refused'][0]}")
         if kbit > TARGET_KBIT:
             report.notes.append(f"MISSED: bandwidth {kbit:.2f} kbit/s > {TARGET_KBIT} kbit/s")
         if not p99 <= TARGET_P99_MS:
