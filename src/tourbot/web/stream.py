@@ -178,23 +178,20 @@ class StreamConfig:
     extrapolation 15 cm off.
 
     A viewer dead-reckons a body at most ``horizon`` seconds past its last message, then shows it
-    standing there (the page did so before the server knew it: until 2026-12-04 the server's model
-    of a viewer extrapolated without end, so it resent people the page had already stopped and
-    counted errors the page did not show). On two recorded tours through the demo's peak crowd
-    (FHW seeds 0 and 1, their scenes replayed at 800 bit/s) the shown people stood 71 / 82 cm from
-    the estimates with the 3 s horizon, 89 / 101 cm extrapolated without end, 66 / 76 cm with 1 s;
-    but walkers whose velocities are well estimated lose with a short horizon (a simulated crowd
-    of 40: 28 cm with 3 s, 46 cm with 2 s, 86 cm with 1 s), so the page's 3 s is kept.
+    standing there (``static/stream.js``); the encoder's model of a viewer does the same, so a body
+    is resent when what the page shows drifts, not what an endless extrapolation would show. A
+    shorter horizon suits poorly estimated velocities and costs well estimated ones; the replayed
+    tours behind the 3 s are in docs/results/web.md.
 
-    ``bitrate`` is the paper's 1 kbit/s (section 6.1.1) less what the status texts take (about
-    0.2 kbit/s): the bits per second the deltas may spend, WebSocket framing
-    (``framing_bytes`` a message) included, averaged by a token bucket holding at most
-    ``burst_seconds`` of it. The robot is never held back. People are sent worst-predicted first
-    (error over tolerance; a person the viewer has not seen yet comes first) while the bucket
-    holds enough; a message with people only waits until it can carry every person due or
-    ``min_batch`` of them, so that the framing is paid for several. The tolerances above decide
-    only who is due. In the demo's peak crowd (about 27 tracks in view) the tolerances alone need
-    about 3 kbit/s; the budget's cost there, as the viewer's error on people, is in
+    ``bitrate`` is the paper's 1 kbit/s (section 6.1.1) less what the JSON texts take (0.1-0.25
+    kbit/s of payload, far less on the wire after deflate): the bits per second the deltas may
+    spend, WebSocket framing (``framing_bytes`` a message) included, averaged by a token bucket
+    holding at most ``burst_seconds`` of it. The robot is never held back. People are sent
+    worst-predicted first (error over tolerance; a person the viewer has not seen yet comes first)
+    while the bucket holds enough; a message with people only waits until it can carry every person
+    due or ``min_batch`` of them, so that the framing is paid for several. The tolerances above
+    decide only who is due. In the demo's peak crowd (about 27 tracks in view) the tolerances alone
+    need about 3 kbit/s; the budget's cost there, as the viewer's error on people, is in
     docs/results/web.md.
     """
 
