@@ -404,6 +404,60 @@ def test_the_robot_list_shows_each_queue(db: Database, tmp_path: Path) -> None:
         assert str(first) not in json.dumps(robots)
 
 
+def test_the_robot_list_reaches_the_pages_over_their_connection(db: Database, tmp_path: Path) -> None:
+    """The pages are never made to poll ``/api/robots`` (each poll costs the wire): the list comes
+    with the connection and again when a queue changes, not at every state."""
+    app = create_app({"lefkos": FakeRobot(), "albert": FakeRobot()}, db, None, WebConfig(speech_dir=tmp_path))
+    with TestClient(app) as client:
+        first, second = new_session(client), new_session(client)
+        with connect(client, first, "lefkos") as a:
+            listed = wait_for(a, lambda m: m["type"] == "robots")["robots"]
+            assert {r["name"]: r["driven"] for r in listed} == {"lefkos": False, "albert": False}
+            with connect(client, second, "albert") as b:
+                b.send_text(json.dumps({"type": "book"}))
+                wait_for(b, role_is("holder"))
+                listed = wait_for(a, lambda m: m["type"] == "robots")["robots"]  # albert taken
+                assert {r["name"]: r["driven"] for r in listed} == {"lefkos": False, "albert": True}
+                hub = hub_of(client)
+                before = hub.robots_message
+                states = hub.stream.version
+                while hub.stream.version < states + 3:  # states go on: the same list, no new message
+                    time.sleep(0.05)
+                assert hub.robots_message is before
+
+
+def test_a_busy_queue_sends_each_viewer_at_most_a_status_per_period(client: TestClient) -> None:
+    """A visitor joining and leaving the queue 9 times in a row: a watcher's page gets the queue's
+    changes folded into one status per ``status_period`` (2 s), and the last state once it passed;
+    a visitor's own new role still comes at once."""
+    watcher, holder, other = new_session(client), new_session(client), new_session(client)
+    with connect(client, watcher) as w, connect(client, holder) as a, connect(client, other) as b:
+        wait_for(w, lambda m: m["type"] == "status")
+        a.send_text(json.dumps({"type": "book"}))
+        wait_for(a, role_is("holder"))
+        start = time.monotonic()
+        for _ in range(4):  # (the commands' rate limit allows a burst of 10)
+            b.send_text(json.dumps({"type": "book"}))
+            wait_for(b, role_is("queued"))  # its own role: at once
+            b.send_text(json.dumps({"type": "leave"}))
+            wait_for(b, lambda m: m.get("command") == "leave")
+        b.send_text(json.dumps({"type": "book"}))  # it stays in the queue
+        wait_for(b, role_is("queued"))
+        churn = time.monotonic() - start
+        time.sleep(hub_of(client).status_period + 0.5)  # the last change, once the period passed
+        w.send_text("not json")  # an error reply marks the end of what the watcher was sent
+        statuses = []
+        for _ in range(500):
+            message = w.receive()
+            data = json.loads(message["text"]) if message.get("text") else {}
+            if data.get("type") == "error":
+                break
+            if data.get("type") == "status":
+                statuses.append(data)
+        assert len(statuses) <= 2 + churn / hub_of(client).status_period
+        assert statuses[-1]["slot"]["queue_length"] == 1
+
+
 def test_the_text_channel_between_the_holder_and_the_staff(client: TestClient, db: Database) -> None:
     """The holder writes, the message is stored in the site database, the staff read it and answer;
     the answer reaches the holder's page, never a watcher's; a watcher cannot write."""

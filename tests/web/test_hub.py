@@ -5,10 +5,13 @@ from __future__ import annotations
 import json
 from typing import Any
 
+import pytest
+
 from tests.web.fakes import FakeRobot
 from tourbot.web.db import Database
-from tourbot.web.hub import RobotHub, nav_status
-from tourbot.web.link import NavStatus, RobotView
+from tourbot.web.hub import RobotClock, RobotHub, nav_status, scene_of
+from tourbot.web.link import NavStatus, PersonView, RobotView
+from tourbot.web.stream import StreamConfig, StreamEncoder
 
 
 def _status(state: str, message: str = "", exhibit: str | None = "vase") -> dict[str, Any]:
@@ -117,3 +120,50 @@ def test_the_hub_writes_each_state_to_its_viewers_and_a_slow_one_catches_up(db: 
     for frame in got["slow"]:
         slow_view.feed(frame[2:])
     assert slow_view.scene().robot.x == fast_view.scene().robot.x
+
+
+def test_the_robot_clock_rate_follows_a_robot_that_falls_behind() -> None:
+    clock = RobotClock(window=2.0)
+    assert clock.rate(100.0, 5.0) == 1.0  # nothing seen yet: taken as real time
+    rates = [clock.rate(100.0 + 0.2 * k, 5.0 + 0.1 * k) for k in range(1, 30)]  # half the wall's pace
+    assert rates[-1] == pytest.approx(0.5)
+    stalled = [clock.rate(105.8 + 0.2 * k, 7.9) for k in range(1, 16)]  # the robot stands still 3 s
+    assert stalled[0] == pytest.approx(0.45)  # 0.2 s of the 2 s window
+    assert stalled[-1] == 0.0  # its avatars stand still too
+    assert clock.rate(106.2, 0.0) == 1.0  # the robot's process restarted: its clock went back
+
+
+def _walkers(t: float, rate: float) -> RobotView:
+    """A robot and 10 people walking at 1 m/s of the robot's clock, which runs at ``rate``."""
+    robot_t = rate * t
+    people = tuple(PersonView(i + 1, 2.0 * i + robot_t, float(i), 1.0, 0.0) for i in range(10))
+    return RobotView(robot_t, robot_t, 0.0, 0.0, v=1.0, people=people)
+
+
+def _streamed(rate: float, scaled: bool) -> tuple[int, float]:
+    """Bytes of 30 s of the walkers' stream at 5 Hz of the wall, and the shown people's mean error."""
+    clock = RobotClock()
+    encoder = StreamEncoder(StreamConfig(bitrate=1e9))
+    sent = 0
+    for k in range(150):
+        t = 1000.0 + 0.2 * k
+        view = _walkers(t - 1000.0, rate)
+        scene = scene_of(view, t, rate=clock.rate(t, view.t)) if scaled else scene_of(view, t)
+        message = encoder.encode(scene)
+        sent += 0 if message is None else len(message)
+    return sent, encoder.fidelity.mean
+
+
+@pytest.mark.parametrize("rate", [0.5, 0.25])
+def test_the_stream_costs_the_same_when_the_robot_falls_behind_the_wall(rate: float) -> None:
+    """The stream runs on the wall clock: a robot whose clock runs at half or a quarter of the
+    wall's (a simulated robot on a loaded machine) has its velocities streamed per wall second, so
+    that the viewers' dead reckoning keeps up and it costs about what it costs at real time (the
+    walkers resent as their 3 s horizon ends); at the view's own velocities every body overshoots
+    and is resent far more often."""
+    real_time, _ = _streamed(1.0, scaled=True)
+    sent, error = _streamed(rate, scaled=True)
+    assert sent <= 1.25 * real_time
+    assert error < 0.1
+    unscaled, _ = _streamed(rate, scaled=False)
+    assert unscaled > 2 * sent

@@ -45,7 +45,7 @@ def test_keyframe_is_within_half_a_quantum(
     )
     message = StreamEncoder(config).encode(scene)
     assert message is not None
-    assert len(message) == 1 + 8 + 3 + 11 + 8 * len(people) + 1
+    assert len(message) == 1 + 8 + 3 + (11 + 2) + (8 + 2) * len(people) + 1  # each body with its age
     decoder = StreamDecoder(config)
     decoder.feed(message)
     got = decoder.scene()
@@ -421,3 +421,23 @@ def test_the_objects_message_is_sent_on_change_only() -> None:
     assert payload.update([door(0.5)]) is None
     assert payload.update([]) is not None  # gone
     assert len(payload.update([door(0.0)]) or "") < 200  # a door costs a hundred bytes, once
+
+
+def test_a_body_is_dead_reckoned_up_to_the_horizon_and_a_late_joiner_holds_the_same() -> None:
+    """The page (static/stream.js) stops extrapolating a body ``horizon`` seconds after its last
+    message; the server's model of a viewer does the same, and a viewer that joins later gets each
+    body with its age, so that it stops it at the same place and time."""
+    config = StreamConfig(horizon=3.0, refresh_period=100.0)
+    broadcast = StreamBroadcast(config)
+    walker = Body(1, 0.0, 0.0, 1.0, 0.0)
+    broadcast.push(Scene(100.0, Body(0, 0.0, 0.0), (walker,)))
+    first = StreamDecoder(config)
+    first.feed(broadcast.message_for(0) or b"")
+    broadcast.push(Scene(101.6, Body(0, 0.0, 0.0), (Body(1, 1.6, 0.0, 1.0, 0.0),)))  # as predicted
+    assert broadcast.message_for(1) is None
+    late = StreamDecoder(config)
+    late.feed(broadcast.message_for(0) or b"")  # a keyframe: the walker sent 1.6 s before
+    for t in (101.6, 102.5, 103.0, 110.0):
+        expected = min(t - 100.0, 3.0)
+        assert first.scene(t).people[0].x == pytest.approx(expected)
+        assert late.scene(t).people[0].x == pytest.approx(expected)

@@ -75,7 +75,7 @@ from tourbot.web.guard import (
     origin_allowed,
     parse_command,
 )
-from tourbot.web.hub import RobotHub, StreamViewer
+from tourbot.web.hub import RobotHub, StreamViewer, robots_summary
 from tourbot.web.link import RobotLink
 from tourbot.web.middleware import BodyLimit, SameOrigin
 from tourbot.web.phrases import EXHIBIT, IDLE, TOUR, PhraseBook
@@ -488,6 +488,7 @@ def create_app(
                 "velocity_quantum": cfg.stream.velocity_quantum,
                 "turn_quantum": cfg.stream.turn_quantum,
                 "time_quantum": cfg.stream.time_quantum,
+                "horizon": cfg.stream.horizon,
             },
             "map": None
             if grid is None
@@ -504,20 +505,12 @@ def create_app(
     @app.get("/api/robots")
     async def api_robots() -> dict[str, Any]:
         """Each robot's control queue as a visitor choosing a robot sees it (no one's identity;
-        the slots as the hubs last brought them up to date, five times a second)."""
-        out = []
-        for name, hub in hubs.items():
-            arbiter = hub.arbiter
-            out.append(
-                {
-                    "name": name,
-                    "driven": arbiter.holder is not None,
-                    "waiting": len(arbiter.queue),
-                    "state": hub.nav_status.get("state", "idle"),
-                    "staff_stop": arbiter.staff_stopped,
-                }
-            )
-        return {"robots": out}
+        the slots as the hubs last brought them up to date, five times a second). The pages get
+        the same list over their WebSocket, on change (a ``robots`` message)."""
+        robots = robots_summary(list(hubs.values()))
+        for item, hub in zip(robots, hubs.values(), strict=True):
+            item["state"] = hub.nav_status.get("state", "idle")
+        return {"robots": robots}
 
     @app.post(
         "/api/robots/{name}/photo",
@@ -652,20 +645,23 @@ def create_app(
         hub = hub_for(name)
         delays = sorted(hub.send_delays)
         people = hub.stream.fidelity.summary()
+        robot_time = None if hub.view is None else hub.view.t  # the robot's own clock (simulated time)
         if not delays:
-            return {"frames": 0, "people_shown": people}
+            return {"frames": 0, "people_shown": people, "robot_time_s": robot_time}
         return {
             "people_shown": people,
+            "robot_time_s": robot_time,
             "frames": len(delays),
             "p50_ms": 1000 * delays[len(delays) // 2],
             "p99_ms": 1000 * delays[min(len(delays) - 1, int(0.99 * len(delays)))],
         }
 
     @app.delete("/api/admin/stream/{name}")
-    def admin_stream_reset(_: Staff, name: str) -> dict[str, bool]:
-        hub_for(name).send_delays.clear()
-        hub_for(name).stream.reset_fidelity()
-        return {"ok": True}
+    def admin_stream_reset(_: Staff, name: str) -> dict[str, Any]:
+        hub = hub_for(name)
+        hub.send_delays.clear()
+        hub.stream.reset_fidelity()
+        return {"ok": True, "robot_time_s": None if hub.view is None else hub.view.t}
 
     @app.get("/api/admin/robots/{name}/chat")
     def admin_chat(_: Staff, name: str) -> dict[str, Any]:
@@ -809,31 +805,48 @@ async def _send_loop(
     screen (its face follows the robot), it sends what this client has not had yet.
 
     Everything common to the viewers (the navigation status, the path message) is made once per
-    state by the hub; here only this client's slot is looked at.
+    state by the hub; here only this client's slot is looked at. A page's status is sent on change
+    and at most once per ``hub.status_period`` (the changes in between are folded into the next
+    one), except a change of this client's own role (it was given the robot, or lost it), which is
+    sent at once: other visitors joining and leaving the queue cannot flood every viewer's link.
+    The on-board screen (the robot's own, not on the web's link) gets every state for its face.
     """
     seen = -1
     last_status: dict[str, Any] | None = None
     status_key: tuple[int, bool] | None = None  # what the last status was made from
+    status_at = -math.inf  # when the last status was sent (monotonic s)
+    due_at: float | None = None  # a status change waiting for the status period to pass
     sent_path: str | None = None
     sent_obstacles: str | None = None
     sent_objects: str | None = None
+    sent_robots: str | None = None
     sent_truth: str | None = None
     said = hub.announcements[-1].seq if hub.announcements else 0
     chat_seen = 0  # this visitor's conversation is sent from its start (a reload keeps it)
     while ws.application_state == WebSocketState.CONNECTED:
-        seen = await (hub.wait_change(seen) if onboard else hub.wait_texts(seen))
+        if onboard:
+            seen = await hub.wait_change(seen)
+        else:
+            wait = None if due_at is None else max(0.0, due_at - time.monotonic())
+            seen = await hub.wait_texts(seen, wait)
         now = time.time()
         key = (hub.status_version, hub.arbiter.onboard_active(now))
-        if key != status_key or onboard:  # (the on-board face changes with every state)
-            status_key = key
+        if key != status_key or onboard or due_at is not None:  # (the on-board face: every state)
             slot = hub.arbiter.view(client.session, now).as_dict()
             status: dict[str, Any] = {"type": "status", "slot": slot, "nav": hub.nav_status}
             if onboard:
                 status["face"] = hub.face()
             comparable = {**status, "slot": {k: v for k, v in slot.items() if k != "time_left"}}
-            if comparable != last_status:
+            early = time.monotonic() < status_at + hub.status_period
+            own = last_status is None or slot["role"] != last_status["slot"]["role"]
+            if comparable == last_status:
+                status_key, due_at = key, None
+            elif onboard or own or not early:
                 await ws.send_text(json.dumps(status, separators=(",", ":")))
-                last_status = comparable
+                last_status, status_key, due_at = comparable, key, None
+                status_at = time.monotonic()
+            elif due_at is None:
+                due_at = status_at + hub.status_period
         path = hub.path_message
         if path is not None and path is not sent_path:
             await ws.send_text(path)
@@ -846,6 +859,10 @@ async def _send_loop(
         if objects is not None and objects is not sent_objects:
             await ws.send_text(objects)
             sent_objects = objects
+        robots = hub.robots_message  # the museum's robots and their queues, only when they changed
+        if robots is not None and robots is not sent_robots:
+            await ws.send_text(robots)
+            sent_robots = robots
         truth = hub.truth_message
         if debug and truth is not None and truth is not sent_truth:
             await ws.send_text(truth)

@@ -31,35 +31,69 @@ from tourbot.web.link import RobotLink, RobotView
 from tourbot.web.slots import SlotArbiter, SlotConfig, SlotEvent
 from tourbot.web.stream import MAX_BODIES, Body, ObjectsPayload, Scene, StreamBroadcast, StreamConfig
 
-__all__ = ["Announcement", "RobotHub", "StreamViewer", "nav_status", "path_moved", "path_points", "scene_of"]
+__all__ = [
+    "Announcement",
+    "RobotClock",
+    "RobotHub",
+    "StreamViewer",
+    "nav_status",
+    "path_moved",
+    "path_points",
+    "robots_summary",
+    "scene_of",
+]
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 
-def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1) -> Scene:
+def scene_of(view: RobotView, t: float, max_people: int = MAX_BODIES - 1, rate: float = 1.0) -> Scene:
     """The streamed scene of a view at wall-clock ``t``; track ids map into the stream's 1..65535.
+
+    The stream runs on the wall clock (the viewers' clock); the view's velocities are per second
+    of the robot's clock, which a simulated robot on a loaded machine runs slower than the wall
+    (``rate``, the robot's seconds per wall second, :class:`RobotClock`). They are streamed per
+    wall second (times ``rate``), so that a viewer's dead reckoning moves a body as far as it
+    moves: otherwise every avatar overshoots by the lag and is resent more often, the more loaded
+    the machine.
 
     A message carries at most ``MAX_BODIES`` bodies: in a denser crowd the people nearest to the
     robot are streamed.
     """
-    robot = Body(
-        0,
-        view.x,
-        view.y,
-        view.v * math.cos(view.theta),
-        view.v * math.sin(view.theta),
-        view.theta,
-        view.omega,
-    )
+    v = view.v * rate
+    vx, vy = v * math.cos(view.theta), v * math.sin(view.theta)
+    robot = Body(0, view.x, view.y, vx, vy, view.theta, view.omega * rate)
     people = {}
     nearest = view.people
     if len(nearest) > max_people:
         nearest = tuple(sorted(nearest, key=lambda p: math.hypot(p.x - view.x, p.y - view.y))[:max_people])
     for p in nearest:
         i = p.id % 65535 + 1
-        people[i] = Body(i, p.x, p.y, p.vx, p.vy)
+        people[i] = Body(i, p.x, p.y, p.vx * rate, p.vy * rate)
     return Scene(t, robot, tuple(people.values()))
+
+
+@dataclass
+class RobotClock:
+    """How fast the robot's clock runs against the wall's: the robot's seconds per wall second
+    over the last ``window`` wall seconds (1 for a real robot; a simulated one on a loaded
+    machine falls behind). A robot clock that goes back (a restarted robot process) starts the
+    window afresh; until ``window / 4`` of wall time is seen the rate is taken as 1."""
+
+    window: float = 2.0
+    _samples: deque[tuple[float, float]] = field(default_factory=deque)
+
+    def rate(self, wall: float, robot: float) -> float:
+        samples = self._samples
+        if samples and robot < samples[-1][1]:
+            samples.clear()
+        samples.append((wall, robot))
+        while len(samples) > 2 and wall - samples[1][0] >= self.window:
+            samples.popleft()
+        span = wall - samples[0][0]
+        if span < self.window / 4:
+            return 1.0
+        return (robot - samples[0][1]) / span
 
 
 _RUNNING_COUNT = re.compile(r" for \d+ s\b")
@@ -101,6 +135,19 @@ def path_moved(
     return any(min(math.hypot(x - u, y - v) for u, v in old) > tolerance for x, y in new)
 
 
+def robots_summary(museum: list[RobotHub]) -> list[dict[str, Any]]:
+    """Each robot's control queue as a visitor choosing a robot sees it (no one's identity)."""
+    return [
+        {
+            "name": hub.name,
+            "driven": hub.arbiter.holder is not None,
+            "waiting": len(hub.arbiter.queue),
+            "staff_stop": hub.arbiter.staff_stopped,
+        }
+        for hub in museum
+    ]
+
+
 @dataclass(eq=False)
 class StreamViewer:
     """One viewer's end of the stream: ``write(message, frame)`` hands it a message (and that
@@ -138,6 +185,8 @@ class RobotHub:
     steady_time: float = 1.5
     obstacle_cell: float = 0.1  # m: the vision map's resolution
     obstacle_period: float = 1.0  # s: vision obstacles republished at most this often
+    # s: a page's status at most this often (a change of its own role at once; see app._send_loop)
+    status_period: float = 2.0
 
     def __post_init__(self) -> None:
         self.lock = threading.Lock()
@@ -145,6 +194,7 @@ class RobotHub:
         self.view: RobotView | None = None
         self.scene: Scene | None = None
         self.stream = StreamBroadcast(self.stream_config)  # each state encoded once for all viewers
+        self.clock = RobotClock()  # the robot's clock against the wall's: the stream's velocities
         self.nav_status: dict[str, Any] = nav_status(None)
         self.status_version = 0  # changes when the navigation status or the slots changed
         self._status_key: object = None
@@ -154,6 +204,9 @@ class RobotHub:
         self._obstacle_cells: list[tuple[int, int]] = []
         self._obstacles_at = -math.inf
         self.objects = ObjectsPayload()  # doors and furniture (JSON in .message), made on change
+        # the museum's robots and their queues, for the page's choice of robot (JSON, on change)
+        self.robots_message: str | None = None
+        self._robots: list[dict[str, Any]] | None = None
         # debug overlay: a simulator's true people (JSON, once a second) while a debug page watches
         self.truth_message: str | None = None
         self.debug_viewers = 0
@@ -247,7 +300,7 @@ class RobotHub:
         view = self.link.view()  # thread-safe by contract: never wait on the robot's step here
         now = time.time()
         self.view = view
-        self.scene = scene_of(view, now)
+        self.scene = scene_of(view, now, rate=self.clock.rate(now, view.t))
         self.stream.push(self.scene)
         for viewer in tuple(self.viewers):
             self._send_stream(viewer)
@@ -260,6 +313,7 @@ class RobotHub:
             points = [[round(p.x, 1), round(p.y, 1)] for p in view.truth]
             self.truth_message = json.dumps({"type": "truth", "people": points}, separators=(",", ":"))
         await self._sync_slots(now)
+        self._publish_robots()
         state = (view.nav.state, view.nav.exhibit)
         if state != self._last_state and state[0] == "arrived" and state[1] is not None:
             # an exhibit is presented once per tour: moving around it stops at it several times
@@ -295,6 +349,14 @@ class RobotHub:
         if goal != self._path_goal or path_moved(points, self._path):
             self._path_goal, self._path = goal, points
             self.path_message = json.dumps({"type": "path", "points": points}, separators=(",", ":"))
+
+    def _publish_robots(self) -> None:
+        """The museum's robots with their queues (:func:`robots_summary`): a message when a robot
+        was taken, freed, stopped by staff or its queue changed; the pages never poll for it."""
+        robots = robots_summary(self.museum)
+        if robots != self._robots:
+            self._robots = robots
+            self.robots_message = json.dumps({"type": "robots", "robots": robots}, separators=(",", ":"))
 
     def _publish_obstacles(self, view: RobotView, now: float) -> None:
         """The vision obstacles as cells of ``obstacle_cell`` metres: a message when the set of
@@ -345,6 +407,7 @@ class RobotHub:
             self.path_message,
             self.obstacles_message,
             self.objects.message,
+            self.robots_message,
             self.truth_message,
             self.announcements[-1] if self.announcements else None,
             self.chat[-1] if self.chat else None,
@@ -370,13 +433,18 @@ class RobotHub:
                     await asyncio.wait_for(self._changed.wait(), timeout)
         return self.version
 
-    async def wait_texts(self, seen: int) -> int:
-        """Wait until a text the pages show may have changed since ``texts_version`` ``seen``: the
-        status (slots, navigation, the on-board screen's presence), the path, the obstacles, the
-        objects, the debug overlay, an announcement or a chat line; the current texts version."""
+    async def wait_texts(self, seen: int, timeout: float | None = None) -> int:
+        """Wait until a text the pages show may have changed since ``texts_version`` ``seen`` (or
+        ``timeout`` s): the status (slots, navigation, the on-board screen's presence), the path,
+        the obstacles, the objects, the robots' list, the debug overlay, an announcement or a chat
+        line; the current texts version."""
         assert self._texts_changed is not None
         if self.texts_version == seen:
-            await self._texts_changed.wait()
+            if timeout is None:
+                await self._texts_changed.wait()
+            else:
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(self._texts_changed.wait(), timeout)
         return self.texts_version
 
     async def _arrived(self, exhibit: str) -> None:

@@ -20,9 +20,12 @@ the wire format, pure and free of I/O:
 
 Message layout (little-endian)::
 
-    keyframe: u8 1, f64 epoch (unix s), u16 t, u8 n, n * body, u8 0
+    keyframe: u8 1, f64 epoch (unix s), u16 t, u8 n, n * (body, u16 age), u8 0
     delta:    u8 2,                     u16 t, u8 n, n * body, u8 m, m * u16 removed id
     body:     u16 id, i16 x, i16 y, i8 vx, i8 vy  [+ u16 heading, i8 turn rate when id == 0]
+
+A keyframe's body is as it was sent ``age`` time quanta before the keyframe's ``t``: a client that
+joins holds exactly what the others hold, horizons included.
 
 ``t`` counts ``time_quantum`` (10 ms) since the epoch, modulo 65536 (the refresh period keeps
 messages far closer than the 655 s wrap). The browser's decoder is ``static/stream.js``.
@@ -72,6 +75,7 @@ _EPOCH = struct.Struct("<d")
 _BODY = struct.Struct("<Hhhbb")
 _ROBOT_EXTRA = struct.Struct("<Hb")
 _ID = struct.Struct("<H")
+_AGE = struct.Struct("<H")
 _TWO_PI = 2.0 * math.pi
 MAX_BODIES = 255  # bodies in one message (the count is a byte)
 
@@ -173,15 +177,21 @@ class StreamConfig:
     or around the robot costs one message, not one each time its jittering velocity walks the
     extrapolation 15 cm off.
 
-    ``bitrate`` is the paper's 1 kbit/s (section 6.1.1) less what the status texts take (about
-    0.2 kbit/s): the bits per second the deltas may spend, WebSocket framing
-    (``framing_bytes`` a message) included, averaged by a token bucket holding at most
-    ``burst_seconds`` of it. The robot is never held back. People are sent worst-predicted first
-    (error over tolerance; a person the viewer has not seen yet comes first) while the bucket
-    holds enough; a message with people only waits until it can carry every person due or
-    ``min_batch`` of them, so that the framing is paid for several. The tolerances above decide
-    only who is due. In the demo's peak crowd (about 27 tracks in view) the tolerances alone need
-    about 3 kbit/s; the budget's cost there, as the viewer's error on people, is in
+    A viewer dead-reckons a body at most ``horizon`` seconds past its last message, then shows it
+    standing there (``static/stream.js``); the encoder's model of a viewer does the same, so a body
+    is resent when what the page shows drifts, not what an endless extrapolation would show. A
+    shorter horizon suits poorly estimated velocities and costs well estimated ones; the replayed
+    tours behind the 3 s are in docs/results/web.md.
+
+    ``bitrate`` is the paper's 1 kbit/s (section 6.1.1) less what the JSON texts take (0.1-0.25
+    kbit/s of payload, far less on the wire after deflate): the bits per second the deltas may
+    spend, WebSocket framing (``framing_bytes`` a message) included, averaged by a token bucket
+    holding at most ``burst_seconds`` of it. The robot is never held back. People are sent
+    worst-predicted first (error over tolerance; a person the viewer has not seen yet comes first)
+    while the bucket holds enough; a message with people only waits until it can carry every person
+    due or ``min_batch`` of them, so that the framing is paid for several. The tolerances above
+    decide only who is due. In the demo's peak crowd (about 27 tracks in view) the tolerances alone
+    need about 3 kbit/s; the budget's cost there, as the viewer's error on people, is in
     docs/results/web.md.
     """
 
@@ -194,6 +204,7 @@ class StreamConfig:
     person_tolerance: float = 0.15
     heading_tolerance: float = math.radians(3.0)
     refresh_period: float = 5.0
+    horizon: float = 3.0
     moving_speed: float = 0.1
     bitrate: float = 800.0
     burst_seconds: float = 1.0
@@ -237,7 +248,8 @@ def _fields(b: Body) -> tuple[float, float, float, float, float, float]:
 
 @dataclass(frozen=True)
 class _Held:
-    """A body as the client holds it: dequantized values, and when they were sent."""
+    """A body as the client holds it: dequantized values, when they were sent, and how long the
+    client extrapolates them (``horizon``, s)."""
 
     t: float
     x: float
@@ -246,10 +258,11 @@ class _Held:
     vy: float
     theta: float
     omega: float
+    horizon: float
 
     def at(self, t: float) -> tuple[float, float, float]:
-        """The client's dead-reckoned position and heading at ``t``."""
-        dt = t - self.t
+        """The client's dead-reckoned position and heading at ``t`` (``static/stream.js``)."""
+        dt = max(0.0, min(t - self.t, self.horizon))
         return (self.x + self.vx * dt, self.y + self.vy * dt, self.theta + self.omega * dt)
 
 
@@ -285,6 +298,7 @@ class _Quantizer:
             qvy * c.velocity_quantum,
             theta,
             omega,
+            c.horizon,
         )
         return payload, held
 
@@ -374,7 +388,7 @@ class StreamEncoder:
             ticks, t_client = self._stamp(scene.t)
             encoded = [quantizer.body(t_client, b) for b in bodies.values()]
             self._held = {b.id: held for b, (_, held) in zip(bodies.values(), encoded, strict=True)}
-            return _keyframe(self._epoch, ticks, [p for p, _ in encoded])
+            return _keyframe(self._epoch, ticks, [p + _AGE.pack(0) for p, _ in encoded])
         ticks, t_client = self._stamp(scene.t)
         robot, people = self._due(bodies, t_client)
         removed = [i for i in self._held if i not in bodies][:MAX_BODIES]
@@ -437,8 +451,8 @@ class StreamEncoder:
             self.fidelity.add(math.hypot(x - body.x, y - body.y))
 
     def keyframe(self, t: float) -> bytes:
-        """A keyframe bringing a new client to what this encoder's client holds, dead-reckoned to
-        ``t``: re-quantized, so within half a quantum of it; the deltas that follow apply to both.
+        """A keyframe bringing a new client to exactly what this encoder's client holds at ``t``:
+        each body as it was sent, with its age; the deltas that follow apply to both.
 
         Its epoch is moved by whole wraps of the 16-bit time so that its ``t`` decodes exactly.
         """
@@ -452,8 +466,9 @@ class StreamEncoder:
         quantizer = _Quantizer(self.config)
         payloads = []
         for i, h in self._held.items():
-            x, y, theta = h.at(t_client)
-            payloads.append(quantizer.body(t_client, Body(i, x, y, h.vx, h.vy, theta, h.omega))[0])
+            age = min(0xFFFF, max(0, round((t_client - h.t) / q)))
+            body = Body(i, h.x, h.y, h.vx, h.vy, h.theta, h.omega)
+            payloads.append(quantizer.body(h.t, body)[0] + _AGE.pack(age))
         return _keyframe(epoch, ticks, payloads)
 
     def _urgency(self, held: _Held, body: Body, t: float) -> float:
@@ -589,14 +604,20 @@ class StreamDecoder:
                 qth, qw = _ROBOT_EXTRA.unpack_from(data, offset)
                 offset += _ROBOT_EXTRA.size
                 theta, omega = float(wrap_angle(qth * _TWO_PI / 65536)), qw * c.turn_quantum
+            sent = t
+            if kind == KEYFRAME:
+                (age,) = _AGE.unpack_from(data, offset)
+                offset += _AGE.size
+                sent = t - age * c.time_quantum
             held[i] = _Held(
-                t,
+                sent,
                 qx * c.position_quantum,
                 qy * c.position_quantum,
                 qvx * c.velocity_quantum,
                 qvy * c.velocity_quantum,
                 theta,
                 omega,
+                c.horizon,
             )
         (removed,) = struct.unpack_from("<B", data, offset)
         offset += 1

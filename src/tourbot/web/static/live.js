@@ -5,12 +5,12 @@ const PENDING_S = 5; // a command waits at most this long for the connection to 
 const PENDING_MAX = 16;
 
 export class Live {
-  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onObstacles, onSay, onReply, onOpen, onTruth, onChat, onObjects } = {}) {
+  constructor(robot, streamConfig, { screen = "web", debug = false, onStatus, onPath, onObstacles, onSay, onReply, onOpen, onTruth, onChat, onObjects, onRobots } = {}) {
     this.robot = robot;
     this.config = streamConfig;
     this.screen = screen;
     this.debug = debug;
-    this.handlers = { onStatus, onPath, onObstacles, onSay, onReply, onOpen, onTruth, onChat, onObjects };
+    this.handlers = { onStatus, onPath, onObstacles, onSay, onReply, onOpen, onTruth, onChat, onObjects, onRobots };
     this.decoder = new StreamDecoder(streamConfig);
     this.offset = null; // local clock minus server clock (s), smallest seen: the least delayed
     this.ws = null;
@@ -67,6 +67,7 @@ export class Live {
     else if (message.type === "truth" && h.onTruth) h.onTruth(message.people);
     else if (message.type === "chat" && h.onChat) h.onChat(message);
     else if (message.type === "objects" && h.onObjects) h.onObjects(message.objects);
+    else if (message.type === "robots") { if (h.onRobots) h.onRobots(message.robots); }
     else if (h.onReply) h.onReply(message);
   }
 

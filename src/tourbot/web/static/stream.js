@@ -1,5 +1,6 @@
 // Decoder of tourbot's live stream: the browser side of tourbot/web/stream.py (same layout).
-// A keyframe carries every body; a delta only the bodies whose dead reckoning drifted.
+// A keyframe carries every body (each with its age); a delta only the bodies whose dead reckoning
+// drifted.
 const KEYFRAME = 1;
 const DELTA = 2;
 const TWO_PI = 2 * Math.PI;
@@ -11,7 +12,7 @@ function wrap(a) {
 
 export class StreamDecoder {
   constructor(config) {
-    this.q = config; // position_quantum, velocity_quantum, turn_quantum, time_quantum
+    this.q = config; // position_quantum, velocity_quantum, turn_quantum, time_quantum, horizon
     this.epoch = null;
     this.t = 0;
     this.bodies = new Map(); // id -> {t, x, y, vx, vy, theta, omega}
@@ -50,6 +51,10 @@ export class StreamDecoder {
         body.omega = view.getInt8(o + 2) * q.turn_quantum;
         o += 3;
       }
+      if (kind === KEYFRAME) { // the body as it was sent, age time quanta before t
+        body.t = t - view.getUint16(o, true) * q.time_quantum;
+        o += 2;
+      }
       bodies.set(id, body);
     }
     const removed = view.getUint8(o); o += 1;
@@ -72,11 +77,12 @@ export class StreamDecoder {
     return epoch + (base + delta) * q;
   }
 
-  // Every body dead-reckoned to server time t: what the server assumes this client shows.
+  // Every body dead-reckoned to server time t, at most the horizon past its last message: what
+  // the server assumes this client shows.
   at(t) {
     const out = [];
     for (const [id, b] of this.bodies) {
-      const dt = Math.max(0, Math.min(t - b.t, 3));
+      const dt = Math.max(0, Math.min(t - b.t, this.q.horizon));
       out.push({
         id,
         x: b.x + b.vx * dt,

@@ -63,9 +63,9 @@ function renderSlot() {
 }
 
 // The robots of the museum, each with its own queue: the visitor chooses one (the page reloads
-// on it); the list says which are free and how many wait for each.
-async function listRobots() {
-  const { robots } = await getJSON("/api/robots");
+// on it); the list says which are free and how many wait for each. The server sends the list
+// over the live connection when it changes (never polled: every poll would cost the wire).
+function listRobots(robots) {
   for (const r of robots) {
     let option = [...$("robot").options].find((o) => o.value === r.name);
     if (!option) { option = el("option", { value: r.name }, r.name); $("robot").append(option); }
@@ -138,8 +138,6 @@ async function start() {
   const robot = site.robots.includes(asked) ? asked : site.robots[0];
   state.robot = robot;
   $("robot").value = robot;
-  listRobots().catch(() => {});
-  setInterval(() => listRobots().catch(() => {}), 5000);
   $("robot").addEventListener("change", () => { location.search = `?robot=${encodeURIComponent($("robot").value)}`; });
   for (const t of site.tours) {
     $("tours").append(el("li", {}, el("button", { "data-tour": t.slug, onclick: () => command({ type: "tour", tour: t.slug }) }, t.name)));
@@ -167,6 +165,7 @@ async function start() {
     onPath: (points) => { map.path = points; },
     onObstacles: (m) => { map.obstacles = m.points; map.obstacleCell = m.cell; },
     onObjects: (objects) => { map.objects = objects; if (state.view3d) state.view3d.setObjects(objects); },
+    onRobots: listRobots,
     onSay: (say) => message(`Robot says: ${say.text}`),
     onChat: (line) => chatLine($("chat-log"), line, "visitor"),
     onReply: (reply) => { if (reply.type === "error") message(`Refused: ${reply.message}`); },
