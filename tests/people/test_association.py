@@ -121,3 +121,38 @@ def test_pruning_bounds_the_events_and_keeps_the_strong_pairs() -> None:
     beta, beta0 = cluster_betas(pt, pf, ratio, np.full(6, 0.1), 6, max_events=1000)
     assert np.all(beta[pt == pf] > 0.95)
     assert np.all(beta0 < 0.05)
+
+
+def test_a_crowd_pruned_to_one_option_each_falls_into_independent_pieces() -> None:
+    # 40 visitors in a row around the robot, each gating its own leg feature strongly and its two
+    # neighbours' weakly: one cluster of 40. Pruned to the best option each, it is 40 pieces of
+    # one person and one feature (2^40 joint events if enumerated as one): each person takes its
+    # feature with probability ratio / (ratio + miss), Eq. 7 for one person and one feature.
+    k = 40
+    pt = np.concatenate([np.arange(k), np.arange(k - 1), np.arange(1, k)])
+    pf = np.concatenate([np.arange(k), np.arange(1, k), np.arange(k - 1)])
+    ratio = np.concatenate([np.full(k, 20.0), np.full(2 * (k - 1), 0.5)])
+    miss = np.full(k, 0.2)
+    beta, beta0 = cluster_betas(pt, pf, ratio, miss, k, max_events=5000)
+    best = pt == pf
+    np.testing.assert_allclose(beta[best], 20.0 / 20.2, rtol=1e-9)
+    np.testing.assert_allclose(beta0, 0.2 / 20.2, rtol=1e-9)
+    assert np.all(beta[~best] == 0.0)
+
+
+def test_pruning_stops_as_soon_as_the_pieces_are_small_enough() -> None:
+    # Two groups of 3 visitors, each gating the 3 features of its group, linked into one cluster by
+    # one weak pair. 4^3 = 64 events per group: with a budget of 100 the weakest options go until
+    # the groups separate, and each group keeps the options that fit its budget.
+    group = np.array([(i, j) for i in range(3) for j in range(3)])
+    pairs = np.concatenate([group, group + 3, [[2, 3]]])
+    pt, pf = pairs[:, 0].copy(), pairs[:, 1].copy()
+    rng = np.random.default_rng(1)
+    ratio = np.asarray(rng.uniform(1.0, 2.0, pairs.shape[0]), dtype=np.float64)
+    ratio[-1] = 0.01
+    miss = np.full(6, 0.3)
+    beta, beta0 = cluster_betas(pt, pf, ratio, miss, 6, max_events=100)
+    ref_beta, ref_beta0 = cluster_betas_reference(pt[:-1], pf[:-1], ratio[:-1], miss, 6)
+    np.testing.assert_allclose(beta[:-1], ref_beta, rtol=1e-9)
+    np.testing.assert_allclose(beta0, ref_beta0, rtol=1e-9)
+    assert beta[-1] == 0.0

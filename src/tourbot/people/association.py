@@ -189,6 +189,41 @@ def joint_betas(ratio: FloatArray, miss: FloatArray) -> FloatArray:
 
 
 @numba.njit(cache=True)
+def _pieces(ratio: FloatArray, piece: IntArray) -> int:
+    """Label the persons (rows) of ``ratio`` by the connected piece they belong to, persons linked
+    through a feature they both gate; returns the number of pieces."""
+    nt, nf = ratio.shape
+    parent = np.arange(nt + nf)
+    for i in range(nt):
+        for j in range(nf):
+            if ratio[i, j] > 0.0:
+                union(parent, i, nt + j)
+    label = np.full(nt + nf, -1, dtype=np.int64)
+    n = 0
+    for i in range(nt):
+        r = find(parent, i)
+        if label[r] < 0:
+            label[r] = n
+            n += 1
+        piece[i] = label[r]
+    return n
+
+
+@numba.njit(cache=True)
+def _largest_events(ratio: FloatArray, piece: IntArray, n_pieces: int) -> float:
+    """An upper bound of the joint events of the largest piece: the product over its persons of
+    their options plus one (not detected)."""
+    events = np.ones(n_pieces)
+    for i in range(ratio.shape[0]):
+        c = 0
+        for j in range(ratio.shape[1]):
+            if ratio[i, j] > 0.0:
+                c += 1
+        events[piece[i]] *= c + 1
+    return events.max() if n_pieces else 0.0
+
+
+@numba.njit(cache=True)
 def _cluster_betas_kernel(
     pair_track: IntArray, pair_feature: IntArray, ratio: FloatArray, miss: FloatArray, M: int, max_events: int
 ) -> tuple[FloatArray, FloatArray]:
@@ -228,33 +263,50 @@ def _cluster_betas_kernel(
         for p in range(P):
             if root[pair_track[p]] == r:
                 sub[local[pair_track[p]], local[K + pair_feature[p]]] = ratio[p]
-        # Prune the weakest options until the joint events are few enough.
+        # Prune the weakest options until the joint events are few enough. Pruning cuts the
+        # cluster into smaller ones, enumerated each on its own: the events to count are those of
+        # the largest piece, not their product (30 visitors around the robot with one option each
+        # are 30 independent choices, not 2^30 joint events).
         keep = nf
-        while keep > 1:
-            events = 1.0
-            for i in range(nt):
-                c = 0
-                for j in range(nf):
-                    if sub[i, j] > 0.0:
-                        c += 1
-                events *= min(c, keep) + 1
-            if events <= max_events:
-                break
+        pruned = sub.copy()
+        piece = np.zeros(nt, dtype=np.int64)
+        n_pieces = _pieces(pruned, piece)
+        while keep > 1 and _largest_events(pruned, piece, n_pieces) > max_events:
             keep -= 1
-        if keep < nf:
+            pruned = sub.copy()
             for i in range(nt):
                 order = np.argsort(-sub[i])
                 for j in range(keep, nf):
-                    sub[i, order[j]] = 0.0
-        q = np.empty(nt)
-        for i in range(nt):
-            q[i] = miss[tracks[i]]
-        beta = _joint_betas_kernel(sub, q)
-        for i in range(nt):
-            beta0[tracks[i]] = beta[i, 0]
-        for p in range(P):
-            if root[pair_track[p]] == r:
-                pair_beta[p] = beta[local[pair_track[p]], local[K + pair_feature[p]] + 1]
+                    pruned[i, order[j]] = 0.0
+            n_pieces = _pieces(pruned, piece)
+        for g in range(n_pieces):
+            rows = np.flatnonzero(piece == g)
+            cols_used = np.zeros(nf, dtype=np.bool_)
+            for a in range(rows.shape[0]):
+                for j in range(nf):
+                    if pruned[rows[a], j] > 0.0:
+                        cols_used[j] = True
+            cols = np.flatnonzero(cols_used)
+            part = np.zeros((rows.shape[0], cols.shape[0]))
+            q = np.empty(rows.shape[0])
+            for a in range(rows.shape[0]):
+                q[a] = miss[tracks[rows[a]]]
+                for b in range(cols.shape[0]):
+                    part[a, b] = pruned[rows[a], cols[b]]
+            beta = _joint_betas_kernel(part, q)
+            column = np.full(nf, -1, dtype=np.int64)
+            for b in range(cols.shape[0]):
+                column[cols[b]] = b
+            row = np.full(nt, -1, dtype=np.int64)
+            for a in range(rows.shape[0]):
+                row[rows[a]] = a
+                beta0[tracks[rows[a]]] = beta[a, 0]
+            for p in range(P):
+                if root[pair_track[p]] == r:
+                    a = row[local[pair_track[p]]]
+                    b = column[local[K + pair_feature[p]]]
+                    if a >= 0:
+                        pair_beta[p] = beta[a, b + 1] if b >= 0 else 0.0
     return pair_beta, beta0
 
 
@@ -271,7 +323,9 @@ def cluster_betas(
     Persons and features linked by gated pairs ``(pair_track, pair_feature)`` with ``ratio``
     ``P_D p(z_j | x_i) / gamma`` form independent clusters; the joint events of different clusters
     factorise, so each cluster is enumerated on its own, which keeps 20-50 people fast. A cluster
-    with more than ``max_events`` joint events loses its persons' weakest options first. Returns
+    with more than ``max_events`` joint events loses its persons' weakest options first, until
+    the largest of the pieces it falls into has at most ``max_events`` (or each person keeps its
+    best option only); the pieces are enumerated each on its own. Returns
     the betas of the pairs ``(P,)`` and each person's ``beta_0`` ``(K,)`` (``miss`` ``(K,)`` is
     the weight of a person going undetected).
     """
