@@ -146,6 +146,16 @@ class Recovery:
         s = self.state
         return s.global_phase or s.lost_scans > 0 or s.suspect
 
+    @property
+    def in_doubt(self) -> bool:
+        """Whether a guess may compete with the track now (:meth:`best_guess` judges guesses only
+        then): the track stands :attr:`contradicted`, or it comes from global localization or a
+        far recovery and is not yet confirmed. Augmented MCL injects only then: a guess drawn
+        while the track explains the scan cannot win while it does, and the scan that contradicts
+        the track draws ``max_injection`` guesses of its own."""
+        s = self.state
+        return self.contradicted or s.unconfirmed or s.new_track
+
     def established_weights(self, weights: FloatArray) -> FloatArray:
         """``weights`` with the guesses' set to zero (all of them if nothing else is left)."""
         if not self.fresh.any():
