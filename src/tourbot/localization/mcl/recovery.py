@@ -3,8 +3,11 @@
 Augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with sensor resetting
 (Lenser & Veloso 2000): a short- and a long-term average of how well the best sample explains the
 scan; when the short one falls below ``ratio`` times the long one, scan-drawn samples are
-injected. A second sign of a wrong track is the one Fox et al. 1998 point to: readings *too long*
-for the map (visitors only ever shorten a beam). Injected samples are *guesses* (fresh) until one
+injected, but only while the track is in doubt (:attr:`Recovery.in_doubt`; the book injects
+whenever the short one is lower, on most scans, each a reset search here for guesses that could
+not win). A second sign
+of a wrong track is the one Fox et al. 1998 point to: readings *too long* for the map (visitors
+only ever shorten a beam). Injected samples are *guesses* (fresh) until one
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
 
@@ -438,8 +441,9 @@ class Recovery:
 
     def wide_search(self) -> tuple[bool, bool]:
         """Where the next reset search looks: ``(far, table)``: over the whole free space (a track
-        from global localization not yet confirmed, a reset by the fit, or ``global_after``
-        contradicted scans in a row), and with the expected-range table (an unconfirmed track)."""
+        from global localization not yet confirmed, a reset by the fit while in doubt without
+        readings through walls, or ``global_after`` contradicted scans in a row), and with the
+        expected-range table (an unconfirmed track)."""
         s = self.state
         wide = s.unconfirmed
         far = wide or s.lost_scans == 0 or s.lost_scans >= self.config.global_after
