@@ -5,9 +5,8 @@ Augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with s
 scan; when the short one falls below ``ratio`` times the long one, scan-drawn samples are
 injected, but only while the track is in doubt (:attr:`Recovery.in_doubt`; the book injects
 whenever the short one is lower, on most scans, each a reset search here for guesses that could
-not win). A second sign
-of a wrong track is the one Fox et al. 1998 point to: readings *too long* for the map (visitors
-only ever shorten a beam). Injected samples are *guesses* (fresh) until one
+not win). A second sign of a wrong track is the one Fox et al. 1998 point to: readings *too long*
+for the map (visitors only ever shorten a beam). Injected samples are *guesses* (fresh) until one
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
 
