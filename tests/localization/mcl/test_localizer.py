@@ -202,6 +202,33 @@ def test_same_seed_same_result(room: OccupancyGrid) -> None:
     assert np.array_equal(runs[0], runs[1])
 
 
+def test_augmented_mcl_injects_only_while_the_track_is_in_doubt(room: OccupancyGrid) -> None:
+    # ratio 2: the fit's averages ask for max_injection on every scan. A track from a known start
+    # that explains every scan (the too-long test passes) gets none of it: no guess could win
+    # against it. The same track, unconfirmed as global localization leaves one, is searched for.
+    drive = simulate(room, waypoints_path(12), seed=5)
+    config = replace(MCLConfig().with_samples(500), recovery=replace(MCLConfig().recovery, ratio=2.0))
+    mcl = MonteCarloLocalization(room, config, seed=6)
+    mcl.reset_tracking(drive.truth[0])
+    asked, injected = 0, 0.0
+    poses = []
+    for k, s in enumerate(drive.scans):
+        est = mcl.update(drive.odom[k], s)
+        assert est.info["too_long"] <= config.recovery.lost_fraction
+        asked += est.info["inject_fraction"] > 0
+        injected += est.info["injected"]
+        poses.append(est.pose)
+    assert asked == len(drive.scans)
+    assert injected == 0
+    assert errors(np.array(poses), drive.truth).max() < 0.3
+    doubted = MonteCarloLocalization(room, config, seed=6)
+    doubted.reset_tracking(drive.truth[0])
+    doubted.recovery.state.unconfirmed = True
+    est = doubted.update(drive.odom[0], drive.scans[0])
+    assert est.info["injected"] == round(config.recovery.max_injection * est.n_samples)
+    assert doubted.recovery.fresh.sum() == est.info["injected"]
+
+
 def test_dense_crowd_neither_triggers_recovery_nor_loses_tracking(room: OccupancyGrid) -> None:
     # A crowd hiding about half of every scan: the novelty filter removes its beams, so the fit of
     # the kept beams stays high, no sample is injected and the robot is tracked throughout.

@@ -61,6 +61,24 @@ def test_too_long_verdicts_count_and_confirm() -> None:
     assert rec.wide_search() == (True, False)  # a reset by the fit searches far, no table
 
 
+def test_in_doubt_while_contradicted_or_not_yet_confirmed() -> None:
+    rec = Recovery(RecoveryConfig(lost_fraction=0.3, global_after=2))
+    rec.reset(10)
+    assert not rec.in_doubt  # a known start
+    rec.judge_track(0.5)
+    assert rec.in_doubt  # readings through walls
+    rec.judge_track(0.1)
+    assert not rec.in_doubt
+    rec.state.new_track = True  # a far recovery, not yet confirmed
+    assert rec.in_doubt
+    rec.judge_track(0.1)
+    rec.judge_track(0.1)
+    assert not rec.in_doubt
+    rec.reset(10, global_start=True)
+    rec.state.global_phase = False
+    assert rec.in_doubt  # from global localization, unconfirmed
+
+
 def test_verification_schedule() -> None:
     rec = Recovery(RecoveryConfig(verify_period=5.0, verify_margin=0.5))
     assert rec.verification_due(0.0)

@@ -150,7 +150,9 @@ class RecoveryConfig:
     - ``alpha_slow`` 0.001 / ``alpha_fast`` 0.1: the averaging rates of the fit in augmented MCL
       (PR Table 8.3; Nav2 AMCL's ``recovery_alpha_slow`` / ``recovery_alpha_fast``).
     - ``ratio`` 1: injection starts when the short-term average falls below this fraction of the
-      long-term one (PR Table 8.3: ``max(0, 1 - w_fast / w_slow)``).
+      long-term one (PR Table 8.3: ``max(0, 1 - w_fast / w_slow)``). Unlike the book, samples are
+      injected only while the track is in doubt (``Recovery.in_doubt``): a guess cannot replace a
+      track that explains the scan, and each injection costs a reset search.
     - ``fit_distance``: the fit of a scan is the fraction of its integrated beams that the best
       sample ends within this distance of a mapped obstacle (this implementation's 15 cm).
     - ``min_used``: scans with fewer integrated beams than this fraction of their returns are no

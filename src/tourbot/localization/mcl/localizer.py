@@ -387,7 +387,9 @@ class MonteCarloLocalization:
         )
         if state.global_phase and not global_start and track.weight >= self.config.global_.done:
             state.global_phase = False
-        if too_long > rec_cfg.lost_fraction:
+        if not recovery.in_doubt:
+            inject = 0.0  # augmented MCL's guesses could not compete with a track that explains the scan
+        elif too_long > rec_cfg.lost_fraction:
             inject = rec_cfg.max_injection
         r.info["lost_scans"] = float(state.lost_scans)
         reset_poses: FloatArray | None = None

@@ -3,7 +3,9 @@
 Augmented MCL (Thrun, Burgard & Fox, *Probabilistic Robotics*, Table 8.3) with sensor resetting
 (Lenser & Veloso 2000): a short- and a long-term average of how well the best sample explains the
 scan; when the short one falls below ``ratio`` times the long one, scan-drawn samples are
-injected. A second sign of a wrong track is the one Fox et al. 1998 point to: readings *too long*
+injected, but only while the track is in doubt (:attr:`Recovery.in_doubt`; the book injects
+whenever the short one is lower, on most scans, each a reset search here for guesses that could
+not win). A second sign of a wrong track is the one Fox et al. 1998 point to: readings *too long*
 for the map (visitors only ever shorten a beam). Injected samples are *guesses* (fresh) until one
 of them has beaten the track on ``fresh_wins`` scans in a row, judged by the crowd beam model
 (Probabilistic Robotics Table 6.1); the guess that wins a scan is *held* and must win the next one.
@@ -145,6 +147,16 @@ class Recovery:
         the last judged scan, or a failed verification."""
         s = self.state
         return s.global_phase or s.lost_scans > 0 or s.suspect
+
+    @property
+    def in_doubt(self) -> bool:
+        """Whether a guess may compete with the track now (:meth:`best_guess` judges guesses only
+        then): the track stands :attr:`contradicted`, or it comes from global localization or a
+        far recovery and is not yet confirmed. Augmented MCL injects only then: a guess drawn
+        while the track explains the scan cannot win while it does, and the scan that contradicts
+        the track draws ``max_injection`` guesses of its own."""
+        s = self.state
+        return self.contradicted or s.unconfirmed or s.new_track
 
     def established_weights(self, weights: FloatArray) -> FloatArray:
         """``weights`` with the guesses' set to zero (all of them if nothing else is left)."""
@@ -428,8 +440,9 @@ class Recovery:
 
     def wide_search(self) -> tuple[bool, bool]:
         """Where the next reset search looks: ``(far, table)``: over the whole free space (a track
-        from global localization not yet confirmed, a reset by the fit, or ``global_after``
-        contradicted scans in a row), and with the expected-range table (an unconfirmed track)."""
+        from global localization not yet confirmed, a reset by the fit while in doubt without
+        readings through walls, or ``global_after`` contradicted scans in a row), and with the
+        expected-range table (an unconfirmed track)."""
         s = self.state
         wide = s.unconfirmed
         far = wide or s.lost_scans == 0 or s.lost_scans >= self.config.global_after
