@@ -429,9 +429,12 @@ def negative_false_alarms(bag: Path, seed: int = 0, tracker: Any = None) -> list
 
 def negative_ego_motion(bag: Path) -> list[dict[str, float | str]]:
     """The rigid-body check of a bag's lasers (:func:`tourbot.mapping.ego_motion.laser_agreement`),
-    the path in the frame of its first laser: all lasers on one map, then each alone and all but one."""
+    the path in the frame of its first laser: all lasers on one map, then each alone and all but one
+    against it, and each alone as matched before the climb from the prediction (``(before)``)."""
+    from dataclasses import replace
+
     from tourbot.io.rosbag import bag_topics
-    from tourbot.mapping.ego_motion import ScanMatchedPoses, laser_agreement, path_length
+    from tourbot.mapping.ego_motion import EgoMotionConfig, ScanMatchedPoses, laser_agreement, path_length
     from tourbot.mapping.mounts import bag_lasers
 
     first = sorted(t for t, (kind, _) in bag_topics(bag).items() if kind.endswith("LaserScan"))[0]
@@ -456,10 +459,15 @@ def negative_ego_motion(bag: Path) -> list[dict[str, float | str]]:
             "mounts": how,
         }
     ]
-    for row in laser_agreement(lasers, shared):
+    # the arm before (each laser alone, the match not climbed again from the prediction)
+    mapper = EgoMotionConfig().mapper
+    before = EgoMotionConfig(mapper=replace(mapper, prior_restart=None))
+    arms = [(row, "") for row in laser_agreement(lasers, shared)]
+    arms += [(laser_agreement({n: lasers[n]}, shared, before)[0], " (before)") for n in lasers]
+    for row, arm in arms:
         rows.append(
             {
-                "lasers": " + ".join(row.lasers),
+                "lasers": " + ".join(row.lasers) + arm,
                 "path_m": row.length,
                 "median_off_m": row.median_off,
                 "max_off_m": row.max_off,
