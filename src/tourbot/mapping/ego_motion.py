@@ -79,10 +79,12 @@ class EgoMotionConfig:
     A matched step faster than ``plausible_speed`` (m/s) or turning faster than
     ``plausible_turn_rate`` (rad/s) is not a robot's motion: the match has jumped to a wrong
     optimum (:meth:`ScanMatchedPoses.implausible`), and the poses cannot be trusted from there on;
-    so are scans that no longer fit the map: the median over the last ``score_window`` scans of the
-    match's log likelihood per beam below ``min_match_score`` (-0.8: scans of a standing laser among
-    walking people score -0.04 to -0.65 per beam, the scans of a museum tour matched without
-    odometry, 4 s apart, that lost their way, -1.1 to -1.7)."""
+    so are scans that no longer fit the map: the median over the last ``score_window`` scans (with
+    several lasers: frames, all their returns together) of the log likelihood per beam on the map
+    below ``min_match_score`` (-0.8: scans of a standing laser among walking people score -0.04 to
+    -0.65 per beam, the scans of a museum tour matched without odometry, 4 s apart, that lost their
+    way, -1.1 to -1.7; measured when the score still held the prior's term, which made it slightly
+    lower)."""
 
     mapper: MapperParams = field(default_factory=_no_odometry_mapper)
     static_log_odds: float = 2.5
