@@ -105,3 +105,25 @@ def test_the_rules_chosen_are_those_of_least_cost_on_the_recordings_given() -> N
     assert choose_rules(costs, ["p1"]) == "a"
     assert choose_rules(costs, ["p2"]) == "b"
     assert choose_rules(costs, ["p1", "p2"]) == "b"  # mean 0.35 against 0.5
+
+
+def test_the_ego_motion_rows_of_a_bag_with_three_lasers(shared_data: Path, tmp_path: Path) -> None:
+    from tests.cli.test_people import _first_scans_of
+    from tourbot.bench.tracking import negative_ego_motion
+
+    bag = _first_scans_of(shared_data / "leg_tracker" / "negative_2.bag", tmp_path / "three.bag", 30)
+    rows = negative_ego_motion(bag)
+    assert [r["lasers"] for r in rows] == [
+        "/left_scan + /rear_scan + /right_scan",
+        "/left_scan",
+        "/rear_scan",
+        "/right_scan",
+        "/rear_scan + /right_scan",
+        "/left_scan + /right_scan",
+        "/left_scan + /rear_scan",
+        "/left_scan (before)",
+        "/rear_scan (before)",
+        "/right_scan (before)",
+    ]
+    assert "mounts from the scans" in str(rows[0]["mounts"])
+    assert all(float(r["path_m"]) > 0.3 for r in rows)  # the robot starts to drive in these 4 s

@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import csv
+import math
 from pathlib import Path
 
 import pytest
@@ -277,3 +278,37 @@ def test_track_writes_the_run_as_mcap_with_the_tracks(shared_data: Path, tmp_pat
     assert any(by_scan.values())
     with pytest.raises(SystemExit):  # an existing file is kept unless --force
         main(["track", bag, "--pose", "none", "-o", str(out), "--mcap", str(mcap)])
+
+
+def _first_scans_of(bag: Path, out: Path, per_topic: int) -> Path:
+    """A copy of a ROS 1 bag with only the first ``per_topic`` messages of each topic."""
+    from rosbags.rosbag1 import Reader, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    counts: dict[str, int] = {}
+    with Reader(bag) as reader, Writer(out) as writer:
+        conns = {c.id: writer.add_connection(c.topic, c.msgtype, typestore=store) for c in reader.connections}
+        for conn, stamp, raw in reader.messages():
+            counts[conn.topic] = counts.get(conn.topic, 0) + 1
+            if counts[conn.topic] <= per_topic:
+                writer.write(conns[conn.id], stamp, raw)
+    return out
+
+
+def test_track_of_a_bag_with_three_lasers_matches_them_on_one_map_and_says_how_they_agree(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # the first 5 s of negative_2.bag: three lasers, no odometry, no tf; the robot starts to drive
+    bag = _first_scans_of(shared_data / "leg_tracker" / "negative_2.bag", tmp_path / "three.bag", 40)
+    out = tmp_path / "t.csv"
+    main(["track", str(bag), "--scan-topic", "/rear_scan", "-o", str(out)])
+    said = " ".join(capsys.readouterr().out.split())
+    assert "3 lasers matched on one map (/rear_scan, /left_scan, /right_scan)" in said
+    assert "laser mounts from the scans, in the frame of /rear_scan" in said
+    assert "all lasers on one map:" in said
+    for laser in ("/rear_scan", "/left_scan", "/right_scan"):
+        assert f"{laser} alone:" in said
+    assert "/left_scan + /right_scan:" in said  # all but the rear laser
+    rows = list(csv.DictReader(out.open()))
+    assert math.hypot(float(rows[-1]["robot_x"]), float(rows[-1]["robot_y"])) > 0.5  # it drove

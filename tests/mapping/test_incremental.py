@@ -229,3 +229,37 @@ def test_integrate_into_one_map_only(hall_log: RobotLog) -> None:
     assert not only_alignment._hits.any()
     for a, b in zip(only_alignment._fields, both._fields, strict=True):
         assert np.array_equal(a, b)
+
+
+def test_matching_a_scans_endpoints_is_matching_the_scan(hall_log: RobotLog) -> None:
+    import copy
+
+    mapper = IncrementalMapper(start=hall_log.reference_poses[0])
+    for scan in hall_log.scans[:6]:
+        mapper.add_scan(scan)
+    scan = hall_log.scans[6]
+    assert scan.odom is not None
+    twin = copy.deepcopy(mapper)
+    by_scan = mapper.match(scan)
+    points, weights = twin._matched_beams(scan, None)
+    by_points = twin.match_points(points, weights, np.asarray(scan.odom))
+    assert by_points.pose == by_scan.pose
+    assert by_points.score == by_scan.score
+
+
+def test_a_climb_again_from_the_prediction_never_fits_worse(hall_log: RobotLog) -> None:
+    import copy
+    import dataclasses
+
+    mapper = IncrementalMapper(start=hall_log.reference_poses[0])
+    for scan in hall_log.scans[:8]:
+        mapper.add_scan(scan)
+    for scan in hall_log.scans[8:14]:
+        plain = copy.deepcopy(mapper)
+        again = copy.deepcopy(mapper)
+        again.params = dataclasses.replace(mapper.params, prior_restart=1)
+        a = plain.match(scan)
+        b = again.match(scan)
+        # the same climb is made first; the restart is kept only when it fits the finest map better
+        assert b.score >= a.score
+        mapper.add_scan(scan)

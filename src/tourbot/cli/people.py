@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from enum import StrEnum
 from pathlib import Path
@@ -14,6 +15,7 @@ from tourbot.cli.logs import OdometryOpt, OdometryStream
 from tourbot.errors import InputError
 
 if TYPE_CHECKING:
+    from tourbot.mapping.ego_motion import ScanMatchedPoses
     from tourbot.maps.grid import OccupancyGrid
     from tourbot.people.sjpdaf import SJPDAFConfig
     from tourbot.records import Scan
@@ -118,16 +120,25 @@ def register(app: typer.Typer) -> None:
         grid = read_map(map_path) if map_path is not None else None
         requested = pose
         pose = choose_pose_source(robot_log.scans, requested, log)
+        scans, companions = list(robot_log.scans), []
+        lasers: dict[str, list[Scan]] = {}
         if pose is PoseSource.scan_matching:
             typer.echo(
                 "robot pose from scan-matching (the log has no odometry or tf; each matched step is "
-                "checked for a plausible speed and turn rate, the scans for how well they fit the map)"
+                "checked for a plausible speed and turn rate, the scans of each laser for how well "
+                "they fit the map)"
             )
+            lasers = _all_lasers(log, scans) if log_kind(log) == "rosbag" else {}
+            if len(lasers) > 1:
+                scans, companions = (
+                    lasers[scans[0].sensor],
+                    [s for name, stream in lasers.items() if name != scans[0].sensor for s in stream],
+                )
         elif requested is PoseSource.auto:
             typer.echo(f"robot pose from {pose.value}")
         try:
-            ids, rows, paths = _track_log(
-                robot_log.scans, pose, config, grid, seed, tentative, output, log, mcap
+            ids, rows, paths, ego = _track_log(
+                scans, pose, config, grid, seed, tentative, output, log, mcap, companions
             )
         except _UnverifiedPosesError as exc:
             if requested is not PoseSource.auto:
@@ -141,9 +152,11 @@ def register(app: typer.Typer) -> None:
                 f"scan matching failed its check at scan {exc.scan}: {exc.reason}; "
                 "robot pose from none (the robot taken as still)"
             )
-            ids, rows, paths = _track_log(
+            ids, rows, paths, ego = _track_log(
                 robot_log.scans, PoseSource.none, config, grid, seed, tentative, output, log, mcap
             )
+        if ego is not None and companions:
+            _say_laser_paths(lasers, ego)
         typer.echo(f"{len(robot_log.scans)} scans, {len(ids)} tracks, {rows} rows -> {output}")
         if mcap is not None:
             typer.echo(f"the run as MCAP (ROS 2 messages; the tracks on /people) -> {mcap}")
@@ -178,6 +191,46 @@ def choose_pose_source(scans: Sequence[Scan], requested: PoseSource, log: Path) 
                 field="--pose",
             )
     return requested
+
+
+def _all_lasers(log: Path, scans: list[Scan]) -> dict[str, list[Scan]]:
+    """Every laser of the bag, each scan with its laser's mount on the robot (from tf, else from
+    the scans, in the frame of the tracked laser); {} for a bag with one laser or lasers whose
+    mounts the scans cannot tell (said)."""
+    from tourbot.mapping.mounts import MountError, bag_lasers
+
+    tracked = scans[0].sensor
+    try:
+        lasers, how = bag_lasers(log, tracked)
+    except MountError as exc:
+        typer.echo(
+            f"the scans of {tracked} alone give the robot's pose (the other lasers are not used: {exc})"
+        )
+        return {}
+    if len(lasers) == 1:
+        return {}
+    typer.echo(f"{len(lasers)} lasers matched on one map ({', '.join(lasers)}); {how}")
+    return lasers
+
+
+def _say_laser_paths(lasers: dict[str, list[Scan]], ego: ScanMatchedPoses) -> None:
+    """The check that the lasers of one robot agree: each alone, and all but one, against the path
+    of all of them on one map."""
+    from tourbot.mapping.ego_motion import laser_agreement, path_length
+
+    tracked = next(iter(lasers))
+    shared = ego.path()
+    fits = ego.mean_fit()
+    typer.echo(
+        f"path of the robot ({tracked}'s frame), all lasers on one map: {path_length(shared[1]):.1f} m; "
+        "mean fit per beam: " + ", ".join(f"{name} {fit:.2f}" for name, fit in fits.items())
+    )
+    for row in laser_agreement(lasers, shared, ego.config):
+        typer.echo(
+            f"  {' + '.join(row.lasers)}{' alone' if len(row.lasers) == 1 else ''}: {row.length:.1f} m, "
+            f"off it by {row.median_off:.2f} m (median) and {row.max_off:.2f} m, "
+            f"{math.degrees(row.max_heading_off):.1f} deg at most; {row.implausible} scans failed the check"
+        )
 
 
 class _UnverifiedPosesError(Exception):
@@ -215,10 +268,12 @@ def _track_log(
     output: Path,
     log: Path,
     mcap: Path | None = None,
-) -> tuple[set[int], int, dict[int, list[tuple[float, float]]]]:
+    companions: Sequence[Scan] = (),
+) -> tuple[set[int], int, dict[int, list[tuple[float, float]]], ScanMatchedPoses | None]:
     """Track ``scans`` with the robot poses of ``pose`` and write the CSV ``output`` whole (and the
     run as MCAP: each scan, the robot pose used as odometry and estimate, the tracks as ``/people``);
-    the track ids, the number of track rows and each track's path. Scan matching raises
+    the track ids, the number of track rows, each track's path and the scan matching (None without).
+    Scan matching (on one map with the ``companions``, the scans of the robot's other lasers) raises
     :class:`_UnverifiedPosesError` at the first implausible step (nothing is written then)."""
     import csv
     from contextlib import nullcontext
@@ -233,7 +288,7 @@ def _track_log(
     from tourbot.people.sjpdaf import PeopleTracker
     from tourbot.snapshot import PersonState
 
-    ego = ScanMatchedPoses() if pose is PoseSource.scan_matching else None
+    ego = ScanMatchedPoses(companions=companions) if pose is PoseSource.scan_matching else None
     tracker = PeopleTracker(config, grid_map=grid, rng=np.random.default_rng(seed), pose_source=ego)
     rows = 0
     ids: set[int] = set()
@@ -275,7 +330,7 @@ def _track_log(
                 people = [PersonState(tr.id, *tr.position, *tr.velocity, tr.confirmed) for tr in tracks]
                 run.write_people(people, scan.timestamp)
             progress.advance()
-    return ids, rows, paths
+    return ids, rows, paths, ego
 
 
 def _register_train(app: typer.Typer) -> None:

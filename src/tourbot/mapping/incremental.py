@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.mapping.free_space import free_sectors
-from tourbot.mapping.scan_matching import MatchParams, hill_climb
+from tourbot.mapping.scan_matching import MatchParams, hill_climb, score
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import ReferenceMapParams, grid_from_counts, trace_beams
 from tourbot.records import Scan
@@ -70,6 +70,12 @@ class MapperParams:
     unexplored space cost little, and a scan could turn by 20-50 degrees to put its returns there
     (Intel's front end lost track at scan 761 so, its odometry within 3 degrees each step);
     Freiburg 079 (a scan every 0.1 m) needs the longer window. ``docs/results/loopclosure.md``.
+
+    ``prior_restart``: the climb is made a second time from the predicted pose, over the levels
+    from this one (0 the coarsest) to the finest, and the better of the two on the finest map's
+    objective (Eq. 1 there) is kept; None (the default, as measured on the odometry logs): the
+    coarse-to-fine climb alone. Matching without odometry needs it (:mod:`tourbot.mapping.
+    ego_motion`): a coarse level can pull a scan of parallel shelves one aisle over.
     """
 
     resolution: float = 0.05
@@ -90,6 +96,7 @@ class MapperParams:
     sector_slope: float = 0.04
     sector_width: float = math.inf
     sector_range: float = 25.0
+    prior_restart: int | None = None
 
     def __post_init__(self) -> None:
         if self.level_halvings is not None and len(self.level_halvings) != len(self.smoothing):
@@ -151,7 +158,9 @@ class IncrementalMapper:
 
     def predict(self, scan: Scan) -> FloatArray:
         """The pose of ``scan`` predicted from the last aligned pose and odometry."""
-        odom = self._odom_of(scan)
+        return self._predict_from(self._odom_of(scan))
+
+    def _predict_from(self, odom: FloatArray) -> FloatArray:
         if self._pose is None or self._odom is None:
             return np.asarray(self._start if self._start is not None else odom, dtype=np.float64).copy()
         return compose(self._pose, relative(self._odom, odom))
@@ -162,14 +171,24 @@ class IncrementalMapper:
         ``match_weights`` (per beam, in [0, 1]) scale each beam's log likelihood: people-filtered
         mapping gives ``1 - P(hit a person)``.
         """
+        pts, w = self._matched_beams(scan, match_weights)
+        return self.match_points(pts, w, self._odom_of(scan))
+
+    def match_points(self, points: FloatArray, weights: FloatArray, odom: FloatArray) -> MapperStep:
+        """:meth:`match` for endpoints ``(N, 2)`` given in the robot frame with their ``weights``
+        (each times the match's ``beam_weight``), the robot's odometry pose ``odom`` at their time:
+        the returns of several lasers of one robot, each moved to the robot frame, align as one
+        scan (:mod:`tourbot.mapping.ego_motion`)."""
         t0 = time.perf_counter()
-        odom = self._odom_of(scan)
-        predicted = self.predict(scan)
+        odom = np.asarray(odom, dtype=np.float64)
+        predicted = self._predict_from(odom)
         if self._pose is None or self._odom is None:
             self._centre_on(predicted)
             best, val = predicted.copy(), 0.0
         else:
-            best, val = self._align(scan, predicted, relative(self._odom, odom), match_weights)
+            pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+            w = np.asarray(weights, dtype=np.float64) * self.params.match.beam_weight
+            best, val = self._align(pts, w, predicted, relative(self._odom, odom))
         self._pose = best
         self._odom = odom
         pose = (float(best[0]), float(best[1]), float(best[2]))
@@ -239,13 +258,11 @@ class IncrementalMapper:
         ey = g.offset[1] + ranges * np.sin(ang)
         return np.stack([ex, ey], axis=1), hit, ang
 
-    def _align(
-        self, scan: Scan, predicted: FloatArray, delta: FloatArray, match_weights: FloatArray | None
-    ) -> tuple[FloatArray, float]:
+    def _matched_beams(self, scan: Scan, match_weights: FloatArray | None) -> tuple[FloatArray, FloatArray]:
+        """The endpoints (robot frame) of the beams that align ``scan`` and their weights."""
         p = self.params
-        m = p.match
         pts, hit, _ = self._endpoints(scan, p.max_match_range)
-        w = np.full(len(pts), m.beam_weight)
+        w = np.ones(len(pts))
         if match_weights is not None:
             w = w * np.asarray(match_weights, dtype=np.float64)
         sel = np.zeros(len(pts), bool)
@@ -254,7 +271,26 @@ class IncrementalMapper:
             step = max(step, math.ceil(len(pts) / p.match_beams))
         sel[::step] = True
         sel &= hit & (w > 0)
-        if sel.sum() < 10:
+        return pts[sel], w[sel]
+
+    def score_points(self, points: FloatArray, pose: FloatArray) -> float:
+        """The log likelihood (Eq. 1's first factor, ``beam_weight`` per endpoint) of endpoints
+        ``(N, 2)`` in the robot frame at world ``pose``, on the finest smoothed map."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        if math.isnan(self._x0) or len(pts) == 0:
+            return 0.0
+        m = self.params.match
+        origin = np.array([self._x0, self._y0, 0.0])
+        res = self.params.resolution * self._factors[-1]
+        local = np.asarray(pose, dtype=np.float64) - origin
+        return score(self._fields[-1], res, local, pts, np.full(len(pts), m.beam_weight), m.eps)
+
+    def _align(
+        self, pts: FloatArray, w: FloatArray, predicted: FloatArray, delta: FloatArray
+    ) -> tuple[FloatArray, float]:
+        p = self.params
+        m = p.match
+        if len(pts) < 10:
             return predicted, 0.0
         trans = float(np.hypot(delta[0], delta[1]))
         rot = abs(float(wrap_angle(delta[2])))
@@ -268,7 +304,20 @@ class IncrementalMapper:
             scale = 1.0 / (2**level)
             res = p.resolution * factor
             halve = None if p.level_halvings is None else p.level_halvings[level]
-            best, val = hill_climb(fieldk, res, best, pts[sel], w[sel], prior, sigma, m, scale, halve)
+            best, val = hill_climb(fieldk, res, best, pts, w, prior, sigma, m, scale, halve)
+        if p.prior_restart is not None:
+            # the same climb from the prediction, skipping the coarsest levels; the better of the two
+            # on the finest map (Eq. 1 there) wins: a coarse level widens the basin, but on a room
+            # of parallel shelves it can also pull the scan one aisle over
+            alt = prior.copy()
+            for level in range(p.prior_restart, len(self._fields)):
+                res = p.resolution * self._factors[level]
+                halve = None if p.level_halvings is None else p.level_halvings[level]
+                alt, alt_val = hill_climb(
+                    self._fields[level], res, alt, pts, w, prior, sigma, m, 1.0 / (2**level), halve
+                )
+            if alt_val > val:
+                best, val = alt, alt_val
         best = best + origin
         best[2] = float(wrap_angle(best[2]))
         return best, val
