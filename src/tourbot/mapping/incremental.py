@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.mapping.free_space import free_sectors
-from tourbot.mapping.scan_matching import MatchParams, hill_climb
+from tourbot.mapping.scan_matching import MatchParams, curvature, hill_climb
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import ReferenceMapParams, grid_from_counts, trace_beams
 from tourbot.records import Scan
@@ -101,12 +101,16 @@ class MapperParams:
 
 @dataclass(frozen=True)
 class MapperStep:
-    """What one scan did: its aligned pose, the odometry prediction and the time it took."""
+    """What one scan did: its aligned pose, the odometry prediction, the alignment's objective,
+    the time it took and the alignment's information ``(3, 3)`` (world ``x, y, theta``; zero
+    when the scan was not aligned): the curvature of the objective at the aligned pose, map
+    likelihood and odometry prior together (:func:`tourbot.mapping.scan_matching.curvature`)."""
 
     pose: tuple[float, float, float]
     predicted: tuple[float, float, float]
     score: float
     seconds: float
+    information: FloatArray = field(default_factory=lambda: np.zeros((3, 3)))
 
 
 class IncrementalMapper:
@@ -130,6 +134,7 @@ class IncrementalMapper:
         self._fields = [np.full((n // f, n // f), self.params.unknown_level) for f in self._factors]
         self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
         self.poses: list[tuple[float, float, float]] = []
+        self.last: MapperStep | None = None  # the latest scan's step
 
     # ------------------------------------------------------------------------------------------
     @property
@@ -165,21 +170,24 @@ class IncrementalMapper:
         t0 = time.perf_counter()
         odom = self._odom_of(scan)
         predicted = self.predict(scan)
+        info = np.zeros((3, 3))
         if self._pose is None or self._odom is None:
             self._centre_on(predicted)
             best, val = predicted.copy(), 0.0
         else:
-            best, val = self._align(scan, predicted, relative(self._odom, odom), match_weights)
+            best, val, info = self._align(scan, predicted, relative(self._odom, odom), match_weights)
         self._pose = best
         self._odom = odom
         pose = (float(best[0]), float(best[1]), float(best[2]))
         self.poses.append(pose)
-        return MapperStep(
+        self.last = MapperStep(
             pose=pose,
             predicted=(float(predicted[0]), float(predicted[1]), float(predicted[2])),
             score=val,
             seconds=time.perf_counter() - t0,
+            information=info,
         )
+        return self.last
 
     @staticmethod
     def _odom_of(scan: Scan) -> FloatArray:
@@ -241,7 +249,9 @@ class IncrementalMapper:
 
     def _align(
         self, scan: Scan, predicted: FloatArray, delta: FloatArray, match_weights: FloatArray | None
-    ) -> tuple[FloatArray, float]:
+    ) -> tuple[FloatArray, float, FloatArray]:
+        """The aligned pose, its objective and its information (the objective's curvature there,
+        on the finest smoothed map, plus the odometry prior's)."""
         p = self.params
         m = p.match
         pts, hit, _ = self._endpoints(scan, p.max_match_range)
@@ -255,7 +265,7 @@ class IncrementalMapper:
         sel[::step] = True
         sel &= hit & (w > 0)
         if sel.sum() < 10:
-            return predicted, 0.0
+            return predicted, 0.0, np.zeros((3, 3))
         trans = float(np.hypot(delta[0], delta[1]))
         rot = abs(float(wrap_angle(delta[2])))
         sigma_xy = m.sigma_xy + m.k_xy * trans
@@ -269,9 +279,14 @@ class IncrementalMapper:
             res = p.resolution * factor
             halve = None if p.level_halvings is None else p.level_halvings[level]
             best, val = hill_climb(fieldk, res, best, pts[sel], w[sel], prior, sigma, m, scale, halve)
+        # the curvature over a cell of the finest field, the heading step turning the scan's
+        # median endpoint by as much
+        reach = max(float(np.median(np.hypot(pts[sel, 0], pts[sel, 1]))), res)
+        info = curvature(fieldk, res, best, pts[sel], w[sel], m.eps, np.array([res, res, res / reach]))
+        info = info + np.diag(1.0 / sigma**2)
         best = best + origin
         best[2] = float(wrap_angle(best[2]))
-        return best, val
+        return best, val, info
 
     def integrate(
         self,
