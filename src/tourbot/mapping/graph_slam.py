@@ -35,11 +35,10 @@ match of the same pass agrees with it, and is refused if it contradicts a closur
 in that pass (pairwise consistency, Olson, "Recognizing places using spectrally clustered local
 matches", RAS 2009: two closures and the graph's two short chains between their scans and between
 their anchors form a cycle that must close). Geometric consistency with the whole graph then decides
-whether an
-agreeing group stays: optimised with GTSAM with the group's edges under the plain quadratic cost,
-the total squared whitened error may grow by a chi-square quantile at most (no optimisation is
-needed when the edges already fit the current poses that well); an accepted closure keeps
-dynamic covariance scaling (DCS, :mod:`tourbot.mapping.pose_graph`) from then on, so that a
+whether an agreeing group stays: optimised with GTSAM with the group's edges under the plain
+quadratic cost, the total squared whitened error may grow by a chi-square quantile at most (no
+optimisation is needed when the edges already fit the current poses that well); an accepted closure
+keeps dynamic covariance scaling (DCS, :mod:`tourbot.mapping.pose_graph`) from then on, so that a
 wrong one that slipped through cannot wreck the map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
