@@ -49,6 +49,19 @@ def drive(grid: OccupancyGrid, n: int = 120, seed: int = 0, odom_noise: float = 
     return RobotLog("synthetic", scans)
 
 
+def corridor_scan(odom: tuple[float, float, float], end: float | None = None) -> Scan:
+    """A scan in a corridor with walls 1 m either side of the robot, facing along it; beyond
+    8 m no return, so that no end wall is seen unless ``end`` (m ahead) puts one in sight. The
+    walls look the same from anywhere along the corridor: ``odom`` alone says where it is."""
+    geom = LaserGeometry(181, -np.pi / 2, np.pi / 180, 8.0)
+    a = geom.angles
+    with np.errstate(divide="ignore"):
+        ranges = np.where(np.abs(np.sin(a)) > 1e-9, 1.0 / np.abs(np.sin(a)), np.inf)
+        if end is not None:
+            ranges = np.minimum(ranges, np.where(np.cos(a) > 1e-9, end / np.cos(a), np.inf))
+    return Scan(0.0, np.minimum(ranges, 8.0), geom, odom=odom)
+
+
 @pytest.fixture(scope="module")
 def hall() -> OccupancyGrid:
     return building()

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.mapping.conftest import corridor_scan
 from tourbot.geometry import compose, relative
 from tourbot.mapping.graph_slam import Closure, GraphSlam
 from tourbot.mapping.people_filter import PeopleFilteredMapper
@@ -144,3 +145,37 @@ def test_online_poses_are_available_while_mapping(real_log: Callable[[str], Robo
         pose = slam.add_scan(scan)
         assert pose.shape == (3,)
         assert len(slam.poses) == k + 1
+
+
+@pytest.mark.parametrize("heading", [0.0, np.pi / 2])
+def test_a_corridor_edge_is_loose_along_the_corridor(heading: float) -> None:
+    """The scan-matching edge carries the match's covariance in the edge's own frame: in a
+    featureless corridor, long along the robot's heading whichever way the corridor runs."""
+    slam = GraphSlam(start=np.array([0.0, 0.0, heading]))
+    slam.add_scan(corridor_scan((0.0, 0.0, heading)))
+    slam.add_scan(corridor_scan((0.45 * np.cos(heading), 0.45 * np.sin(heading), heading)))
+    (edge,) = slam.graph.edges
+    values, vectors = np.linalg.eigh(np.linalg.inv(edge.information)[:2, :2])
+    assert abs(vectors[0, 1]) > 0.99  # the longest axis is the edge frame's x: along the corridor
+    assert np.sqrt(values[1] / values[0]) > 4.0
+
+
+def test_a_step_that_jumps_away_from_the_odometry_is_no_edge(real_log: Callable[[str], RobotLog]) -> None:
+    """ACES scan 243: back in a corridor it mapped long before, the front end snaps the scan
+    onto that drifted old map, 0.97 m short of where the reference and the odometry (0.09 m off)
+    put it. The graph's edge there is the odometry's: such a step is an implicit loop closure,
+    not a motion, and as a scan-matching edge it held the graph 1 m short."""
+    log = real_log("aces")
+    ref = log.reference_poses
+    slam = GraphSlam(start=ref[0])
+    for scan in log.scans[:244]:
+        slam.add_scan(scan)
+    front = np.asarray(slam.front.poses)
+    truth = relative(ref[242], ref[243])
+    assert np.hypot(*(relative(front[242], front[243]) - truth)[:2]) > 0.5
+    (edge,) = [e for e in slam.graph.edges if (e.i, e.j) == (242, 243)]
+    odo = relative(log.odom_poses[242], log.odom_poses[243])
+    assert np.allclose(edge.delta, odo)
+    assert np.hypot(*(odo - truth)[:2]) < 0.15
+    # the steps that agree with the odometry stay scan-matching edges
+    assert 0 < slam.jumps <= 10

@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.mapping.conftest import corridor_scan
 from tourbot.mapping.incremental import (
     IncrementalMapper,
     MapperParams,
@@ -263,3 +264,31 @@ def test_a_climb_again_from_the_prediction_never_fits_worse(hall_log: RobotLog) 
         # the same climb is made first; the restart is kept only when it fits the finest map better
         assert b.score >= a.score
         mapper.add_scan(scan)
+
+
+def _covariance_axes(information: np.ndarray) -> tuple[np.ndarray, float]:
+    """The direction (x, y) of the covariance's longest axis and how much longer it is."""
+    values, vectors = np.linalg.eigh(np.linalg.inv(information)[:2, :2])
+    return vectors[:, 1], float(np.sqrt(values[1] / values[0]))
+
+
+@pytest.mark.parametrize("heading", [0.0, np.pi / 2])
+def test_a_corridor_match_is_uncertain_along_the_corridor(heading: float) -> None:
+    """Two scans 0.5 m apart in a featureless corridor, the odometry 10 % short: the match's
+    covariance is long along the corridor (where only the odometry says how far the robot
+    went) and short across it; with the corridor's end in sight, it is not."""
+    along = np.array([np.cos(heading), np.sin(heading)])
+    moved = (0.45 * float(along[0]), 0.45 * float(along[1]), heading)
+    mapper = IncrementalMapper(start=np.array([0.0, 0.0, heading]))
+    mapper.add_scan(corridor_scan((0.0, 0.0, heading)))
+    step = mapper.add_scan(corridor_scan(moved))
+    axis, ratio = _covariance_axes(step.information)
+    assert abs(float(axis @ along)) > 0.99
+    assert ratio > 4.0
+    closed = IncrementalMapper(start=np.array([0.0, 0.0, heading]))
+    closed.add_scan(corridor_scan((0.0, 0.0, heading), end=4.0))
+    step = closed.add_scan(corridor_scan(moved, end=3.5))
+    _, ratio_closed = _covariance_axes(step.information)
+    assert ratio_closed < 0.5 * ratio
+    # and the end wall put it at 0.5 m, not the odometry's 0.45 (within a map cell)
+    assert abs(float(np.asarray(step.pose[:2]) @ along) - 0.5) < 0.04

@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tourbot.mapping.scan_matching import MatchParams, hill_climb, score, score_reference
+from tourbot.mapping.scan_matching import MatchParams, curvature, hill_climb, score, score_reference
 
 
 def _field(seed: int) -> np.ndarray:
@@ -54,3 +54,21 @@ def test_hill_climb_recovers_an_offset() -> None:
     )
     assert np.hypot(*(best[:2] - truth[:2])) < 0.03
     assert abs(best[2] - truth[2]) < 0.01
+
+
+def test_the_curvature_of_a_match_to_one_wall_is_nothing_along_it() -> None:
+    """One straight wall pins the distance to it and the heading, not the position along it."""
+    res = 0.05
+    walls = np.zeros((200, 200), np.float32)
+    walls[50, 20:180] = 1.0
+    blurred = np.asarray(cv2.GaussianBlur(walls, (0, 0), 1.0), dtype=np.float32)
+    field = blurred / blurred.max()
+    pose = np.array([5.0, 4.0, 0.0])
+    local = np.c_[np.linspace(-2.0, 2.0, 80), np.full(80, 2.525 - 4.0)]
+    info = curvature(field, res, pose, local, np.full(80, 0.5), 0.02, np.array([res, res, res / 2.0]))
+    assert np.allclose(info, info.T)
+    values, vectors = np.linalg.eigh(info)
+    assert values[0] >= 0.0
+    assert abs(vectors[0, 0]) > 0.99  # the direction with no information: along the wall (x)
+    assert values[0] < 1e-3 * values[-1]
+    assert info[1, 1] > 100.0 * max(info[0, 0], 1e-9)

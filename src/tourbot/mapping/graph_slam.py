@@ -6,26 +6,39 @@ close. Here each scan becomes a node of a pose graph (:mod:`tourbot.mapping.pose
 the previous one by the front end's aligned motion (scan matching, which already fused the
 odometry as its prior: a second, odometry edge would count the wheels twice and bend the graph
 by their bias, as measured on Intel) or, where the scan could not be aligned, by the raw
-odometry; each edge's covariance grows with the motion, and a scan-matching edge's standard
-deviations with how poorly the scan fitted (its alignment objective below ``-sm_score_scale``
-scales them by ``-objective / sm_score_scale``), so that loop closures can bend the graph where
-the front end slipped. Consecutive runs of scans form
+odometry, whose covariance grows with the motion. A scan-matching edge's covariance is the
+alignment's own: the inverse curvature of the front end's objective at the aligned pose (map
+likelihood and odometry prior; Censi, "An accurate closed-form estimate of ICP's covariance",
+ICRA 2007; :func:`tourbot.mapping.scan_matching.curvature`), scaled by ``sm_scale``. It says
+which way a match is uncertain: in a corridor, tight across and loose along, so that a loop's
+correction goes along the corridors where the front end could not see its motion, not across
+rooms where it could. A step of the front end that departs from the odometry by more than the
+front end's own odometry prior allows (beyond its 99.9 % chi-square quantile) is no scan-matching
+edge: back in a place it mapped long before, the front end aligns the scan with that old, drifted
+part of its map (ACES: scans 0.5-1 m off, where the odometry was within 0.1 m), an implicit loop
+closure that a tight sequential edge would freeze into the chain. Its edge is the odometry's,
+loosened by the disagreement (its covariance plus the outer product of the difference between
+the two steps), so that either may turn out right. Consecutive runs of scans form
 *submaps* (their endpoints at the graph's poses, in the frame of the submap's first node). Every
 few scans, the finished submaps the robot may be back in (the current graph pose, within a window
 that grows with the path length between submap and scan through the graph) are searched for the
 scan with the branch-and-bound correlative matcher (:mod:`tourbot.mapping.correlative`); a match
 whose score passes the threshold is refined and attached to the submap node nearest the scan (scans
 the front end fitted poorly are left out of the submaps and never anchor a closure: they may sit
-askew in them). A match alone is no closure: repeated structure (a corridor, twin rooms) is
-matched with conviction somewhere else. It waits until another match of the same pass agrees
-with it, and is refused if it contradicts a closure already accepted in that pass (pairwise
-consistency, Olson, "Recognizing places using spectrally clustered local matches", RAS 2009:
-two closures and the graph's two short chains between their scans and between their anchors form
-a cycle that must close). Geometric consistency with the whole graph then decides whether an
-agreeing group stays: optimised with GTSAM with the group's edges under the plain quadratic cost,
-the total squared whitened error may grow by a chi-square quantile at most (no optimisation is
-needed when the edges already fit the current poses that well); an accepted closure keeps
-dynamic covariance scaling (DCS, :mod:`tourbot.mapping.pose_graph`) from then on, so that a
+askew in them); its covariance is a floor (how far a submap drawn at the graph's poses may be
+off) plus the match's own, the inverse curvature of the matching objective on the submap around
+the refined pose, within the searched window (the cost surface around the best match, Olson,
+"Real-time correlative scan matching", ICRA 2009): a scan matched in a corridor pins the
+corridor's cross-section, not where along it the robot is. A match alone is no closure: repeated
+structure (a corridor, twin rooms) is matched with conviction somewhere else. It waits until another
+match of the same pass agrees with it, and is refused if it contradicts a closure already accepted
+in that pass (pairwise consistency, Olson, "Recognizing places using spectrally clustered local
+matches", RAS 2009: two closures and the graph's two short chains between their scans and between
+their anchors form a cycle that must close). Geometric consistency with the whole graph then decides
+whether an agreeing group stays: optimised with GTSAM with the group's edges under the plain
+quadratic cost, the total squared whitened error may grow by a chi-square quantile at most (no
+optimisation is needed when the edges already fit the current poses that well); an accepted closure
+keeps dynamic covariance scaling (DCS, :mod:`tourbot.mapping.pose_graph`) from then on, so that a
 wrong one that slipped through cannot wreck the map.
 
 People filtering (Sec. 5) stays in: with a :class:`~tourbot.mapping.people_filter.
@@ -49,6 +62,7 @@ from tourbot.mapping.correlative import Match, SearchWindow, Submap, refine, sea
 from tourbot.mapping.incremental import IncrementalMapper, MapperParams
 from tourbot.mapping.people_filter import PeopleFilteredMapper, beam_endpoints
 from tourbot.mapping.pose_graph import OptimizerParams, PoseGraph, edge_errors
+from tourbot.mapping.scan_matching import curvature
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.records import Scan
 
@@ -61,16 +75,24 @@ FloatArray = NDArray[np.float64]
 class GraphSlamParams:
     """Parameters of graph SLAM (front end, submaps, loop closure, optimisation).
 
-    Edge standard deviations grow with the motion: ``sm_sigma_xy + sm_k_xy * |translation|`` (m)
-    and ``sm_sigma_theta + sm_k_theta * |rotation|`` (rad) for the scan-matching edge; ``odom_*``
-    likewise for the odometry edge. A submap holds ``submap_scans`` scans. Every ``query_every``-th
-    scan is searched in the finished submaps at least ``recent_path`` m back along the path whose
-    centre is within reach of its pose; the window's half-widths grow from ``window_linear`` m
-    and ``window_angular`` rad by ``window_k_linear`` m and ``window_k_angular`` rad per metre
-    of path between the submap and the scan through the graph (an accepted closure counts
-    ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
+    A scan-matching edge's covariance is ``sm_scale`` times the inverse of the alignment's
+    information (:attr:`~tourbot.mapping.incremental.MapperStep.information`): 3, the median
+    squared Mahalanobis error of the front end's steps against the reference over its median
+    for 3 degrees of freedom, 2.8-4.8 on the four logs (ACES 2.9, Intel 2.8, FHW 4.8, Freiburg
+    079 2.9; leaving one log out, 2.9-3.4), as the curvature ignores that neighbouring beams
+    and the map's own errors are not independent. The odometry edge (a scan that could not be
+    aligned) has standard deviations ``odom_sigma_xy + odom_k_xy * |translation|`` (m) and
+    ``odom_sigma_theta + odom_k_theta * |rotation|`` (rad); it also replaces a step whose
+    departure from the odometry exceeds the chi-square quantile ``sm_gate`` (of 3 degrees of
+    freedom, under the front end's odometry prior), loosened by that departure. A submap holds
+    ``submap_scans`` scans. Every ``query_every``-th scan is searched in the finished submaps at least
+    ``recent_path`` m back along the path whose centre is within reach of its pose; the window's
+    half-widths grow from ``window_linear`` m and ``window_angular`` rad by ``window_k_linear`` m
+    and ``window_k_angular`` rad per metre of path between the submap and the scan through the graph
+    (an accepted closure counts ``closure_length`` m), capped at ``max_linear`` and ``max_angular``.
     ``min_score``: a match's mean likelihood (0-1) to be proposed; ``loop_sigma_*``: the loop
-    edge's standard deviations; ``submap_quality``: scans whose fit quality (alignment objective
+    edge's covariance floor (standard deviations), to which ``sm_scale`` times the match's
+    inverse curvature is added; ``submap_quality``: scans whose fit quality (alignment objective
     over ``-sm_score_scale``) exceeds it stay out of the submaps. Two closures agree when their
     cycle closes within ``group_xy + group_k_xy * L`` m and ``group_theta + group_k_theta * L``
     rad (``L``: the path length of the cycle's two chains); closures are of one pass when their
@@ -82,10 +104,8 @@ class GraphSlamParams:
     """
 
     mapper: MapperParams = field(default_factory=MapperParams)
-    sm_sigma_xy: float = 0.01
-    sm_k_xy: float = 0.02
-    sm_sigma_theta: float = 0.002
-    sm_k_theta: float = 0.02
+    sm_scale: float = 3.0
+    sm_gate: float = 0.999
     sm_score_scale: float = 40.0
     odom_sigma_xy: float = 0.1
     odom_k_xy: float = 0.3
@@ -121,12 +141,14 @@ class GraphSlamParams:
 
 @dataclass(frozen=True)
 class Closure:
-    """An accepted loop closure: scan ``node`` seen in the submap anchored at node ``anchor``."""
+    """An accepted loop closure: scan ``node`` seen in the submap anchored at node ``anchor``;
+    ``information``: its edge's (in the scan's frame; None: the floor ``loop_sigma_*`` alone)."""
 
     anchor: int
     node: int
     delta: tuple[float, float, float]
     score: float
+    information: FloatArray | None = field(default=None, compare=False)
 
 
 @dataclass
@@ -156,6 +178,7 @@ class GraphSlam:
         self.rejected = 0  # closures proposed and then rejected by the consistency gate
         self.proposed = 0
         self._quality: list[float] = []  # how poorly each scan fitted the front end's map (>= 1)
+        self.jumps = 0  # aligned steps that departed from the odometry: odometry edges instead
         self.contradicted = 0  # matches refused for contradicting an accepted closure of the pass
         self._pending: list[Closure] = []  # verified matches waiting for one that agrees
         self._scans: list[Scan] = []
@@ -173,14 +196,16 @@ class GraphSlam:
 
     def add_scan(self, scan: Scan) -> FloatArray:
         """Align ``scan`` (front end), add its node and edges; try loop closures; its pose now."""
-        matched, quality = True, 1.0
+        quality = 1.0
         if self.people is not None:
             front = np.asarray(self.people.add_scan(scan), dtype=np.float64)
         else:
-            step_ = self.front.add_scan(scan)
-            front = np.asarray(step_.pose, dtype=np.float64)
-            matched = step_.score != 0.0  # too few beams to align: the odometry's prediction
-            quality = max(1.0, -step_.score / self.params.sm_score_scale)
+            front = np.asarray(self.front.add_scan(scan).pose, dtype=np.float64)
+        done = self.front.last
+        assert done is not None
+        matched = done.score != 0.0  # too few beams to align: the odometry's prediction
+        if self.people is None:
+            quality = max(1.0, -done.score / self.params.sm_score_scale)
         odom = np.asarray(scan.odom, dtype=np.float64)
         n = len(self._scans)
         if n == 0:
@@ -188,12 +213,19 @@ class GraphSlam:
         else:
             prev = self.graph.poses[-1]
             step = relative(self._front_poses[-1], front)
-            self.graph.add_node(compose(prev, step))
-            if matched:
-                self.graph.add_edge(n - 1, n, step, self._information(step, odometry=False) / quality**2)
+            odo = relative(self._odom[-1], odom)
+            if matched and not self._departs(step, odo):
+                info = _in_frame(done.information, float(front[2])) / self.params.sm_scale
+                self.graph.add_node(compose(prev, step))
+                self.graph.add_edge(n - 1, n, step, info)
             else:
-                odo = relative(self._odom[-1], odom)
-                self.graph.add_edge(n - 1, n, odo, self._information(odo, odometry=True))
+                info = self._odometry_information(odo)
+                if matched:  # the scan snapped away from the odometry: which was right is open
+                    self.jumps += 1
+                    d = relative(odo, step)
+                    info = np.asarray(np.linalg.inv(np.linalg.inv(info) + np.outer(d, d)), dtype=np.float64)
+                self.graph.add_node(compose(prev, odo))
+                self.graph.add_edge(n - 1, n, odo, info)
             self._along.append(self._along[-1] + float(np.hypot(step[0], step[1])))
         self._scans.append(scan)
         self._quality.append(quality)
@@ -231,15 +263,52 @@ class GraphSlam:
         return out.grid()
 
     # ------------------------------------------------------------------------------------------
-    def _information(self, step: FloatArray, *, odometry: bool) -> FloatArray:
+    def _departs(self, step: FloatArray, odo: FloatArray) -> bool:
+        """Whether the front end's ``step`` departs from the odometry's ``odo`` by more than the
+        front end's own odometry prior allows (its squared whitened difference beyond the
+        chi-square quantile ``sm_gate`` of 3 degrees of freedom): a scan snapped onto an old,
+        drifted part of the map it aligns against, an implicit loop closure, not a motion."""
+        from scipy.stats import chi2
+
+        m = self.params.mapper.match
+        trans = float(np.hypot(odo[0], odo[1]))
+        rot = abs(float(wrap_angle(odo[2])))
+        sxy = m.sigma_xy + m.k_xy * trans
+        sth = m.sigma_theta + m.k_theta * rot + m.k_theta_xy * trans
+        d = relative(odo, step)
+        whitened = (d[0] ** 2 + d[1] ** 2) / sxy**2 + float(wrap_angle(d[2])) ** 2 / sth**2
+        return bool(whitened > chi2.ppf(self.params.sm_gate, 3))
+
+    def _odometry_information(self, step: FloatArray) -> FloatArray:
         p = self.params
         trans = float(np.hypot(step[0], step[1]))
         rot = abs(float(wrap_angle(step[2])))
-        if odometry:
-            sxy, sth = p.odom_sigma_xy + p.odom_k_xy * trans, p.odom_sigma_theta + p.odom_k_theta * rot
-        else:
-            sxy, sth = p.sm_sigma_xy + p.sm_k_xy * trans, p.sm_sigma_theta + p.sm_k_theta * rot
+        sxy, sth = p.odom_sigma_xy + p.odom_k_xy * trans, p.odom_sigma_theta + p.odom_k_theta * rot
         return np.diag([1.0 / sxy**2, 1.0 / sxy**2, 1.0 / sth**2])
+
+    def _loop_information(
+        self, sub: _Submap, pts: FloatArray, pose: FloatArray, window: SearchWindow
+    ) -> FloatArray:
+        """The information of a loop edge (in the frame of the scan at ``pose``, the submap's
+        frame): the inverse of the floor ``loop_sigma_*`` plus ``sm_scale`` times the inverse of
+        the match's curvature on the submap (the window, as a uniform prior over it, bounding it
+        where the submap does not)."""
+        p = self.params
+        grid = sub.grid
+        origin = np.array([grid.origin[0], grid.origin[1], 0.0])
+        res = grid.resolution
+        reach = max(float(np.median(np.hypot(pts[:, 0], pts[:, 1]))), res)
+        weight = p.mapper.match.beam_weight
+        info = curvature(
+            grid.grid, res, pose - origin, pts, np.full(len(pts), weight), p.mapper.match.eps,
+            np.array([res, res, res / reach]),
+        )  # fmt: skip
+        info = info + np.diag([3.0 / window.linear**2, 3.0 / window.linear**2, 3.0 / window.angular**2])
+        floor = np.diag([p.loop_sigma_xy**2, p.loop_sigma_xy**2, p.loop_sigma_theta**2])
+        cov = floor + p.sm_scale * _in_frame(
+            np.asarray(np.linalg.inv(info), dtype=np.float64), float(pose[2])
+        )
+        return np.asarray(np.linalg.inv(cov), dtype=np.float64)
 
     def _ready(self) -> int:
         """How many nodes have known people masks."""
@@ -296,7 +365,7 @@ class GraphSlam:
             pts = pts[np.linspace(0, len(pts) - 1, p.loop_points).astype(np.int64)]
         apart = self._graph_distances(k)
         pose_k = self.graph.poses[k]
-        best: tuple[Match, _Submap] | None = None
+        best: tuple[Match, _Submap, SearchWindow] | None = None
         for sub in self._submaps:
             if self._along[k] - self._along[sub.last] < p.recent_path:
                 continue
@@ -307,14 +376,16 @@ class GraphSlam:
             guess = relative(anchor, pose_k)
             if math.hypot(*(guess[:2] - sub.grid.centre)) > sub.grid.radius + linear:
                 continue
-            m = search(sub.grid, pts, guess, SearchWindow(linear, angular), p.min_score)
+            window = SearchWindow(linear, angular)
+            m = search(sub.grid, pts, guess, window, p.min_score)
             if m is None or (best is not None and m.score <= best[0].score):
                 continue
-            best = (m, sub)
+            best = (m, sub, window)
         if best is None:
             return False
-        m, sub = best
+        m, sub, window = best
         found = refine(sub.grid, pts, m.pose)
+        info = self._loop_information(sub, pts, found, window)
         # the edge goes to the submap's node nearest the scan: the submap's inside as it was
         # built, seen from that node, so that the graph moving the anchor later bends it less
         inside = [relative(sub.poses[0], q) for q in sub.poses]
@@ -323,7 +394,7 @@ class GraphSlam:
             for i, q in enumerate(inside)
         ]
         near = int(np.argmin(far)) if min(far) < math.inf else 0
-        return self.propose_closure(sub.first + near, k, relative(inside[near], found), m.score)
+        return self.propose_closure(sub.first + near, k, relative(inside[near], found), m.score, info)
 
     def _graph_distances(self, k: int) -> FloatArray:
         """Path length (m) from node ``k`` to every node through the graph, loop edges counting
@@ -341,15 +412,18 @@ class GraphSlam:
         m = coo_matrix((w, (i, j)), shape=(n, n)).tocsr()
         return np.asarray(dijkstra(m, directed=False, indices=k), dtype=np.float64)
 
-    def propose_closure(self, anchor: int, node: int, delta: FloatArray, score: float) -> bool:
+    def propose_closure(
+        self, anchor: int, node: int, delta: FloatArray, score: float, information: FloatArray | None = None
+    ) -> bool:
         """A verified match of scan ``node`` in the submap at node ``anchor``: kept as a candidate
         until another candidate (or an accepted closure) of the same pass agrees with it
         (:meth:`_agree`); a group that agrees is then added if the graph can take it
-        (:meth:`add_closures`). True when this candidate's closure was added."""
+        (:meth:`add_closures`). True when this candidate's closure was added. ``information``:
+        the edge's (in the scan's frame; the floor ``loop_sigma_*`` alone when not given)."""
         p = self.params
         self.proposed += 1
         d = np.asarray(delta, dtype=np.float64)
-        cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score))
+        cand = Closure(anchor, node, (float(d[0]), float(d[1]), float(d[2])), float(score), information)
         along = self._along
         self._pending = [c for c in self._pending if along[node] - along[c.node] <= p.group_path]
 
@@ -402,10 +476,13 @@ class GraphSlam:
         from scipy.stats import chi2
 
         p = self.params
-        info = np.diag([1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_xy**2, 1.0 / p.loop_sigma_theta**2])
         limit = float(chi2.ppf(p.gate, 3 * len(group)))
+        floor = np.diag([p.loop_sigma_xy**-2, p.loop_sigma_xy**-2, p.loop_sigma_theta**-2])
         edges = [
-            self.graph.add_edge(c.anchor, c.node, np.asarray(c.delta), info, robust=False) for c in group
+            self.graph.add_edge(
+                c.anchor, c.node, np.asarray(c.delta), floor if c.information is None else c.information
+            )
+            for c in group
         ]
         current = self.graph.array()
         own = float(edge_errors(current, edges).sum())
@@ -423,3 +500,11 @@ class GraphSlam:
         self.graph.edges.extend(replace(e, robust=True) for e in edges)
         self.closures.extend(group)
         return True
+
+
+def _in_frame(matrix: FloatArray, heading: float) -> FloatArray:
+    """A ``(3, 3)`` information or covariance of a pose in the world's ``x, y, theta`` expressed
+    in the pose's own frame (its heading ``heading``): the frame of a pose-graph edge's error."""
+    c, s = math.cos(heading), math.sin(heading)
+    a = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+    return np.asarray(a @ matrix @ a.T, dtype=np.float64)

@@ -28,7 +28,7 @@ from numpy.typing import NDArray
 from tourbot.errors import TourbotError
 from tourbot.geometry import compose, relative, wrap_angle
 from tourbot.mapping.free_space import free_sectors
-from tourbot.mapping.scan_matching import MatchParams, hill_climb, score
+from tourbot.mapping.scan_matching import MatchParams, curvature, hill_climb, score
 from tourbot.maps.grid import OccupancyGrid
 from tourbot.maps.reference import ReferenceMapParams, grid_from_counts, trace_beams
 from tourbot.records import Scan
@@ -108,12 +108,16 @@ class MapperParams:
 
 @dataclass(frozen=True)
 class MapperStep:
-    """What one scan did: its aligned pose, the odometry prediction and the time it took."""
+    """What one scan did: its aligned pose, the odometry prediction, the alignment's objective,
+    the time it took and the alignment's information ``(3, 3)`` (world ``x, y, theta``; zero
+    when the scan was not aligned): the curvature of the objective at the aligned pose, map
+    likelihood and odometry prior together (:func:`tourbot.mapping.scan_matching.curvature`)."""
 
     pose: tuple[float, float, float]
     predicted: tuple[float, float, float]
     score: float
     seconds: float
+    information: FloatArray = field(default_factory=lambda: np.zeros((3, 3)))
 
 
 class IncrementalMapper:
@@ -137,6 +141,7 @@ class IncrementalMapper:
         self._fields = [np.full((n // f, n // f), self.params.unknown_level) for f in self._factors]
         self._x0 = self._y0 = math.nan  # world coordinates of cell (0, 0)'s corner
         self.poses: list[tuple[float, float, float]] = []
+        self.last: MapperStep | None = None  # the latest scan's step
 
     # ------------------------------------------------------------------------------------------
     @property
@@ -182,23 +187,26 @@ class IncrementalMapper:
         t0 = time.perf_counter()
         odom = np.asarray(odom, dtype=np.float64)
         predicted = self._predict_from(odom)
+        info = np.zeros((3, 3))
         if self._pose is None or self._odom is None:
             self._centre_on(predicted)
             best, val = predicted.copy(), 0.0
         else:
             pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
             w = np.asarray(weights, dtype=np.float64) * self.params.match.beam_weight
-            best, val = self._align(pts, w, predicted, relative(self._odom, odom))
+            best, val, info = self._align(pts, w, predicted, relative(self._odom, odom))
         self._pose = best
         self._odom = odom
         pose = (float(best[0]), float(best[1]), float(best[2]))
         self.poses.append(pose)
-        return MapperStep(
+        self.last = MapperStep(
             pose=pose,
             predicted=(float(predicted[0]), float(predicted[1]), float(predicted[2])),
             score=val,
             seconds=time.perf_counter() - t0,
+            information=info,
         )
+        return self.last
 
     @staticmethod
     def _odom_of(scan: Scan) -> FloatArray:
@@ -287,11 +295,13 @@ class IncrementalMapper:
 
     def _align(
         self, pts: FloatArray, w: FloatArray, predicted: FloatArray, delta: FloatArray
-    ) -> tuple[FloatArray, float]:
+    ) -> tuple[FloatArray, float, FloatArray]:
+        """The aligned pose, its objective and its information (the objective's curvature there,
+        on the finest smoothed map, plus the odometry prior's)."""
         p = self.params
         m = p.match
         if len(pts) < 10:
-            return predicted, 0.0
+            return predicted, 0.0, np.zeros((3, 3))
         trans = float(np.hypot(delta[0], delta[1]))
         rot = abs(float(wrap_angle(delta[2])))
         sigma_xy = m.sigma_xy + m.k_xy * trans
@@ -318,9 +328,15 @@ class IncrementalMapper:
                 )
             if alt_val > val:
                 best, val = alt, alt_val
+        # the curvature over a cell of the finest field, the heading step turning the scan's
+        # median endpoint by as much
+        res = p.resolution * self._factors[-1]
+        reach = max(float(np.median(np.hypot(pts[:, 0], pts[:, 1]))), res)
+        info = curvature(self._fields[-1], res, best, pts, w, m.eps, np.array([res, res, res / reach]))
+        info = info + np.diag(1.0 / sigma**2)
         best = best + origin
         best[2] = float(wrap_angle(best[2]))
-        return best, val
+        return best, val, info
 
     def integrate(
         self,

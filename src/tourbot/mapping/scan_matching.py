@@ -13,6 +13,13 @@ found by hill climbing (:func:`hill_climb`): try a step along each of x, y and t
 directions, take the best improvement, halve the steps when none improves; coarse-to-fine over
 a stack of smoothing widths.
 
+How certain the alignment is, direction by direction, is the curvature of the objective at its
+best (:func:`curvature`): a scan of a corridor's two walls scores the same anywhere along it, so
+the curvature, the information of the match, is large across the corridor and near zero along it
+(the covariance as the inverse Hessian of the matching cost at the optimum: Censi, "An accurate
+closed-form estimate of ICP's covariance", ICRA 2007; Olson, "Real-time correlative scan
+matching", ICRA 2009, from the cost surface around the best match).
+
 :func:`score_reference` is the plain-numpy twin of the numba score kernel, compared by property
 tests.
 """
@@ -28,6 +35,7 @@ from numpy.typing import NDArray
 
 __all__ = [
     "MatchParams",
+    "curvature",
     "hill_climb",
     "score",
     "score_reference",
@@ -259,3 +267,58 @@ def hill_climb(
     # rounds differently in the last bit, which moved the mapping figures by 1e-15 (issue 14)
     best[2] = math.atan2(math.sin(best[2]), math.cos(best[2]))
     return best, float(val)
+
+
+def _quadratic_design() -> tuple[FloatArray, FloatArray]:
+    """The 27 offsets of the ``{-1, 0, 1}^3`` stencil and the pseudo-inverse of the design matrix
+    of ``f(u) = c + g.u + 1/2 u^T A u`` over them (10 coefficients: c, g, A's diagonal, A's upper
+    triangle)."""
+    k = np.array([-1.0, 0.0, 1.0])
+    u = np.stack(np.meshgrid(k, k, k, indexing="ij"), axis=-1).reshape(-1, 3)
+    design = np.column_stack(
+        [
+            np.ones(len(u)),
+            u,
+            0.5 * u**2,
+            u[:, 0] * u[:, 1],
+            u[:, 0] * u[:, 2],
+            u[:, 1] * u[:, 2],
+        ]
+    )
+    return u, np.linalg.pinv(design)
+
+
+_STENCIL, _FIT = _quadratic_design()
+
+
+def curvature(
+    field: Float32Array,
+    resolution: float,
+    pose: FloatArray,
+    endpoints: FloatArray,
+    weights: FloatArray,
+    eps: float,
+    steps: FloatArray,
+) -> FloatArray:
+    """The information (negative Hessian, ``(3, 3)``, in ``x, y, theta`` of the field's frame) of
+    the score (:func:`score`) at ``pose``: the Laplace approximation of the match's uncertainty,
+    its covariance the inverse (Censi 2007; Olson 2009).
+
+    The Hessian is the second-order term of a least-squares quadratic fit of the score over the
+    27 poses ``pose + u * steps``, ``u`` in ``{-1, 0, 1}^3`` (a fit over a whole cell rather than a
+    finite difference: the bilinearly interpolated field is piecewise linear inside a cell). A
+    direction in which the score does not fall off (a negative curvature, from noise or a ridge)
+    gets no information: the matrix is projected onto the positive semidefinite ones.
+    """
+    h = np.asarray(steps, dtype=np.float64)
+    base = np.asarray(pose, dtype=np.float64)
+    values = np.array([score(field, resolution, base + u * h, endpoints, weights, eps) for u in _STENCIL])
+    coef = _FIT @ values
+    a = np.empty((3, 3))
+    a[0, 0], a[1, 1], a[2, 2] = coef[4:7]
+    a[0, 1] = a[1, 0] = coef[7]
+    a[0, 2] = a[2, 0] = coef[8]
+    a[1, 2] = a[2, 1] = coef[9]
+    hess = -a / np.outer(h, h)
+    vals, vecs = np.linalg.eigh(hess)
+    return np.asarray((vecs * np.maximum(vals, 0.0)) @ vecs.T, dtype=np.float64)
