@@ -80,3 +80,15 @@ def legs_before_walls(
         a = laser[2] + angles
         out.append(np.column_stack([laser[0] + d * np.cos(a), laser[1] + d * np.sin(a)]))
     return out
+
+
+def rarely_seen(grid: OccupancyGrid, beyond_x: float, beyond_y: float) -> OccupancyGrid:
+    """``grid`` with its free cells right of ``beyond_x`` or above ``beyond_y`` (world metres)
+    unknown, as a map built from one log leaves the free space its beams crossed only a few
+    times (too few misses to call it free); walls and boxes stay as they are."""
+    prob = grid.prob.copy()
+    x = grid.origin[0] + (np.arange(prob.shape[1]) + 0.5) * grid.resolution
+    y = grid.origin[1] + (np.arange(prob.shape[0]) + 0.5) * grid.resolution
+    xx, yy = np.meshgrid(x, y)
+    prob[((xx > beyond_x) | (yy > beyond_y)) & (prob < grid.occupied_thresh)] = -1.0
+    return OccupancyGrid(prob, grid.resolution, origin=grid.origin)

@@ -15,7 +15,15 @@ from tourbot.maps.grid import OccupancyGrid
 
 from ..conftest import room_with_boxes, simulate, waypoints_path
 from .conftest import tuned
-from .scenes import crowd_around, errors, legs_before_walls, people_in_front, phantom_kidnap, run
+from .scenes import (
+    crowd_around,
+    errors,
+    legs_before_walls,
+    people_in_front,
+    phantom_kidnap,
+    rarely_seen,
+    run,
+)
 
 
 def test_tracking_follows_the_robot_with_the_defaults(room: OccupancyGrid) -> None:
@@ -86,6 +94,43 @@ def test_recovers_from_a_kidnap(room: OccupancyGrid) -> None:
     assert err[:20].max() < 0.3
     assert err[20] > 0.45  # lost right after the kidnap
     assert err[40:].max() < 0.3  # and found again
+
+
+def test_a_good_track_across_rarely_seen_space_keeps_it_when_offered_far_guesses(room: OccupancyGrid) -> None:
+    # issue 22: the map knows a third of the room only as unknown cells (free space a map from
+    # one log saw too rarely), the robot drives through the rest among people, and every fifth
+    # scan a guess at the other side of its loop is offered. The track explains every scan (its
+    # readings cross unknown cells, no wall): it is kept all along, no jump.
+    loop = waypoints_path(60)
+    drive = simulate(room, loop, seed=31, circles=crowd_around(loop, np.random.default_rng(31), 6))
+    for cfg in (MCLConfig().with_samples(1000), tuned(1000, 300)):
+        mcl = MonteCarloLocalization(rarely_seen(room, 9.0, 5.6), cfg, seed=32)
+        mcl.reset_tracking(loop[0])
+        est = []
+        for k, s in enumerate(drive.scans):
+            if k % 5 == 4:
+                mcl.inject(np.tile(loop[(k + 30) % 60], (50, 1)))
+            est.append(mcl.update(drive.odom[k], s).pose)
+        err = errors(np.array(est), loop)
+        assert err.max() < 0.3
+        step = np.hypot(*np.diff(np.array(est)[:, :2], axis=0).T)
+        assert step.max() < 1.0  # the loop's steps are 0.4 m
+
+
+def test_a_kidnap_across_rarely_seen_space_is_still_recovered(room: OccupancyGrid) -> None:
+    # The kidnap of test_recovers_from_a_kidnap on the map that knows a third of the room only
+    # as unknown cells: readings through unknown cells no longer count against a pose, and the
+    # readings through the walls the kidnapped track sees are enough to give it away.
+    loop = waypoints_path(80)
+    taken = np.r_[np.arange(20), np.arange(40, 80)]
+    unaware = np.vstack([loop[:20], compose(loop[19], relative(loop[39], loop[40:]))])
+    drive = simulate(room, loop[taken], seed=5, odom_truth=unaware)
+    mcl = MonteCarloLocalization(rarely_seen(room, 9.0, 5.6), tuned(2000, 300), seed=6)
+    mcl.reset_tracking(loop[0])
+    err = errors(run(mcl, drive), drive.truth)
+    assert err[:20].max() < 0.3
+    assert err[20] > 0.45  # lost right after the kidnap
+    assert err[30:].max() < 0.3  # and found again within ten scans
 
 
 @pytest.mark.parametrize("kind", [BeamFilter.NOVELTY, BeamFilter.ENTROPY])

@@ -13,7 +13,7 @@ from tourbot.maps.grid import OccupancyGrid
 
 from ..conftest import simulate, waypoints_path
 from .conftest import tuned
-from .scenes import crowd_around
+from .scenes import crowd_around, rarely_seen
 
 
 def test_longest_keeps_the_longest_valid_returns() -> None:
@@ -51,6 +51,32 @@ def test_too_long_readings_judge_a_pose(room: OccupancyGrid) -> None:
     # A crowd right around a robot in the open (every reading 20 cm, the nearest wall more than
     # a metre away) leaves nothing to judge.
     assert math.isnan(too_long(np.array([2.0, 3.5, 0.0]), np.full_like(r, 0.2)))
+
+
+def test_a_reading_through_rarely_seen_free_space_is_not_too_long(room: OccupancyGrid) -> None:
+    # issue 22, FHW seed 4: where the map from the log had seen the free space only a few times
+    # (unknown cells), a correct track found 31-41 % of its readings "through walls", three scans
+    # in a row, and was dropped for a guess 16 m away. Only occupied cells are walls.
+    truth = waypoints_path(10)
+    crowded = simulate(room, truth, seed=23, circles=crowd_around(truth, np.random.default_rng(23), 6))
+    seen = rarely_seen(room, 9.0, 5.6)
+    sensor = MonteCarloLocalization(seen, tuned(300, 100), seed=24).sensor
+    rec = tuned(300, 100).recovery
+    scan = crowded.scans[0]  # at the oval's right end, facing the unknown corner
+    r = np.asarray(scan.ranges)
+    valid = r < scan.geometry.max_range
+
+    def too_long(pose: np.ndarray) -> float:
+        return sensor.too_long_fraction(
+            pose[None, :], r, scan.geometry, valid, rec.lost_margin, rec.lost_min_beams
+        )
+
+    # The beam model's casts stop at the unknown cells: most readings reach beyond them ...
+    cast = sensor.caster(float(scan.geometry.max_range)).cast(truth[:1], scan.geometry.angles[valid])[0]
+    assert np.mean(r[valid] > cast + rec.lost_margin) > rec.lost_fraction
+    # ... but through no wall: the true pose passes, a wrong one still fails.
+    assert too_long(truth[0]) < 0.05
+    assert too_long(compose(truth[0], np.array([0.5, -0.4, 2.7]))) > rec.lost_fraction
 
 
 def test_the_crowd_model_prefers_the_true_pose(room: OccupancyGrid) -> None:

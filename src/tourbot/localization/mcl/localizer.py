@@ -41,6 +41,7 @@ __all__ = ["MonteCarloLocalization"]
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 BoolArray = NDArray[np.bool_]
+_LOG_FLOOR = -600.0  # the established samples' floor below the best guess (exp: 1e-261, a normal float)
 
 
 @dataclass
@@ -304,7 +305,17 @@ class MonteCarloLocalization:
         return total
 
     def _reweigh(self, logw: FloatArray) -> None:
+        """The weights of the log weights ``logw``. The established samples hold the track until
+        a guess has won (:meth:`Recovery.arbitrate`): however much better the guesses explain a
+        scan, the best established sample keeps a weight of at least ``exp(_LOG_FLOOR)`` of the
+        best guess's, else every established weight would round to zero and the heaviest cluster
+        (the track) would be a guess's without any contest."""
         logw = logw - logw.max()
+        fresh = self.recovery.fresh
+        if fresh.shape == logw.shape and fresh.any() and not fresh.all():
+            top = float(logw[~fresh].max())
+            if top < _LOG_FLOOR:
+                logw = np.where(fresh, logw, logw + (_LOG_FLOOR - top))
         w = np.exp(logw)
         self.weights = w / w.sum()
 
