@@ -26,7 +26,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from tourbot.union_find import find, union
+from tourbot.union_find import _components_kernel, find, union
 
 __all__ = [
     "cluster_betas",
@@ -193,19 +193,20 @@ def _pieces(ratio: FloatArray, piece: IntArray) -> int:
     """Label the persons (rows) of ``ratio`` by the connected piece they belong to, persons linked
     through a feature they both gate; returns the number of pieces."""
     nt, nf = ratio.shape
-    parent = np.arange(nt + nf)
+    edges = np.empty((nt * nf, 2), dtype=np.int64)
+    e = 0
     for i in range(nt):
         for j in range(nf):
             if ratio[i, j] > 0.0:
-                union(parent, i, nt + j)
-    label = np.full(nt + nf, -1, dtype=np.int64)
+                edges[e, 0] = i
+                edges[e, 1] = nt + j
+                e += 1
+    # persons come first, so their labels are the first ones given: 0 .. pieces - 1
+    labels = _components_kernel(nt + nf, edges[:e])
     n = 0
     for i in range(nt):
-        r = find(parent, i)
-        if label[r] < 0:
-            label[r] = n
-            n += 1
-        piece[i] = label[r]
+        piece[i] = labels[i]
+        n = max(n, labels[i] + 1)
     return n
 
 
