@@ -607,25 +607,34 @@ def test_vision_obstacles_are_drawn_in_their_own_colour(server: tuple[str, FakeR
     """A table the laser does not see, found by the robot's forward camera: orange cells on the map
     where it stands, and nothing orange elsewhere."""
     url, robot = server
+    robot.n_people = 0  # the fake's visitors walk a circle through the table's cells
     table = tuple((6.0 + 0.1 * i, 3.0 + 0.1 * j) for i in range(6) for j in range(4))
     visitor = _Visitor(browser, url)
     visitor.page.wait_for_function("() => window.tourbot && window.tourbot.map && window.tourbot.live")
-    colour = """([x, y]) => {
+    colours = """(points) => {
         const map = window.tourbot.map;
-        const [px, py] = map.toCanvas(x, y);
-        const [r, g, b] = map.canvas.getContext('2d').getImageData(Math.round(px), Math.round(py), 1, 1).data;
-        return [r, g, b];
+        const context = map.canvas.getContext('2d');
+        return points.map(([x, y]) => {
+            const [px, py] = map.toCanvas(x, y);
+            const [r, g, b] = context.getImageData(Math.round(px), Math.round(py), 1, 1).data;
+            return [r, g, b];
+        });
     }"""
-    before = visitor.page.evaluate(colour, [6.25, 3.15])
+
+    def orange(rgb: list[int]) -> bool:  # #f60 at 80 % over the floor
+        r, g, b = rgb
+        return r > 200 and r - g > 60 and r - b > 120
+
+    centres = [list(p) for p in table]  # the cells' centres
+    before = visitor.page.evaluate(colours, centres)
+    assert sum(map(orange, before)) == 0
     robot.obstacles = table
     visitor.page.wait_for_function("() => window.tourbot.map.obstacles.length === 24", timeout=15000)
     visitor.page.wait_for_timeout(500)  # a frame drawn since
-    r, g, b = visitor.page.evaluate(colour, [6.25, 3.15])
-    assert r > 200, (r, g, b)  # orange (#f60 at 80 % over the floor)
-    assert r - g > 60, (r, g, b)
-    assert r - b > 120, (r, g, b)
-    assert before != [r, g, b]
-    assert visitor.page.evaluate(colour, [9.0, 6.5])[2] > 150  # floor far from the table: not orange
+    after = visitor.page.evaluate(colours, centres)
+    assert all(map(orange, after)), list(zip(centres, after, strict=True))
+    far = visitor.page.evaluate(colours, [[9.0, 6.5]])[0]
+    assert far[2] > 150  # floor far from the table: not orange
     assert not visitor.errors
 
 
