@@ -48,6 +48,19 @@ def test_kernel_matches_numpy_reference(
     np.testing.assert_array_equal(fast[1], slow[1])
 
 
+def test_a_beam_along_a_grid_line_from_a_subnormal_hair_below_it_ends() -> None:
+    # found by hypothesis: y = -5e-324 lies in row -1, a hair below the line y = 0, and the beam
+    # runs along x (sin(-pi) snapped to 0); the walk used to take that line as crossed at once,
+    # forever, without moving
+    args = (np.array([5.697039760894983]), np.array([-5e-324]), np.array([-math.pi]), np.array([6.9]))
+    for hit in (True, False):
+        for crossing in (True, False):
+            fast = trace_beams(*args, np.array([hit]), (20, 17), crossing=crossing)
+            slow = trace_beams_reference(*args, np.array([hit]), (20, 17), crossing=crossing)
+            np.testing.assert_array_equal(fast[0], slow[0])
+            np.testing.assert_array_equal(fast[1], slow[1])
+
+
 @pytest.mark.parametrize(
     ("corner", "theta"),
     [((0.5, 0.5), math.pi / 4), ((2.0, 3.0), 0.0), ((2.0, 3.0), math.pi), ((4.0, 4.0), -3 * math.pi / 4)],

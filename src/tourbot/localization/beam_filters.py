@@ -28,6 +28,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.beam_model import FAR_SIGMAS, shorter_than_expected_one
 from tourbot.maps.raycast import RayCaster, beam_angles, rays_in_cells
+
+# numba inlines the traversal into this file's cached kernels: it recompiles them only when
+# this file changes (clear __pycache__/*.nbi after a change of traversal.py)
 from tourbot.maps.traversal import cast_ray
 
 __all__ = [

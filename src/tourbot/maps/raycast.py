@@ -46,6 +46,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from tourbot.maps.grid import MapError, OccupancyGrid
+
+# numba inlines the traversal into this file's cached kernels: it recompiles them only when
+# this file changes (clear __pycache__/*.nbi after a change of traversal.py)
 from tourbot.maps.traversal import BLOCKED, MAX_JUMP, OUTSIDE, cast_ray, cast_start, cast_step, snap
 
 __all__ = [

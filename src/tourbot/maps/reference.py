@@ -34,6 +34,9 @@ from numpy.typing import NDArray
 
 from tourbot.geometry import compose
 from tourbot.maps.grid import UNKNOWN, MapError, OccupancyGrid
+
+# numba inlines the traversal into this file's cached kernels: it recompiles them only when
+# this file changes (clear __pycache__/*.nbi after a change of traversal.py)
 from tourbot.maps.traversal import AXIS, EPS, trace_ray
 from tourbot.records import LaserGeometry, RobotLog, Scan
 

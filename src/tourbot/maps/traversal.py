@@ -92,8 +92,10 @@ def leave(
     across the vertical line. On a tie (through a corner) it crosses the horizontal line
     first. The next cell is ``(cx + sx * across_x, cy + sy * (1 - across_x))``.
     """
-    nx = (cx + ax - ox) * ix
-    ny = (cy + ay - oy) * iy
+    # along a zero component the line is never crossed: not "distance * huge", which is tiny when
+    # the origin is a subnormal hair below a grid line (-5e-324), and the walk would stay put
+    nx = (cx + ax - ox) * ix if ix < _HUGE else np.inf
+    ny = (cy + ay - oy) * iy if iy < _HUGE else np.inf
     return min(nx, ny), np.int64(nx < ny)
 
 
