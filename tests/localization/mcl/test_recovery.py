@@ -46,16 +46,16 @@ def test_too_long_verdicts_count_and_confirm() -> None:
     assert rec.state.unconfirmed
     assert rec.contradicted
     rec.state.global_phase = False
-    rec.judge_track(0.5)
+    rec.judge_track(0.5, 0.0)
     assert rec.state.lost_scans == 1
     assert rec.contradicted
-    rec.judge_track(math.nan)  # no evidence: neither raised nor reset
+    rec.judge_track(math.nan, 0.0)  # no evidence: neither raised nor reset
     assert rec.state.lost_scans == 1
-    rec.judge_track(0.1)
+    rec.judge_track(0.1, 0.0)
     assert rec.state.lost_scans == 0
     assert rec.state.passed == 1
     assert rec.state.unconfirmed
-    rec.judge_track(0.1)
+    rec.judge_track(0.1, 0.0)
     assert not rec.state.unconfirmed
     assert not rec.contradicted
     assert rec.wide_search() == (True, False)  # a reset by the fit searches far, no table
@@ -65,14 +65,14 @@ def test_in_doubt_while_contradicted_or_not_yet_confirmed() -> None:
     rec = Recovery(RecoveryConfig(lost_fraction=0.3, global_after=2))
     rec.reset(10)
     assert not rec.in_doubt  # a known start
-    rec.judge_track(0.5)
+    rec.judge_track(0.5, 0.0)
     assert rec.in_doubt  # readings through walls
-    rec.judge_track(0.1)
+    rec.judge_track(0.1, 0.0)
     assert not rec.in_doubt
     rec.state.new_track = True  # a far recovery, not yet confirmed
     assert rec.in_doubt
-    rec.judge_track(0.1)
-    rec.judge_track(0.1)
+    rec.judge_track(0.1, 0.0)
+    rec.judge_track(0.1, 0.0)
     assert not rec.in_doubt
     rec.reset(10, global_start=True)
     rec.state.global_phase = False
@@ -91,7 +91,33 @@ def test_verification_schedule() -> None:
     rec.state.recovered = True  # a guess became the track: verified for verify_period seconds
     assert rec.verification_due(6.0)
     assert rec.state.verify_until == 11.0
-    assert not Recovery(RecoveryConfig()).verification_due(0.0)  # verify_period None: never
+    assert not Recovery(RecoveryConfig(blind_after=None)).verification_due(0.0)  # both None: never
+
+
+def test_a_blind_track_is_verified() -> None:
+    # No periodic verification (the default), but a track that no scan has judged for blind_after
+    # seconds (too few readings reach its walls: a robot carried off among visitors reads short
+    # everywhere at its old place) is verified, and again every blind_after seconds while blind.
+    rec = Recovery(RecoveryConfig(blind_after=5.0))
+    rec.judge_track(0.0, 0.0)
+    assert not rec.verification_due(0.0)
+    rec.judge_track(0.1, 4.0)  # judged: the clock starts again
+    rec.judge_track(math.nan, 8.0)
+    assert not rec.verification_due(8.0)
+    rec.judge_track(math.nan, 9.0)
+    assert rec.verification_due(9.0)  # 5 s since the last scan that judged the track
+    assert not rec.verified(9.0, 0.2)  # nothing clearly better: the track stands
+    rec.judge_track(math.nan, 10.0)
+    assert not rec.verification_due(10.0)
+    rec.judge_track(math.nan, 14.0)
+    assert rec.verification_due(14.0)  # still blind 5 s after that verification
+    assert rec.verified(14.0, 0.8)  # a clearly better place: suspect, verified every scan
+    rec.judge_track(math.nan, 15.0)
+    assert rec.verification_due(15.0)
+    never = Recovery(RecoveryConfig(blind_after=None))
+    never.judge_track(math.nan, 0.0)
+    never.judge_track(math.nan, 100.0)
+    assert not never.verification_due(100.0)
 
 
 @dataclass
@@ -131,7 +157,7 @@ class _Scene:
         est = self.recovery.established_weights(self.weights)
         pose = best_cluster_estimate(self.samples, est, labels)[0]
         too_long = j(pose, None)
-        self.recovery.judge_track(too_long)
+        self.recovery.judge_track(too_long, 0.0)
         decision = self.recovery.arbitrate(
             self.samples, self.weights, labels, pose, too_long, self.score, j, int(self.valid.sum())
         )
@@ -255,7 +281,7 @@ def test_a_track_a_recovery_just_made_is_no_good_track_yet(room: OccupancyGrid) 
     sc.step(unsuspecting)
     assert sc.recovery.state.guess_wins == 0
     for _ in range(sc.mcl.config.recovery.global_after):
-        sc.recovery.judge_track(0.0)
+        sc.recovery.judge_track(0.0, 0.0)
     assert not sc.recovery.state.new_track  # confirmed: a good track from now on
 
 

@@ -384,7 +384,7 @@ class MonteCarloLocalization:
 
         track = self._track()
         too_long = judge(track.pose, None)
-        recovery.judge_track(too_long)
+        recovery.judge_track(too_long, r.timestamp)
         decision = recovery.arbitrate(
             self.samples, self.weights, track.labels, track.pose, too_long, score, judge, r.n_returns
         )
@@ -406,7 +406,7 @@ class MonteCarloLocalization:
         reset_poses: FloatArray | None = None
         due = recovery.verification_due(r.timestamp)
         tracking = not global_start and not state.global_phase and r.n_returns >= rec_cfg.lost_min_beams
-        if tracking and rec_cfg.verify_period is not None and rec_cfg.max_injection > 0 and due:
+        if tracking and rec_cfg.max_injection > 0 and due:
             n = max(
                 1, round(rec_cfg.max_injection * max(self.samples.shape[0], self.config.sampling.max_samples))
             )
@@ -419,8 +419,7 @@ class MonteCarloLocalization:
                 inject = rec_cfg.max_injection
             else:
                 reset_poses = None
-        if rec_cfg.verify_period is not None:
-            r.info["suspect"] = float(state.suspect)
+        r.info["suspect"] = float(state.suspect)
         return track, inject, reset_poses
 
     def _resample(

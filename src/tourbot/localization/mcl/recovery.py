@@ -63,6 +63,8 @@ class RecoveryState:
       test on ``global_after`` judged scans in a row (it is no good track yet).
     - ``odom_path``, ``odom_turn``: the odometry's travel (m) and turning (rad) since the last
       judged scan whose track passed the too-long test (the last agreement).
+    - ``seen_at``: scan time of the last scan that judged the track, or of the last verification
+      of a blind track (NaN: none yet).
     """
 
     w_slow: float = 0.0
@@ -80,6 +82,7 @@ class RecoveryState:
     new_track: bool = False
     odom_path: float = 0.0
     odom_turn: float = 0.0
+    seen_at: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -181,11 +184,15 @@ class Recovery:
         ratio = s.w_fast / (cfg.ratio * s.w_slow) if s.w_slow > 0 else 1.0
         return min(cfg.max_injection, max(0.0, 1.0 - ratio))
 
-    def judge_track(self, too_long: float) -> None:
-        """Count the too-long test's verdict on the track (NaN: no evidence, nothing changes)."""
+    def judge_track(self, too_long: float, t: float) -> None:
+        """Count the too-long test's verdict on the track at scan time ``t`` (NaN: no evidence,
+        nothing changes but the time the track has gone unjudged)."""
         cfg, s = self.config, self.state
+        if math.isnan(s.seen_at):
+            s.seen_at = t
         if math.isnan(too_long):
             return
+        s.seen_at = t
         if too_long > cfg.lost_fraction:
             s.lost_scans += 1
             s.passed = 0
@@ -218,24 +225,34 @@ class Recovery:
     # ------------------------------------------------------------------ verification
 
     def verification_due(self, t: float) -> bool:
-        """Whether the scan at time ``t`` verifies the track (``verify_period`` set): periodically,
-        on every scan while the last verification failed, and for ``verify_period`` seconds after
-        a recovery guess became the track."""
-        s, period = self.state, self.config.verify_period
+        """Whether the scan at time ``t`` verifies the track: while the last verification failed;
+        when the track has gone ``blind_after`` seconds without a scan that judged it (and again
+        every ``blind_after`` seconds while it stays so); and, with ``verify_period`` set,
+        periodically and for ``verify_period`` seconds after a recovery guess became the track.
+
+        A blind track is one whose readings do not reach its walls: the too-long test has no
+        evidence on it. People all around hide the walls, or the track stands where the walls are
+        not: a robot carried off among visitors reads short everywhere at its old place, no
+        reading passes through a wall there, and no other test would ever contradict it."""
+        cfg, s = self.config, self.state
+        blind = cfg.blind_after is not None and not math.isnan(s.seen_at) and t - s.seen_at >= cfg.blind_after
+        if blind:
+            s.seen_at = t
+        period = cfg.verify_period
         if period is None:
             s.recovered = False
-            return False
+            return blind or s.suspect
         if s.recovered:
             s.verify_until = t + period
         s.recovered = False
-        return s.suspect or t >= s.next_verify or t < s.verify_until
+        return blind or s.suspect or t >= s.next_verify or t < s.verify_until
 
     def verified(self, t: float, margin: float) -> bool:
         """Record a verification at ``t`` whose best alternative beat the track by ``margin`` nats
         per return; returns whether the track is now suspect."""
-        s = self.state
-        assert self.config.verify_period is not None
-        s.next_verify = t + self.config.verify_period
+        s, period = self.state, self.config.verify_period
+        if period is not None:
+            s.next_verify = t + period
         s.suspect = margin > self.config.verify_margin
         return s.suspect
 
