@@ -361,6 +361,16 @@ def test_the_line_pose_is_the_lasers_and_the_reference_the_robots(tmp_path: Path
     assert read_carmen(out).scans[0].reference == pytest.approx((1.0, 1.9, math.pi / 2))
 
 
+def test_a_written_rebuilt_odometry_is_noted_as_the_file_says(tmp_path: Path) -> None:
+    g = LaserGeometry(3, -0.1, 0.1, 10.0)
+    scans = [Scan(float(t), np.ones(3), g, (0.1 * t, 0.0, 0.0), None) for t in range(1, 4)]
+    out = tmp_path / "r.log"
+    write_carmen(RobotLog("mem", scans, [], odometry_kind="rebuilt"), out)
+    back = read_carmen(out)
+    assert back.odometry_kind == "rebuilt"
+    assert "odometry: rebuilt (as PARAM tourbot_odometry_kind says)" in back.notes
+
+
 def test_an_older_tourbot_file_carries_the_robots_pose(tmp_path: Path) -> None:
     # written before PARAM tourbot_scan_pose: the line's pose is the robot's, kept as it is
     lines = [

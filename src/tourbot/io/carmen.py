@@ -1019,10 +1019,12 @@ def read_carmen(
         notes=notes,
     )
     if reader.odometry_kind != "raw":
-        notes.append(
-            f"odometry: {reader.odometry_kind} (copies of the scan poses after "
-            f"{reader.survey.anchored_scans} of {reader.survey.scans} scans, the stream continuing from them)"
+        found = (
+            f"copies of the scan poses after {reader.survey.anchored_scans} of {reader.survey.scans} scans, "
+            "the stream continuing from them"
         )
+        said = "as PARAM tourbot_odometry_kind says"
+        notes.append(f"odometry: {reader.odometry_kind} ({found if reader.survey.anchored_scans else said})")
     if chosen in ("FLASER", "RLASER") and log.has_reference:
         offset = scans[0].geometry.offset
         if reader.line_pose_is_laser():
