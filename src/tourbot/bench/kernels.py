@@ -32,7 +32,8 @@ def register(bench: typer.Typer) -> None:
         repeat: Annotated[int, typer.Option(help="Runs per figure; the best one counts.")] = 3,
         seed: Annotated[int, typer.Option(help="Seed of the sampled poses.")] = 0,
         output: Annotated[
-            Path | None, typer.Option(help="JSON output (default bench-results/kernels.json).")
+            Path | None,
+            typer.Option("-o", "--output", help="JSON output (default bench-results/kernels.json)."),
         ] = None,
     ) -> None:
         """Rays/s/core of each caster, beam evaluations/s/core of the likelihood field and the beam

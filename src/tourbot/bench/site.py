@@ -196,7 +196,9 @@ def register(bench: typer.Typer) -> None:
         data: Annotated[Path, typer.Option(help="the shared data folder")] = Path("../shared/data"),
         crowd: Annotated[str, typer.Option(help="visitors on the new site: empty, sparse or a number")] = "5",
         tour_seconds: Annotated[float, typer.Option(help="how long the tour may run")] = 600.0,
-        output: Annotated[Path | None, typer.Option(help="JSON file")] = None,
+        output: Annotated[
+            Path | None, typer.Option("-o", "--output", help="JSON file (default bench-results/).")
+        ] = None,
     ) -> None:
         """A new site from one log to a served tour: compute time, commands and clicks."""
         from tourbot.bench._report import BenchReport

@@ -4,7 +4,9 @@ A CARMEN log is one message per line, the message type first. The reader underst
 
 - ``ODOM x y theta tv rv accel timestamp host logger_timestamp``: raw wheel odometry;
 - ``FLASER``/``RLASER n r1..rn x y theta odom_x odom_y odom_theta timestamp host logger_timestamp``:
-  front/rear laser (old format; geometry from ``PARAM`` lines or CARMEN's guesses);
+  front/rear laser (old format; geometry from ``PARAM`` lines or CARMEN's guesses). ``x y theta``
+  is the laser's pose (the robot's moved by ``robot_frontlaser_offset``): the reader takes it back
+  to the robot's, the pose a scan's ``reference`` holds;
 - ``RAWLASER1``..``RAWLASER4 type start_angle fov resolution max_range accuracy remission_mode n
   r1..rn m e1..em timestamp host logger_timestamp``: lasers with their geometry on the line;
 - ``ROBOTLASER1``: as ``RAWLASER`` plus the laser and robot poses, velocities and safety distances;
@@ -56,7 +58,7 @@ from typing import IO, cast
 
 import numpy as np
 
-from tourbot.geometry import interpolate_pose, relative, wrap_angle
+from tourbot.geometry import compose, interpolate_pose, invert, relative, wrap_angle
 from tourbot.io.errors import LogFormatError
 from tourbot.io.output import output_file
 from tourbot.records import LaserGeometry, Odometry, Record, RobotLog, Scan
@@ -88,6 +90,8 @@ ODOMETRY_MODES = ("rebuilt", "as-recorded")
 #: What a log's odometry is once read: the stream as it was (no re-anchoring found), rebuilt from
 #: the increments of a re-anchored stream, or a re-anchored stream kept as recorded.
 ODOMETRY_KINDS = ("raw", "rebuilt", "re-anchored")
+# whose pose an old-format laser line carries (PARAM tourbot_scan_pose)
+SCAN_POSES = ("laser", "robot")
 
 #: Timestamps wrap around at these (s): 32-bit unsigned and signed seconds, 32-bit milliseconds.
 _WRAPS = (2.0**32, 2.0**31, 2.0**32 / 1000.0)
@@ -397,6 +401,10 @@ class CarmenReader:
         self._params = {"front": _LaserParams(), "rear": _LaserParams()}
         self._scan_odometry: str | None = None  # tourbot's PARAM: "line" or "none"
         self._scan_reference: str | None = None  # tourbot's PARAM: "line" or "none"
+        # whose pose an old-format laser line carries: CARMEN's is the laser's; tourbot's files
+        # say so in PARAM tourbot_scan_pose, and older ones (without it) carry the robot's
+        self._line_pose: str | None = None
+        self._tourbot_file = False
         self._geometries: dict[tuple[object, ...], LaserGeometry] = {}
         self._has_stream = False
         self.odometry = odometry
@@ -743,6 +751,12 @@ class CarmenReader:
             return
         if name == "scan_reference":
             self._scan_reference = value
+            self._tourbot_file = True
+            return
+        if name == "scan_pose":
+            if value not in SCAN_POSES:
+                raise _MalformedError(f"unknown scan pose {value!r} ({', '.join(SCAN_POSES)})", name)
+            self._line_pose = value
             return
         for which, prefix in (("front", "flaser_"), ("rear", "rlaser_")):
             if name.startswith(prefix):
@@ -755,6 +769,18 @@ class CarmenReader:
             return False
         return self._has_stream or scan.line_odom is None
 
+    def line_pose_is_laser(self) -> bool:
+        """Whether the pose on FLASER/RLASER lines is the laser's (CARMEN's convention).
+
+        CARMEN's logger writes the laser's pose (the robot's moved forward by
+        ``robot_frontlaser_offset``) on old-format laser lines, and the robot's odometry pose
+        after it. Files tourbot wrote before it said which (no ``PARAM tourbot_scan_pose``)
+        carry the robot's pose.
+        """
+        if self._line_pose is not None:
+            return self._line_pose == "laser"
+        return not self._tourbot_file
+
     def _finish_scan(self, scan: _RawScan) -> Scan:
         reference: Pose | None
         if self._scan_reference == "line":
@@ -765,6 +791,8 @@ class CarmenReader:
             reference = scan.pose
         else:
             reference = None
+        if reference is not None and scan.sensor in ("FLASER", "RLASER") and self.line_pose_is_laser():
+            reference = _robot_from_laser(reference, scan.geometry.offset)
         if self._scan_odometry == "line":
             odom = scan.line_odom
         elif self._scan_odometry == "none":
@@ -878,6 +906,22 @@ class CarmenReader:
         yield from self._flush(final=True)
 
 
+def _robot_from_laser(laser: Pose, offset: Pose) -> Pose:
+    """The robot's pose under a laser at ``laser`` mounted at ``offset`` (x, y in the robot's frame).
+
+    The heading on the line is the robot's (the rear laser's turn is the geometry's, not the line's).
+    """
+    x, y, theta = invert((offset[0], offset[1], 0.0))
+    robot = compose(laser, (x, y, theta))
+    return (float(robot[0]), float(robot[1]), float(robot[2]))
+
+
+def _laser_from_robot(robot: Pose, offset: Pose) -> Pose:
+    """The inverse of :func:`_robot_from_laser`: the pose CARMEN writes on a laser line."""
+    laser = compose(robot, (offset[0], offset[1], 0.0))
+    return (float(laser[0]), float(laser[1]), float(laser[2]))
+
+
 def _interpolate(history: deque[Odometry], t: float) -> Pose:
     """Odometry pose at time ``t`` from the recent readings (their times strictly increase)."""
     # scans come just before or after the latest readings: search back from the newest
@@ -975,10 +1019,22 @@ def read_carmen(
         notes=notes,
     )
     if reader.odometry_kind != "raw":
-        notes.append(
-            f"odometry: {reader.odometry_kind} (copies of the scan poses after "
-            f"{reader.survey.anchored_scans} of {reader.survey.scans} scans, the stream continuing from them)"
+        found = (
+            f"copies of the scan poses after {reader.survey.anchored_scans} of {reader.survey.scans} scans, "
+            "the stream continuing from them"
         )
+        said = "as PARAM tourbot_odometry_kind says"
+        notes.append(f"odometry: {reader.odometry_kind} ({found if reader.survey.anchored_scans else said})")
+    if chosen in ("FLASER", "RLASER") and log.has_reference:
+        offset = scans[0].geometry.offset
+        if reader.line_pose_is_laser():
+            shift = f"{offset[0]:+g}, {offset[1]:+g} m" if offset[:2] != (0.0, 0.0) else "none"
+            notes.append(
+                f"reference poses: the laser's on the {chosen} lines (CARMEN's), taken back to the robot "
+                f"by the laser's offset ({shift})"
+            )
+        else:
+            notes.append(f"reference poses: the robot's on the {chosen} lines (a tourbot file)")
     log.scans = _settle_layout(reader, chosen, log, path)
     return log
 
@@ -1151,7 +1207,8 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
     """Write ``log`` as a CARMEN log (gzip when ``path`` ends in ``.gz``).
 
     Odometry readings become ``ODOM`` lines and scans ``FLASER`` (``RLASER`` for rear scans) lines
-    with the reference pose and the scan's odometry pose; exact laser geometry and how to read the
+    with the laser's pose (CARMEN's convention: the reference moved by the laser's offset) and the
+    scan's odometry pose; exact laser geometry and how to read the
     poses back go in ``PARAM tourbot_...`` lines, so ``read_carmen`` gives back the same log.
     Other lasers (RAWLASER, ROBOTLASER, ROS topics) are written as ``FLASER``, one laser at most.
     """
@@ -1169,6 +1226,7 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
         out.write(f"PARAM tourbot_scan_odometry {odom_policy} nohost 0\n")
         out.write(f"PARAM tourbot_scan_reference {ref_policy} nohost 0\n")
         out.write(f"PARAM tourbot_odometry_kind {log.odometry_kind} nohost 0\n")
+        out.write("PARAM tourbot_scan_pose laser nohost 0\n")
         current: dict[str, LaserGeometry] = {}
         odometry = log.odometry
         k = 0
@@ -1180,8 +1238,9 @@ def write_carmen(log: RobotLog, path: str | Path) -> None:
             if current.get(kind) != scan.geometry:
                 _write_geometry(out, kind, scan.geometry)
                 current[kind] = scan.geometry
-            pose = scan.reference or scan.odom or (0.0, 0.0, 0.0)
-            odom = scan.odom or pose
+            robot = scan.reference or scan.odom or (0.0, 0.0, 0.0)
+            pose = _laser_from_robot(robot, scan.geometry.offset)  # CARMEN's: the laser's pose
+            odom = scan.odom or robot
             ts = repr(float(scan.timestamp))
             out.write(
                 f"{kind} {scan.ranges.size} {_fmt(scan.ranges.tolist())} {_fmt(pose)} {_fmt(odom)} "
