@@ -9,8 +9,7 @@ last localization update to the object scan by the odometry in between (the pred
 without its noise: one scan period of motion). With a given
 trajectory instead (``trajectory``), each scan's pose is one sample of weight one. With
 ``world=True`` the loop is closed: MCL localizes on the map with the objects drawn in their
-latest well-observed states (:class:`~tourbot.objects.world.ObjectWorld`, MCL's ``set_map``),
-each for ``HOLD`` seconds after it was last well observed.
+latest well-observed states (:class:`~tourbot.objects.world.ObjectWorld`, MCL's ``set_map``).
 """
 
 from __future__ import annotations
@@ -34,11 +33,7 @@ from tourbot.objects.world import ObjectWorld
 from tourbot.records import RobotLog
 from tourbot.runtime.localizers import MCLLocalizer, UpdatePolicy
 
-__all__ = ["HOLD", "ObjectRun", "estimate_log"]
-
-# s: how long localization keeps an object drawn after its last well-observed estimate (a stale
-# one makes readings longer than expected, evidence against the pose; ObjectWorld)
-HOLD = 30.0
+__all__ = ["ObjectRun", "estimate_log"]
 
 FloatArray = NDArray[np.float64]
 
@@ -99,7 +94,7 @@ def estimate_log(
         policy = UpdatePolicy(beam_step=1, min_travel=0.0, min_turn=0.0, max_interval=0.0)
         localizer = MCLLocalizer(mcl, policy, seed=seed)
         if world:
-            objects = ObjectWorld(grid, shapes, [mcl], hold=HOLD)
+            objects = ObjectWorld(grid, shapes, [mcl])
     samples: FloatArray | None = None
     weights: FloatArray | None = None
     track: FloatArray | None = None  # the localizer's estimate at its last update

@@ -7,12 +7,8 @@ in ``BRIEF.md``: its likelihood field and caster are rebuilt from the grid), and
 whose planner then plans around a door found closed or a bench that blocks a passage. The users
 are anything with ``set_map(grid)`` (:class:`MapUser`).
 
-``hold`` (seconds, None: for ever) forgets an object not well observed for that long: it goes back
-to the static map. Localization wants that: a stale object (a door drawn open that has been shut
-since) makes the readings through it *longer* than expected, which MCL's novelty filter takes as
-evidence against the pose, while an object missing from the map only shortens readings, which
-the filter takes for a visitor. The navigator keeps what it found (a door found closed stays
-closed until seen open).
+An object stays drawn in its last well-observed state until it is seen well in another (a door
+found closed stays closed until seen open): the localizer and the navigator share one world.
 """
 
 from __future__ import annotations
@@ -53,15 +49,12 @@ class ObjectWorld:
         door_tolerance: float = math.radians(5.0),
         position_tolerance: float = 0.05,
         heading_tolerance: float = math.radians(5.0),
-        hold: float | None = None,
     ) -> None:
         self.static = static
         self.shapes = list(shapes)
         self.users = list(users)
         self.tolerances = (door_tolerance, position_tolerance, heading_tolerance)
         self.drawn: dict[str, tuple[float, ...]] = {}
-        self.hold = hold
-        self.seen: dict[str, float] = {}  # when each drawn object was last well observed
         self.grid = static
         self.redraws = 0
 
@@ -83,16 +76,10 @@ class ObjectWorld:
             shape = by_name.get(est.name)
             if shape is None or est.quality.poor:
                 continue
-            self.seen[est.name] = est.time
             if not self._moved(shape, est.state):
                 continue
             self.drawn[est.name] = est.state
             changed = True
-        if self.hold is not None and estimates:
-            now = max(e.time for e in estimates)
-            for name in [n for n in self.drawn if now - self.seen.get(n, now) > self.hold]:
-                del self.drawn[name]  # not seen well for too long: the static map again
-                changed = True
         if not changed:
             return False
         self.grid = self.draw()
