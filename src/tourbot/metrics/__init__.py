@@ -3,6 +3,8 @@
 - :mod:`tourbot.metrics.localization`: position and heading errors, failures (more than 45 cm
   off) and recovery from kidnapping as Fox et al. (1998) define them, with one censoring rule;
 - :mod:`tourbot.metrics.relative`: relative pose error of a mapping run (Kummerle et al. 2009);
+- :mod:`tourbot.metrics.closures`: loop closures against the reference, and against the scans
+  where the two disagree;
 - :mod:`tourbot.metrics.mot`: CLEAR-MOT and IDF1 of a people tracker.
 
 The CLI and every benchmark use these; none computes its own.
